@@ -1,0 +1,105 @@
+"""Conversion between messages and numpy objects.
+
+Works on both kinds of message object: the rclpy classes of ``modal_twin_msgs`` (live
+topics) and the rosbags dataclasses (bags). Reading goes by attribute, so one function
+serves both; writing takes the target class.
+"""
+
+from __future__ import annotations
+
+import array
+from typing import Any
+
+import numpy as np
+
+from modal_twin.errors import ShapeError
+from modal_twin.signal_block import SignalBlock
+
+__all__ = [
+    "block_from_msg",
+    "block_to_msg",
+    "block_to_rosbags",
+    "ns_to_stamp",
+    "stamp_to_ns",
+    "to_float_array",
+]
+
+
+def stamp_to_ns(stamp: Any) -> int:
+    """``builtin_interfaces/Time`` -> integer nanoseconds."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def ns_to_stamp(ns: int, cls: Any) -> Any:
+    """Integer nanoseconds -> ``builtin_interfaces/Time`` of class ``cls``."""
+    return cls(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000))
+
+
+def to_float_array(values: Any) -> array.array[float]:
+    """Fast float64 sequence for an rclpy message field (no per-element checks)."""
+    out = array.array("d")
+    out.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())
+    return out
+
+
+def block_from_msg(msg: Any) -> SignalBlock:
+    """SignalBlock message (rclpy or rosbags) -> :class:`SignalBlock`.
+
+    Raises
+    ------
+    ShapeError
+        If ``data`` does not hold ``len(channel_names) * n_samples`` values.
+    """
+    names = tuple(msg.channel_names)
+    n = int(msg.n_samples)
+    data = np.frombuffer(msg.data, dtype=np.float64) if len(msg.data) else np.zeros(0)
+    if data.size != len(names) * n:
+        text = (
+            f"SignalBlock.data: expected {len(names)} channels x {n} samples = "
+            f"{len(names) * n} values, got {data.size}"
+        )
+        raise ShapeError(text)
+    return SignalBlock(
+        channel_names=names,
+        fs_hz=float(msg.sample_rate_hz),
+        first_index=int(msg.first_sample_index),
+        data=data.reshape(len(names), n).copy(),
+        stamp_ns=stamp_to_ns(msg.header.stamp),
+        source=str(msg.source),
+    )
+
+
+def block_to_msg(block: SignalBlock, msg_cls: Any) -> Any:
+    """:class:`SignalBlock` -> rclpy ``modal_twin_msgs/msg/SignalBlock``."""
+    msg = msg_cls()
+    msg.header.stamp.sec = int(block.stamp_ns // 1_000_000_000)
+    msg.header.stamp.nanosec = int(block.stamp_ns % 1_000_000_000)
+    msg.header.frame_id = block.source
+    msg.source = block.source
+    msg.channel_names = list(block.channel_names)
+    msg.sample_rate_hz = float(block.fs_hz)
+    msg.first_sample_index = int(block.first_index)
+    msg.n_samples = int(block.n_samples)
+    msg.data = to_float_array(block.data.ravel())
+    return msg
+
+
+def block_to_rosbags(block: SignalBlock, store: Any) -> Any:
+    """:class:`SignalBlock` -> rosbags ``modal_twin_msgs/msg/SignalBlock`` of ``store``."""
+    types = store.types
+    header = types["std_msgs/msg/Header"](
+        stamp=ns_to_stamp(block.stamp_ns, types["builtin_interfaces/msg/Time"]),
+        frame_id=block.source,
+    )
+    if block.data.ndim != 2:
+        text = f"block.data: expected 2-D, got {block.data.ndim}-D"
+        raise ShapeError(text)
+    return types["modal_twin_msgs/msg/SignalBlock"](
+        header=header,
+        source=block.source,
+        channel_names=list(block.channel_names),
+        sample_rate_hz=float(block.fs_hz),
+        first_sample_index=int(block.first_index),
+        n_samples=int(block.n_samples),
+        data=np.ascontiguousarray(block.data, dtype=np.float64).ravel(),
+    )

@@ -1,0 +1,109 @@
+"""rclpy helpers shared by every node: QoS per topic kind, message classes, the main loop."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Callable
+from typing import Any
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from modal_twin.errors import ConfigError
+from modal_twin.io.topics import TOPICS, QosKind
+
+__all__ = ["message_class", "qos_for", "qos_profile", "run_node", "wait_for_subscribers"]
+
+
+def qos_profile(kind: QosKind) -> QoSProfile:
+    """QoS of a topic kind (measured choices, see ../shared/ROS_WHEELS.md).
+
+    Signal blocks: reliable with a deep history (bursts of blocks are not dropped).
+    Maps and models: reliable + transient local, so late joiners get the last one.
+    """
+    if kind is QosKind.STREAM:
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE
+        )
+    if kind is QosKind.LATCHED:
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=1,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        )
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.RELIABLE
+    )
+
+
+def qos_for(topic: str) -> QoSProfile:
+    """QoS of a topic of the node graph (stream QoS for topics outside the table)."""
+    spec = TOPICS.get(topic)
+    return qos_profile(spec.qos if spec else QosKind.STREAM)
+
+
+def message_class(msgtype: str) -> Any:
+    """``pkg/msg/Name`` -> the rclpy message class.
+
+    Raises
+    ------
+    ConfigError
+        If the type is malformed or its package is not built / installed.
+    """
+    parts = msgtype.split("/")
+    if len(parts) != 3 or parts[1] not in {"msg", "srv"}:
+        msg = f"message type {msgtype!r}: expected 'package/msg/Name'"
+        raise ConfigError(msg)
+    try:
+        module = importlib.import_module(f"{parts[0]}.{parts[1]}")
+        return getattr(module, parts[2])
+    except (ImportError, AttributeError) as err:
+        msg = f"message type {msgtype!r} is not available to rclpy: {err}"
+        raise ConfigError(msg) from err
+
+
+def wait_for_subscribers(
+    node: Node, publisher: Any, count: int = 1, timeout_s: float = 15.0
+) -> bool:
+    """Spin ``node`` until ``publisher`` has ``count`` matched readers (discovery ~3 s)."""
+    import time
+
+    end = time.monotonic() + timeout_s
+    while publisher.get_subscription_count() < count:
+        if time.monotonic() > end:
+            return False
+        rclpy.spin_once(node, timeout_sec=0.05)
+    return True
+
+
+def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
+    """Create the node, spin it, shut down cleanly on Ctrl-C / SIGTERM / shutdown.
+
+    Returns the process exit code (0, or 1 if the node raised).
+    """
+    rclpy.init(args=args if args is not None else sys.argv)
+    node: Node | None = None
+    code = 0
+    try:
+        node = factory()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception as err:
+        if node is not None:
+            node.get_logger().fatal(f"{type(err).__name__}: {err}")
+        else:
+            print(f"node failed to start: {type(err).__name__}: {err}", file=sys.stderr)
+        code = 1
+    finally:
+        if node is not None:
+            close = getattr(node, "close", None)
+            if callable(close):
+                close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code

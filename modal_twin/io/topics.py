@@ -1,0 +1,46 @@
+"""The node graph's topic contract: names, message types and QoS kind (no rclpy here)."""
+
+from __future__ import annotations
+
+from enum import Enum
+from typing import NamedTuple
+
+__all__ = ["TOPICS", "QosKind", "TopicSpec"]
+
+PKG = "modal_twin_msgs"
+
+
+class QosKind(Enum):
+    """How a topic is delivered."""
+
+    STREAM = "stream"  # reliable, keep-last deep: signal blocks
+    LATCHED = "latched"  # reliable, transient-local, keep-last 1: maps, models
+    EVENT = "event"  # reliable, volatile, keep-last 50: reports
+
+
+class TopicSpec(NamedTuple):
+    """Message type (e.g. ``modal_twin_msgs/msg/SignalBlock``) and delivery of a topic."""
+
+    msgtype: str
+    qos: QosKind
+
+
+def _t(name: str, qos: QosKind) -> TopicSpec:
+    return TopicSpec(f"{PKG}/msg/{name}", qos)
+
+
+TOPICS: dict[str, TopicSpec] = {
+    "/excitation/signal": _t("SignalBlock", QosKind.STREAM),
+    "/excitation/command": _t("ExcitationCommand", QosKind.EVENT),
+    "/rig/raw": _t("SignalBlock", QosKind.STREAM),
+    "/measurement/frames": _t("SignalBlock", QosKind.STREAM),
+    "/measurement/channels": _t("ChannelMap", QosKind.LATCHED),
+    "/identification/modes": _t("ModalModel", QosKind.LATCHED),
+    "/identification/stabilization": _t("StabilizationDiagram", QosKind.LATCHED),
+    "/model/parameters": _t("ModelParameters", QosKind.LATCHED),
+    "/updating/report": _t("UpdateReport", QosKind.EVENT),
+    "/twin/prediction": _t("SignalBlock", QosKind.STREAM),
+    "/twin/residual": _t("SignalBlock", QosKind.STREAM),
+    "/twin/metrics": _t("ComparisonMetrics", QosKind.EVENT),
+    "/diagnosis/report": _t("DiagnosisReport", QosKind.LATCHED),
+}
