@@ -1,0 +1,131 @@
+"""``modal-twin``: the command line of modal_twin.
+
+    modal-twin launch config/scenarios/<name>.yaml [--domain-id N] [--run-dir DIR]
+    modal-twin record -o BAG /topic [/topic:pkg/msg/Type ...]
+    modal-twin replay BAG [--rate R]
+    modal-twin bag info BAG | modal-twin bag salvage BAG [--out DIR]
+    modal-twin demo
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+from modal_twin.errors import ModalTwinError
+
+__all__ = ["main"]
+
+ROOT = Path(__file__).resolve().parents[1]
+DEMO_SCENARIO = "demo.yaml"
+
+
+def _scenario_path(name: str) -> Path:
+    p = Path(name)
+    if p.is_file():
+        return p
+    for base in (ROOT / "config" / "scenarios", Path(sys.prefix) / "share" / "modal_twin"
+                 / "config" / "scenarios"):
+        for cand in (base / name, base / f"{name}.yaml"):
+            if cand.is_file():
+                return cand
+    return p
+
+
+def _cmd_launch(a: argparse.Namespace) -> int:
+    from modal_twin.launch import Launcher
+    from modal_twin.scenario import load_scenario
+
+    sc = load_scenario(_scenario_path(a.scenario))
+    if a.duration is not None:
+        from dataclasses import replace
+
+        sc = replace(sc, duration_s=a.duration)
+    res = Launcher(sc, run_dir=a.run_dir, domain_id=a.domain_id, record=not a.no_record).run()
+    if res.bag is not None and res.exit_code == 0:
+        print(f"launch: bag {res.bag}")
+    return res.exit_code
+
+
+def _cmd_bag(a: argparse.Namespace) -> int:
+    from modal_twin.io.bag import bag_info, salvage
+
+    if a.bag_cmd == "info":
+        info = bag_info(a.bag)
+        if a.json:
+            import json
+
+            print(json.dumps({
+                "path": str(info.path), "parts": len(info.parts), "duration_s": info.duration_s,
+                "size_bytes": info.size_bytes,
+                "topics": [{"name": t.name, "type": t.msgtype, "count": t.count}
+                           for t in info.topics],
+            }))
+        else:
+            print(info.format())
+        return 0
+    info = salvage(a.bag, a.out)
+    print(f"salvaged into {info.path}\n{info.format()}")
+    return 0
+
+
+def _cmd_demo(a: argparse.Namespace) -> int:
+    from modal_twin.demo import run_demo
+
+    return run_demo(run_dir=a.run_dir)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="modal-twin", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("-v", "--verbose", action="store_true")
+    sub = p.add_subparsers(dest="cmd", required=True)
+    la = sub.add_parser("launch", help="run a scenario's nodes")
+    la.add_argument("scenario", help="scenario YAML (path or name in config/scenarios)")
+    la.add_argument("--domain-id", type=int, default=None)
+    la.add_argument("--run-dir", type=Path, default=None)
+    la.add_argument("--duration", type=float, default=None, help="override launch.duration_s")
+    la.add_argument("--no-record", action="store_true")
+    la.set_defaults(func=_cmd_launch)
+    sub.add_parser("record", help="record topics to a bag", add_help=False)
+    sub.add_parser("replay", help="republish a bag", add_help=False)
+    bag = sub.add_parser("bag", help="bag tools")
+    bsub = bag.add_subparsers(dest="bag_cmd", required=True)
+    bi = bsub.add_parser("info", help="topics, types, counts, duration")
+    bi.add_argument("bag", type=Path)
+    bi.add_argument("--json", action="store_true")
+    bs = bsub.add_parser("salvage", help="make a bag cut by a crash readable")
+    bs.add_argument("bag", type=Path)
+    bs.add_argument("--out", type=Path, default=None)
+    bag.set_defaults(func=_cmd_bag)
+    de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
+    de.add_argument("--run-dir", type=Path, default=None)
+    de.set_defaults(func=_cmd_demo)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``modal-twin``."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "record":
+        from modal_twin.io.recorder import main as record_main
+
+        return record_main(argv[1:])
+    if argv and argv[0] == "replay":
+        from modal_twin.io.replay import main as replay_main
+
+        return replay_main(argv[1:])
+    a = _parser().parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if a.verbose else logging.INFO,
+                        format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return int(a.func(a))
+    except ModalTwinError as err:
+        print(f"modal-twin {a.cmd}: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""excitation stage of modal_twin."""

@@ -1,0 +1,81 @@
+"""Excitation plan: what to drive, generated up front and cut into blocks on demand."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from modal_twin._types import FloatArray
+from modal_twin.errors import OptionError
+from modal_twin.excitation import signals
+
+__all__ = ["KINDS", "ExcitationConfig", "make_drive"]
+
+KINDS = ("random", "chirp", "multisine", "record")
+
+
+@dataclass(frozen=True, slots=True)
+class ExcitationConfig:
+    """Parameters of the excitation node (ROS parameters of the same names)."""
+
+    kind: str = field(default="random", metadata={"doc": f"one of {KINDS}"})
+    channels: tuple[str, ...] = field(
+        default=("ax", "ay", "az", "arx", "ary", "arz"),
+        metadata={"doc": "drive channels (table DOF: m/s^2 and rad/s^2)"},
+    )
+    fs_hz: float = field(default=1000.0, metadata={"doc": "drive sample rate"})
+    duration_s: float = field(default=20.0, metadata={"doc": "length of the drive"})
+    block_size: int = field(default=50, metadata={"doc": "samples per published block"})
+    rms: tuple[float, ...] = field(
+        default=(0.2, 0.2, 0.05, 0.0, 0.0, 0.0),
+        metadata={"doc": "RMS per channel (random, multisine) or peak (chirp)"},
+    )
+    f_min_hz: float = field(default=0.2, metadata={"doc": "band lower edge"})
+    f_max_hz: float = field(default=30.0, metadata={"doc": "band upper edge"})
+    record_path: str = field(default="", metadata={"doc": ".npz or .csv record (kind=record)"})
+    record_scale: float = field(default=1.0, metadata={"doc": "scale on the record"})
+    seed: int = field(default=1, metadata={"doc": "random seed"})
+    autostart: bool = field(default=True, metadata={"doc": "start once a reader is matched"})
+    rate: float = field(default=1.0, metadata={"doc": "pace: 1 = real time, 0 = flat out"})
+    wait_subscribers: int = field(default=1, metadata={"doc": "readers to wait for"})
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            msg = f"kind: expected one of {KINDS}, got {self.kind!r}"
+            raise OptionError(msg)
+        if self.block_size < 1:
+            msg = f"block_size: expected >= 1, got {self.block_size}"
+            raise OptionError(msg)
+        if self.kind != "record" and len(self.rms) not in (1, len(self.channels)):
+            msg = (f"rms: expected 1 or {len(self.channels)} values (one per channel), "
+                   f"got {len(self.rms)}")
+            raise OptionError(msg)
+
+
+def make_drive(cfg: ExcitationConfig) -> FloatArray:
+    """The whole drive signal, shape (len(cfg.channels), n_samples)."""
+    rng = np.random.default_rng(cfg.seed)
+    n_ch = len(cfg.channels)
+    rms = np.broadcast_to(np.asarray(cfg.rms, dtype=float), (n_ch,))
+    if cfg.kind == "random":
+        return signals.band_limited_random(
+            n_ch, cfg.duration_s, cfg.fs_hz, f_min_hz=cfg.f_min_hz, f_max_hz=cfg.f_max_hz,
+            rms=np.where(rms > 0, rms, 1.0), rng=rng,
+        ) * (rms > 0)[:, None]
+    if cfg.kind in ("chirp", "multisine"):
+        if cfg.kind == "chirp":
+            one = signals.chirp(cfg.duration_s, cfg.fs_hz, f_min_hz=cfg.f_min_hz,
+                                f_max_hz=cfg.f_max_hz)
+        else:
+            one = signals.multisine(cfg.duration_s, cfg.fs_hz, f_min_hz=cfg.f_min_hz,
+                                    f_max_hz=cfg.f_max_hz, rng=rng)
+        return rms[:, None] * one
+    data, fs_rec, names = signals.load_record(cfg.record_path)
+    if data.shape[0] != n_ch:
+        msg = (f"record {cfg.record_path}: expected {n_ch} channels {list(cfg.channels)}, "
+               f"got {data.shape[0]} {names}")
+        raise OptionError(msg)
+    if fs_rec != cfg.fs_hz:
+        data = signals.resample_record(data, fs_rec, cfg.fs_hz)
+    return cfg.record_scale * data

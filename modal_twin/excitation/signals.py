@@ -1,0 +1,167 @@
+"""Drive signals: band-limited random, periodic chirp, multisine, impact, record playback.
+
+Every generator returns an array of shape (n_channels, n_samples) in SI units and takes a
+seeded ``numpy.random.Generator`` where it is random, so a run can be repeated exactly.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from scipy import signal
+
+from modal_twin._types import FloatArray
+from modal_twin.errors import ConfigError, OptionError, SignalError
+
+__all__ = [
+    "band_limited_random",
+    "chirp",
+    "impact",
+    "load_record",
+    "multisine",
+    "resample_record",
+]
+
+
+def _n_samples(duration_s: float, fs_hz: float) -> int:
+    if not (np.isfinite(duration_s) and duration_s > 0 and np.isfinite(fs_hz) and fs_hz > 0):
+        msg = f"duration_s and fs_hz: expected positive, got {duration_s!r}, {fs_hz!r}"
+        raise OptionError(msg)
+    return round(duration_s * fs_hz)
+
+
+def _check_band(f_min_hz: float, f_max_hz: float, fs_hz: float) -> None:
+    if not 0 <= f_min_hz < f_max_hz < fs_hz / 2:
+        msg = (
+            f"band: expected 0 <= f_min_hz < f_max_hz < fs_hz / 2 = {fs_hz / 2}, got "
+            f"[{f_min_hz}, {f_max_hz}]"
+        )
+        raise OptionError(msg)
+
+
+def band_limited_random(
+    n_channels: int,
+    duration_s: float,
+    fs_hz: float,
+    *,
+    f_min_hz: float,
+    f_max_hz: float,
+    rms: float | FloatArray = 1.0,
+    rng: np.random.Generator,
+) -> FloatArray:
+    """Gaussian random signals with a flat spectrum in [f_min_hz, f_max_hz].
+
+    Built in the frequency domain (unit-modulus random-phase lines with Rayleigh amplitudes
+    inside the band, zero outside) and scaled to the requested RMS per channel.
+    """
+    n = _n_samples(duration_s, fs_hz)
+    _check_band(f_min_hz, f_max_hz, fs_hz)
+    f = np.fft.rfftfreq(n, 1.0 / fs_hz)
+    band = (f >= f_min_hz) & (f <= f_max_hz)
+    if not band.any():
+        msg = f"band [{f_min_hz}, {f_max_hz}] Hz holds no line at resolution {fs_hz / n} Hz"
+        raise OptionError(msg)
+    spec = np.zeros((n_channels, f.size), dtype=np.complex128)
+    spec[:, band] = rng.normal(size=(n_channels, band.sum())) + 1j * rng.normal(
+        size=(n_channels, band.sum())
+    )
+    x = np.fft.irfft(spec, n=n, axis=-1)
+    x *= np.reshape(np.asarray(rms, dtype=float), (-1, 1)) / x.std(axis=-1, keepdims=True)
+    return x
+
+
+def chirp(
+    duration_s: float, fs_hz: float, *, f_min_hz: float, f_max_hz: float, amplitude: float = 1.0
+) -> FloatArray:
+    """One linear sweep from f_min_hz to f_max_hz (scipy.signal.chirp), shape (1, n)."""
+    n = _n_samples(duration_s, fs_hz)
+    _check_band(f_min_hz, f_max_hz, fs_hz)
+    t = np.arange(n) / fs_hz
+    return amplitude * signal.chirp(t, f_min_hz, duration_s, f_max_hz)[None, :]
+
+
+def multisine(
+    duration_s: float,
+    fs_hz: float,
+    *,
+    f_min_hz: float,
+    f_max_hz: float,
+    rms: float = 1.0,
+    rng: np.random.Generator,
+) -> FloatArray:
+    """Random-phase multisine on every FFT line in the band (periodic in the record)."""
+    x = band_limited_random(1, duration_s, fs_hz, f_min_hz=f_min_hz, f_max_hz=f_max_hz,
+                            rms=1.0, rng=rng)
+    spec = np.fft.rfft(x, axis=-1)
+    nz = np.abs(spec) > 0
+    spec[nz] = np.exp(1j * np.angle(spec[nz]))
+    out = np.fft.irfft(spec, n=x.shape[-1], axis=-1)
+    return rms * out / out.std()
+
+
+def impact(
+    duration_s: float, fs_hz: float, *, peak: float, width_s: float, at_s: float = 0.0
+) -> FloatArray:
+    """Half-sine hammer pulse of ``peak`` (N) and ``width_s`` starting at ``at_s``."""
+    n = _n_samples(duration_s, fs_hz)
+    t = np.arange(n) / fs_hz - at_s
+    on = (t >= 0) & (t <= width_s)
+    out = np.zeros((1, n))
+    out[0, on] = peak * np.sin(np.pi * t[on] / width_s)
+    return out
+
+
+def load_record(path: str | Path) -> tuple[FloatArray, float, list[str]]:
+    """Read an acceleration record: ``.npz`` (keys ``data`` (n_ch, n), ``fs_hz``,
+    optional ``channels``) or ``.csv`` (first column time in s, one column per channel,
+    header row of channel names).
+
+    Returns
+    -------
+    data : ndarray (n_channels, n_samples), fs_hz : float, channels : list of str
+    """
+    p = Path(path)
+    if not p.is_file():
+        msg = f"record {p}: no such file"
+        raise ConfigError(msg)
+    if p.suffix == ".npz":
+        with np.load(p) as z:
+            if "data" not in z or "fs_hz" not in z:
+                msg = f"record {p}: expected keys 'data' and 'fs_hz', found {list(z.keys())}"
+                raise ConfigError(msg)
+            data = np.atleast_2d(np.asarray(z["data"], dtype=float))
+            fs = float(z["fs_hz"])
+            names = [str(c) for c in z["channels"]] if "channels" in z else [
+                f"ch{i}" for i in range(data.shape[0])]
+    elif p.suffix == ".csv":
+        with p.open() as fh:
+            header = fh.readline().strip().split(",")
+        try:
+            table = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
+        except ValueError as err:
+            msg = f"record {p}: not a numeric CSV after the header row ({err})"
+            raise ConfigError(msg) from err
+        t, data = table[:, 0], table[:, 1:].T
+        dt = np.diff(t)
+        if dt.size == 0 or np.any(dt <= 0) or np.ptp(dt) > 1e-6 * dt.mean():
+            msg = f"record {p}: the time column must increase with a constant step"
+            raise ConfigError(msg)
+        fs = 1.0 / float(dt.mean())
+        names = header[1:]
+    else:
+        msg = f"record {p}: unknown format {p.suffix!r}; expected .npz or .csv"
+        raise ConfigError(msg)
+    if not np.all(np.isfinite(data)):
+        bad = np.argwhere(~np.isfinite(data))[0]
+        msg = f"record {p}: non-finite sample in channel {names[bad[0]]} at index {bad[1]}"
+        raise SignalError(msg)
+    return data, fs, names
+
+
+def resample_record(data: FloatArray, fs_in_hz: float, fs_out_hz: float) -> FloatArray:
+    """Resample a record to the drive rate (polyphase, anti-aliased)."""
+    from fractions import Fraction
+
+    r = Fraction(fs_out_hz / fs_in_hz).limit_denominator(1000)
+    return signal.resample_poly(data, r.numerator, r.denominator, axis=-1)

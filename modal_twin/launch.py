@@ -1,0 +1,246 @@
+"""Launcher: start a scenario's nodes as processes, wait until they are up and matched,
+supervise them, stop them cleanly.
+
+- Every node runs as its own process with ``--ros-args -r __node:=<name>
+  --params-file <run>/params/<name>.yaml`` and logs to ``<run>/logs/<name>.log``.
+- A run gets its own ``ROS_DOMAIN_ID`` (unless one is set), so parallel runs never meet.
+- Ready = every node visible in the graph and every topic that one launched node
+  publishes and another subscribes has both ends discovered.
+- Ctrl-C / SIGTERM are forwarded as SIGINT to the nodes (recorder last); a node that dies
+  stops the run, which exits 1 and names it.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+import rclpy
+from rclpy.context import Context
+
+from modal_twin.errors import ConfigError
+from modal_twin.scenario import Scenario, load_scenario
+
+__all__ = ["LaunchResult", "Launcher", "launch"]
+
+log = logging.getLogger(__name__)
+
+EXIT_OK, EXIT_NODE_DIED, EXIT_CONFIG, EXIT_NOT_READY = 0, 1, 2, 3
+
+
+@dataclass(slots=True)
+class LaunchResult:
+    """What a run did."""
+
+    exit_code: int
+    run_dir: Path
+    domain_id: int
+    bag: Path | None
+    node_exit_codes: dict[str, int | None] = field(default_factory=dict)
+    message: str = ""
+
+
+def _executable(name: str) -> list[str]:
+    """Command for a node executable (console script beside this interpreter)."""
+    script = Path(sys.executable).parent / name
+    if script.is_file():
+        return [str(script)]
+    from importlib.metadata import entry_points
+
+    eps = {ep.name: ep.value for ep in entry_points(group="console_scripts")
+           if ep.value.startswith("modal_twin.")}
+    if name in eps:
+        module, func = eps[name].split(":")
+        code = f"import sys; from {module} import {func}; sys.exit({func}())"
+        return [sys.executable, "-c", code]
+    msg = f"executable {name!r} not found; known: {sorted(eps)}"
+    raise ConfigError(msg)
+
+
+class Launcher:
+    """Start, watch and stop the processes of one scenario run."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        *,
+        run_dir: Path | None = None,
+        domain_id: int | None = None,
+        record: bool = True,
+        say: Callable[[str], None] = print,
+    ) -> None:
+        self.sc = scenario
+        stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+        self.run_dir = run_dir or Path("runs") / f"{stamp}_{scenario.name}"
+        env_domain = os.environ.get("ROS_DOMAIN_ID")
+        if domain_id is None:
+            domain_id = int(env_domain) if env_domain else random.SystemRandom().randint(1, 100)
+        self.domain_id = domain_id
+        self.say = say
+        self.record = record and bool(scenario.record_topics)
+        self.bag = self.run_dir / "bag" if self.record else None
+        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self._stop_requested = False
+
+    # -- processes ---------------------------------------------------------------------
+    def _env(self) -> dict[str, str]:
+        env = dict(os.environ)
+        env["ROS_DOMAIN_ID"] = str(self.domain_id)
+        env["PYTHONUNBUFFERED"] = "1"
+        env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
+        env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
+        return env
+
+    def _spawn(self, name: str, cmd: list[str]) -> None:
+        logf = (self.run_dir / "logs" / f"{name}.log").open("wb")
+        self.procs[name] = subprocess.Popen(
+            cmd, stdout=logf, stderr=subprocess.STDOUT, env=self._env(),
+            start_new_session=True, cwd=os.getcwd(),
+        )
+        logf.close()
+
+    def start(self) -> None:
+        """Write the per-node parameter files and start every process."""
+        (self.run_dir / "logs").mkdir(parents=True, exist_ok=True)
+        (self.run_dir / "params").mkdir(parents=True, exist_ok=True)
+        if self.record and self.bag is not None:
+            self._spawn("recorder", [*_executable("recorder_node"), "-o", str(self.bag),
+                                     *self.sc.record_topics])
+        for node in self.sc.nodes:
+            pfile = self.run_dir / "params" / f"{node.name}.yaml"
+            pfile.write_text(self.sc.params_file_text(node.name))
+            cmd = [*_executable(node.executable), *node.args, "--ros-args",
+                   "-r", f"__node:={node.name}", "--params-file", str(pfile)]
+            self._spawn(node.name, cmd)
+
+    def dead(self) -> list[tuple[str, int]]:
+        """Processes that ended when they should not have: (name, exit code)."""
+        out = []
+        one_shot = {n.name for n in self.sc.nodes if n.one_shot}
+        for name, p in self.procs.items():
+            code = p.poll()
+            if code is not None and not (name in one_shot and code == 0):
+                out.append((name, code))
+        return out
+
+    def log_tail(self, name: str, lines: int = 12) -> str:
+        """Last lines of a node's log."""
+        path = self.run_dir / "logs" / f"{name}.log"
+        if not path.is_file():
+            return ""
+        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
+
+    def stop(self, timeout_s: float = 10.0) -> None:
+        """SIGINT every node (recorder last), then SIGTERM, then SIGKILL."""
+        order = [n for n in self.procs if n != "recorder"]
+        if "recorder" in self.procs:
+            order.append("recorder")
+        groups = [order[:-1], order[-1:]] if "recorder" in self.procs else [order]
+        for group in groups:
+            for name in group:
+                if self.procs[name].poll() is None:
+                    self.procs[name].send_signal(signal.SIGINT)
+            for sig, wait in ((None, timeout_s), (signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
+                end = time.monotonic() + wait
+                alive = [n for n in group if self.procs[n].poll() is None]
+                if sig is not None:
+                    for n in alive:
+                        self.say(f"launch: {n} did not stop, sending {sig.name}")
+                        self.procs[n].send_signal(sig)
+                while alive and time.monotonic() < end:
+                    time.sleep(0.05)
+                    alive = [n for n in alive if self.procs[n].poll() is None]
+                if not alive:
+                    break
+
+    # -- readiness ---------------------------------------------------------------------
+    def wait_ready(self, timeout_s: float) -> str:
+        """'' when every node is up and its topics matched, else what is missing."""
+        ctx = Context()
+        rclpy.init(context=ctx, domain_id=self.domain_id)
+        probe = rclpy.create_node("launch_probe", context=ctx, start_parameter_services=False)
+        want = set(self.procs)
+        end = time.monotonic() + timeout_s
+        missing = "nodes " + ", ".join(sorted(want))
+        try:
+            while time.monotonic() < end:
+                if self.dead() or self._stop_requested:
+                    return ""
+                names = {n for n, _ in probe.get_node_names_and_namespaces()}
+                lacking = sorted(want - names)
+                if lacking:
+                    missing = "nodes " + ", ".join(lacking)
+                    time.sleep(0.2)
+                    continue
+                pubs: set[str] = set()
+                subs: set[str] = set()
+                for n in want:
+                    pubs |= {t for t, _ in probe.get_publisher_names_and_types_by_node(n, "/")}
+                    subs |= {t for t, _ in probe.get_subscriber_names_and_types_by_node(n, "/")}
+                unmatched = sorted(
+                    t for t in (pubs & subs) - {"/rosout", "/parameter_events"}
+                    if probe.count_publishers(t) == 0 or probe.count_subscribers(t) == 0
+                )
+                if not unmatched:
+                    return ""
+                missing = "topics " + ", ".join(unmatched)
+                time.sleep(0.2)
+            return missing
+        finally:
+            probe.destroy_node()
+            rclpy.try_shutdown(context=ctx)
+
+    # -- the whole run -----------------------------------------------------------------
+    def run(self) -> LaunchResult:
+        """Start, wait ready, supervise until the duration ends or a signal / death."""
+        def on_signal(signum: int, _frame: object) -> None:
+            self._stop_requested = True
+
+        old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        code, message = EXIT_OK, ""
+        try:
+            self.say(f"launch: {self.sc.name} in {self.run_dir} (ROS_DOMAIN_ID={self.domain_id})")
+            self.start()
+            missing = self.wait_ready(self.sc.ready_timeout_s)
+            if missing:
+                code, message = EXIT_NOT_READY, (
+                    f"not ready after {self.sc.ready_timeout_s:.0f} s: missing {missing}")
+            elif not self.dead():
+                self.say(f"launch: {len(self.procs)} processes up and matched")
+            t_end = time.monotonic() + self.sc.duration_s if self.sc.duration_s else None
+            while not code and not self._stop_requested:
+                died = self.dead()
+                if died:
+                    name, rc = died[0]
+                    code = EXIT_NODE_DIED
+                    message = (f"node {name!r} died with exit code {rc}; last lines of its "
+                               f"log:\n{self.log_tail(name)}")
+                    break
+                if t_end is not None and time.monotonic() >= t_end:
+                    break
+                time.sleep(0.1)
+        finally:
+            self.stop()
+            for s, h in old.items():
+                signal.signal(s, h)
+        if message:
+            self.say(f"launch: {message}")
+        self.say(f"launch: stopped; logs in {self.run_dir / 'logs'}")
+        return LaunchResult(code, self.run_dir, self.domain_id, self.bag,
+                            {n: p.returncode for n, p in self.procs.items()}, message)
+
+
+def launch(path: str | Path, **kwargs: object) -> LaunchResult:
+    """Load a scenario file and run it (see :class:`Launcher` for keywords)."""
+    return Launcher(load_scenario(path), **kwargs).run()  # type: ignore[arg-type]
+
+

@@ -1,0 +1,154 @@
+"""Scenario files: which nodes a run starts, with which parameters, and what it records.
+
+A scenario YAML is a ROS 2 parameters file (the layout ``--ros-args --params-file``
+reads: ``<node>: {ros__parameters: {...}}``) plus one ``launch:`` section::
+
+    launch:
+      description: random table motion into the simulated rig
+      duration_s: 15            # stop after this long (0: until Ctrl-C)
+      ready_timeout_s: 30       # nodes up and topics matched within this
+      nodes:
+        - {name: excitation, executable: excitation_node}
+        - {name: rig, executable: rig_node, one_shot: false}
+      record: {topics: [/excitation/signal, /rig/raw]}
+    excitation:
+      ros__parameters: {kind: random, duration_s: 10.0}
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from modal_twin.errors import ConfigError
+
+__all__ = ["NodeSpec", "Scenario", "load_scenario"]
+
+
+@dataclass(frozen=True, slots=True)
+class NodeSpec:
+    """One node process of a scenario."""
+
+    name: str
+    executable: str
+    parameters: dict[str, Any]
+    args: tuple[str, ...] = ()
+    one_shot: bool = False  # may exit 0 before the run ends
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    """A launchable run."""
+
+    path: Path
+    name: str
+    description: str
+    nodes: tuple[NodeSpec, ...]
+    duration_s: float
+    ready_timeout_s: float
+    record_topics: tuple[str, ...]
+    global_parameters: dict[str, Any]
+    extra: dict[str, Any]
+
+    def params_file_text(self, node: str) -> str:
+        """YAML params file for one node (its section and the ``/**`` section)."""
+        spec = next(n for n in self.nodes if n.name == node)
+        doc: dict[str, Any] = {node: {"ros__parameters": spec.parameters}}
+        if self.global_parameters:
+            doc["/**"] = {"ros__parameters": self.global_parameters}
+        return yaml.safe_dump(doc, sort_keys=False)
+
+
+def _err(path: Path, key: str, problem: str) -> ConfigError:
+    return ConfigError(f"{path}: key {key!r}: {problem}")
+
+
+def _params(path: Path, doc: dict[str, Any], key: str) -> dict[str, Any]:
+    section = doc.get(key)
+    if section is None:
+        return {}
+    if not isinstance(section, dict) or not isinstance(section.get("ros__parameters", {}), dict):
+        raise _err(path, key, "expected a mapping with a 'ros__parameters' mapping")
+    return dict(section.get("ros__parameters") or {})
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and check a scenario file.
+
+    Raises
+    ------
+    ConfigError
+        Naming the file, the key and the problem (YAML syntax errors give the line).
+    """
+    p = Path(path)
+    if not p.is_file():
+        msg = f"{p}: no such scenario file"
+        raise ConfigError(msg)
+    try:
+        doc = yaml.safe_load(p.read_text())
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(err, "problem", None) or str(err)
+        msg = f"{p}: malformed YAML{where}: {problem}"
+        raise ConfigError(msg) from err
+    if not isinstance(doc, dict):
+        raise _err(p, "<top>", f"expected a mapping, got {type(doc).__name__}")
+    launch = doc.get("launch")
+    if not isinstance(launch, dict):
+        raise _err(p, "launch", "missing or not a mapping")
+    raw_nodes = launch.get("nodes")
+    if not isinstance(raw_nodes, list) or not raw_nodes:
+        raise _err(p, "launch.nodes", "expected a non-empty list of {name, executable}")
+    nodes: list[NodeSpec] = []
+    for i, item in enumerate(raw_nodes):
+        key = f"launch.nodes[{i}]"
+        if not isinstance(item, dict):
+            raise _err(p, key, "expected a mapping with 'name' and 'executable'")
+        unknown = sorted(set(item) - {"name", "executable", "args", "one_shot"})
+        if unknown:
+            raise _err(p, f"{key}.{unknown[0]}",
+                       "unknown key; valid: name, executable, args, one_shot")
+        for field in ("name", "executable"):
+            if not isinstance(item.get(field), str) or not item[field]:
+                raise _err(p, f"{key}.{field}", "missing or not a string")
+        if any(n.name == item["name"] for n in nodes):
+            raise _err(p, f"{key}.name", f"node name {item['name']!r} used twice")
+        args = item.get("args", [])
+        if not isinstance(args, list):
+            raise _err(p, f"{key}.args", "expected a list of strings")
+        nodes.append(NodeSpec(
+            item["name"], item["executable"], _params(p, doc, item["name"]),
+            tuple(str(a) for a in args), bool(item.get("one_shot", False)),
+        ))
+    names = {n.name for n in nodes}
+    stray = sorted(k for k in doc if k not in names and k not in {"launch", "/**"})
+    if stray:
+        raise _err(p, stray[0], f"parameters for a node that is not launched; nodes: "
+                                f"{sorted(names)}")
+    numbers: dict[str, float] = {}
+    for key, default in (("duration_s", 0.0), ("ready_timeout_s", 30.0)):
+        value = launch.get(key, default)
+        if not isinstance(value, int | float) or isinstance(value, bool) or value < 0:
+            raise _err(p, f"launch.{key}", f"expected a number >= 0, got {value!r}")
+        numbers[key] = float(value)
+    record = launch.get("record") or {}
+    if not isinstance(record, dict) or not isinstance(record.get("topics", []), list):
+        raise _err(p, "launch.record", "expected {topics: [/topic, ...]}")
+    extra = {k: v for k, v in launch.items()
+             if k not in {"nodes", "duration_s", "ready_timeout_s", "record", "description",
+                          "name"}}
+    return Scenario(
+        path=p,
+        name=str(launch.get("name", p.stem)),
+        description=str(launch.get("description", "")),
+        nodes=tuple(nodes),
+        duration_s=numbers["duration_s"],
+        ready_timeout_s=numbers["ready_timeout_s"],
+        record_topics=tuple(str(t) for t in record.get("topics", [])),
+        global_parameters=_params(p, doc, "/**"),
+        extra=extra,
+    )
