@@ -1,0 +1,33 @@
+"""Sparse 3D finite elements: frames, springs, masses, rigid links, parametric matrices, modes."""
+
+from __future__ import annotations
+
+from modal_twin.models.fe.assembly import FEAssembly, assemble_model
+from modal_twin.models.fe.eigen import ModalSolution, default_shift, lowest_eigenpairs, solve_modes
+from modal_twin.models.fe.elements import (
+    DOF_NAMES,
+    frame_local_matrices,
+    frame_rotation,
+    frame_shear_factors,
+    two_node_matrix,
+)
+from modal_twin.models.fe.model import Contribution, FEModel, NodeId
+from modal_twin.models.fe.parametric import ParametricMatrices
+
+__all__ = [
+    "DOF_NAMES",
+    "Contribution",
+    "FEAssembly",
+    "FEModel",
+    "ModalSolution",
+    "NodeId",
+    "ParametricMatrices",
+    "assemble_model",
+    "default_shift",
+    "frame_local_matrices",
+    "frame_rotation",
+    "frame_shear_factors",
+    "lowest_eigenpairs",
+    "solve_modes",
+    "two_node_matrix",
+]
