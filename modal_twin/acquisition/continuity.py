@@ -1,0 +1,97 @@
+"""Stream continuity: gaps, repeats, channel-layout changes and non-finite samples.
+
+Each :class:`SignalBlock` carries the index of its first sample, so a gap or a repeat is
+known exactly. :class:`StreamMonitor` checks each block against the stream so far and says
+what to do with it; it never raises on bad data (a node must not crash on it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+from modal_twin.signal_block import SignalBlock
+
+__all__ = ["BlockVerdict", "StreamMonitor", "Verdict"]
+
+
+class Verdict(Enum):
+    """What a block is, relative to the stream."""
+
+    OK = "ok"
+    GAP = "gap"  # samples missing before this block (kept, gap reported)
+    OVERLAP = "overlap"  # repeats part of the stream (repeated head trimmed)
+    REPEAT = "repeat"  # nothing new (dropped)
+    LAYOUT = "layout"  # channels or rate differ from the stream (dropped)
+    NONFINITE = "nonfinite"  # NaN or Inf samples (dropped)
+    EMPTY = "empty"  # no samples (dropped)
+
+
+@dataclass(frozen=True, slots=True)
+class BlockVerdict:
+    """Outcome of :meth:`StreamMonitor.check`: the block to pass on (or None) and why."""
+
+    verdict: Verdict
+    block: SignalBlock | None
+    message: str = ""
+    missing: int = 0
+
+
+class StreamMonitor:
+    """Follow one stream of blocks; counts every kind of fault it sees."""
+
+    def __init__(self, expected_channels: tuple[str, ...] | None = None) -> None:
+        self.expected = expected_channels
+        self.layout: tuple[tuple[str, ...], float] | None = None
+        self.next_index: int | None = None
+        self.counts: dict[Verdict, int] = dict.fromkeys(Verdict, 0)
+        self.missing_samples = 0
+
+    def check(self, block: SignalBlock) -> BlockVerdict:
+        """Classify ``block``; returns the part of it that extends the stream, if any."""
+        v = self._check(block)
+        self.counts[v.verdict] += 1
+        if v.block is not None:
+            self.next_index = v.block.next_index
+        return v
+
+    def _check(self, block: SignalBlock) -> BlockVerdict:
+        if block.n_samples == 0:
+            return BlockVerdict(Verdict.EMPTY, None, f"empty block at sample {block.first_index}")
+        layout = (block.channel_names, block.fs_hz)
+        if self.expected is not None and block.channel_names != self.expected:
+            unknown = [c for c in block.channel_names if c not in self.expected]
+            missing = [c for c in self.expected if c not in block.channel_names]
+            return BlockVerdict(
+                Verdict.LAYOUT, None,
+                f"block at sample {block.first_index} has {block.n_channels} channels "
+                f"(expected {len(self.expected)}); unknown {unknown}, missing {missing}")
+        if self.layout is not None and layout != self.layout:
+            return BlockVerdict(
+                Verdict.LAYOUT, None,
+                f"block at sample {block.first_index}: channels / rate changed from "
+                f"{len(self.layout[0])} ch at {self.layout[1]} Hz to {block.n_channels} ch at "
+                f"{block.fs_hz} Hz")
+        bad = block.nonfinite()
+        if bad:
+            where = ", ".join(f"{c} at sample {i}" for c, i in bad[:4])
+            return BlockVerdict(Verdict.NONFINITE, None, f"non-finite samples: {where}")
+        self.layout = layout
+        if self.next_index is None or block.first_index == self.next_index:
+            return BlockVerdict(Verdict.OK, block)
+        if block.first_index > self.next_index:
+            n = block.first_index - self.next_index
+            self.missing_samples += n
+            return BlockVerdict(
+                Verdict.GAP, block,
+                f"gap: samples {self.next_index}..{block.first_index - 1} ({n}) missing", n)
+        if block.next_index <= self.next_index:
+            return BlockVerdict(
+                Verdict.REPEAT, None,
+                f"repeated block: samples {block.first_index}..{block.next_index - 1} seen")
+        cut = self.next_index - block.first_index
+        trimmed = SignalBlock(block.channel_names, block.fs_hz, self.next_index,
+                              block.data[:, cut:],
+                              block.stamp_ns + round(cut / block.fs_hz * 1e9), block.source)
+        return BlockVerdict(Verdict.OVERLAP, trimmed,
+                            f"overlap: {cut} repeated samples from {block.first_index} trimmed")
