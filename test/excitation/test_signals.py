@@ -1,0 +1,76 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from modal_twin.errors import ConfigError, OptionError, SignalError
+from modal_twin.excitation import signals
+from modal_twin.excitation.drive import ExcitationConfig, make_drive
+
+
+def test_band_limited_random_rms_and_band() -> None:
+    rng = np.random.default_rng(0)
+    x = signals.band_limited_random(3, 20.0, 200.0, f_min_hz=2.0, f_max_hz=20.0,
+                                    rms=[1.0, 0.5, 2.0], rng=rng)
+    assert x.shape == (3, 4000)
+    np.testing.assert_allclose(x.std(axis=1), [1.0, 0.5, 2.0], rtol=1e-12)
+    spec = np.abs(np.fft.rfft(x, axis=1)) ** 2
+    f = np.fft.rfftfreq(4000, 1 / 200.0)
+    out_band = spec[:, (f < 2.0) | (f > 20.0)].sum() / spec.sum()
+    assert out_band < 1e-20  # nothing outside the band
+
+
+def test_multisine_is_periodic_flat_and_chirp_sweeps() -> None:
+    rng = np.random.default_rng(1)
+    x = signals.multisine(10.0, 100.0, f_min_hz=1.0, f_max_hz=10.0, rms=1.0, rng=rng)[0]
+    mag = np.abs(np.fft.rfft(x))
+    f = np.fft.rfftfreq(x.size, 0.01)
+    band = (f >= 1.0) & (f <= 10.0)
+    assert np.ptp(mag[band]) < 1e-9 * mag[band].max()  # flat amplitude spectrum
+    c = signals.chirp(10.0, 1000.0, f_min_hz=1.0, f_max_hz=50.0, amplitude=2.0)[0]
+    assert np.max(np.abs(c)) == pytest.approx(2.0, rel=1e-3)
+    # instantaneous frequency from zero crossings in the last second ~ 45-50 Hz
+    last = c[-1000:]
+    crossings = np.sum(np.diff(np.signbit(last)) != 0)
+    assert 88 <= crossings <= 101
+
+
+def test_impact_and_record_playback(tmp_path: Path) -> None:
+    p = signals.impact(1.0, 1000.0, peak=100.0, width_s=0.004, at_s=0.1)
+    assert p.max() == pytest.approx(100.0, rel=1e-3)
+    assert np.count_nonzero(p > 1e-9 * 100.0) == 3  # interior of the 4 ms pulse at 1 kHz
+    t = np.arange(500) / 50.0
+    rec = np.vstack([np.sin(t), np.cos(t)])
+    np.savez(tmp_path / "r.npz", data=rec, fs_hz=50.0, channels=["ax", "ay"])
+    data, fs, names = signals.load_record(tmp_path / "r.npz")
+    assert (fs, names) == (50.0, ["ax", "ay"])
+    np.testing.assert_array_equal(data, rec)
+    csv = tmp_path / "r.csv"
+    csv.write_text("t,ax,ay\n" + "\n".join(f"{ti},{a},{b}" for ti, a, b in zip(t, *rec,
+                                                                              strict=True)))
+    data2, fs2, names2 = signals.load_record(csv)
+    assert fs2 == pytest.approx(50.0) and names2 == ["ax", "ay"]
+    cfg = ExcitationConfig(kind="record", channels=("ax", "ay"), fs_hz=200.0,
+                           record_path=str(tmp_path / "r.npz"), record_scale=2.0)
+    drive = make_drive(cfg)
+    assert drive.shape == (2, 2000)
+    np.testing.assert_allclose(drive[:, ::4][:, 50:-50], 2 * rec[:, 50:-50], atol=2e-3)
+
+
+def test_bad_excitation_input(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    with pytest.raises(OptionError, match="f_max_hz < fs_hz / 2"):
+        signals.band_limited_random(1, 1.0, 100.0, f_min_hz=1.0, f_max_hz=60.0, rng=rng)
+    with pytest.raises(ConfigError, match="no such file"):
+        signals.load_record(tmp_path / "none.npz")
+    np.savez(tmp_path / "nan.npz", data=np.array([[0.0, np.nan]]), fs_hz=10.0)
+    with pytest.raises(SignalError, match="non-finite sample in channel ch0 at index 1"):
+        signals.load_record(tmp_path / "nan.npz")
+    (tmp_path / "x.txt").write_text("1")
+    with pytest.raises(ConfigError, match="unknown format"):
+        signals.load_record(tmp_path / "x.txt")
+    with pytest.raises(OptionError, match="kind: expected one of"):
+        ExcitationConfig(kind="sweep")
+    with pytest.raises(OptionError, match="rms: expected 1 or 6 values"):
+        ExcitationConfig(rms=(1.0, 2.0))
