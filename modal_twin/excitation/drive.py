@@ -57,6 +57,8 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
     """The whole drive signal, shape (len(cfg.channels), n_samples)."""
     rng = np.random.default_rng(cfg.seed)
     n_ch = len(cfg.channels)
+    if cfg.kind == "record":
+        return _record_drive(cfg)
     rms = np.broadcast_to(np.asarray(cfg.rms, dtype=float), (n_ch,))
     if cfg.kind == "random":
         return signals.band_limited_random(
@@ -71,6 +73,12 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
             one = signals.multisine(cfg.duration_s, cfg.fs_hz, f_min_hz=cfg.f_min_hz,
                                     f_max_hz=cfg.f_max_hz, rng=rng)
         return rms[:, None] * one
+    msg = f"kind: expected one of {KINDS}, got {cfg.kind!r}"
+    raise OptionError(msg)
+
+
+def _record_drive(cfg: ExcitationConfig) -> FloatArray:
+    n_ch = len(cfg.channels)
     data, fs_rec, names = signals.load_record(cfg.record_path)
     if data.shape[0] != n_ch:
         msg = (f"record {cfg.record_path}: expected {n_ch} channels {list(cfg.channels)}, "
