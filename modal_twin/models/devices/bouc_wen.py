@@ -1,0 +1,299 @@
+"""Bidirectional Bouc-Wen devices of [004]: elastic sliding bearing (ESB) and steel damper (SDP).
+
+Hysteretic variable (Park et al. 1986), Eqs. (10a)-(10b) of [004]::
+
+    Zx' = A ux' - b|ux' Zx|Zx - g ux' Zx^2 - b|uy' Zy|Zx - g uy' Zx Zy
+    Zy' = A uy' - b|uy' Zy|Zy - g uy' Zy^2 - b|ux' Zx|Zy - g ux' Zx Zy
+
+Forces, Eq. (11a) (ESB) and Eq. (11b) (SDP) of [004]::
+
+    f_ESB = mu(t) W Z + diag(c) u'
+    f_SDP = K_SDP [alpha u + (1 - alpha) Z] + diag(c) u'
+    mu = mu0 [W / S (mm^2/N)]^mu1 [V (s/mm)]^mu2,   V = ||u'||
+
+The ODE is rate independent, so over a time step it is integrated along the straight
+displacement path ``u_prev -> u`` (classical RK4 in the path parameter, sub-stepped so that
+each sub-step changes Z by at most ~5 % of its bound ``sqrt(A / (b + g))``). The tangent
+returned is the instantaneous dZ/du at the end of the step (a quasi-Newton tangent).
+The ESB friction coefficient is evaluated with the trial velocity; its velocity derivative
+in ``Ct`` is regularised below 1 um/s (the law itself is not: mu -> 0 as V -> 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from modal_twin._types import FloatArray
+from modal_twin.errors import ModelError
+from modal_twin.models.devices.base import KIND_BW_ESB, KIND_BW_SDP, Device
+
+__all__ = [
+    "BoucWenESB",
+    "BoucWenSDP",
+    "bw_rate",
+    "law_bw_esb",
+    "law_bw_sdp",
+    "table10_esb",
+    "table10_sdp",
+]
+
+
+@njit(cache=True)
+def bw_rate(A, beta, gamma, zx, zy, dx, dy):  # pragma: no cover - jitted
+    """Return (dZx, dZy) for a displacement increment (dx, dy), Eqs. (10a)-(10b) of [004]."""
+    rx = (
+        A * dx
+        - beta * abs(dx * zx) * zx
+        - gamma * dx * zx * zx
+        - beta * abs(dy * zy) * zx
+        - gamma * dy * zx * zy
+    )  # Eq. (10a) of [004]
+    ry = (
+        A * dy
+        - beta * abs(dy * zy) * zy
+        - gamma * dy * zy * zy
+        - beta * abs(dx * zx) * zy
+        - gamma * dx * zx * zy
+    )  # Eq. (10b) of [004]
+    return rx, ry
+
+
+@njit(cache=True)
+def _bw_advance(p, s, u, s_new):  # pragma: no cover - jitted
+    """Integrate Z along u_prev -> u (RK4), store Z in s_new[2:4]; return dZ/du entries."""
+    A = p[0]
+    beta = p[1]
+    gamma = p[2]
+    dx = u[0] - s[0]
+    dy = u[1] - s[1]
+    zx = s[2]
+    zy = s[3]
+    bg = beta + gamma
+    zult = math.sqrt(A / bg) if bg > 0.0 else 1.0
+    dmax = max(abs(dx), abs(dy))
+    nsub = 1 + int(A * dmax / (0.05 * zult))
+    nsub = min(nsub, 10000)
+    hx = dx / nsub
+    hy = dy / nsub
+    for _ in range(nsub):
+        k1x, k1y = bw_rate(A, beta, gamma, zx, zy, hx, hy)
+        k2x, k2y = bw_rate(A, beta, gamma, zx + 0.5 * k1x, zy + 0.5 * k1y, hx, hy)
+        k3x, k3y = bw_rate(A, beta, gamma, zx + 0.5 * k2x, zy + 0.5 * k2y, hx, hy)
+        k4x, k4y = bw_rate(A, beta, gamma, zx + k3x, zy + k3y, hx, hy)
+        zx += (k1x + 2.0 * k2x + 2.0 * k3x + k4x) / 6.0
+        zy += (k1y + 2.0 * k2y + 2.0 * k3y + k4y) / 6.0
+    s_new[:] = s
+    s_new[0] = u[0]
+    s_new[1] = u[1]
+    s_new[2] = zx
+    s_new[3] = zy
+    # instantaneous tangent d(Z')/d(u') at the end state, Eqs. (10a)-(10b) differentiated
+    sx = 1.0 if dx > 0.0 else (-1.0 if dx < 0.0 else 0.0)
+    sy = 1.0 if dy > 0.0 else (-1.0 if dy < 0.0 else 0.0)
+    d00 = A - beta * sx * abs(zx) * zx - gamma * zx * zx
+    d01 = -beta * sy * abs(zy) * zx - gamma * zx * zy
+    d11 = A - beta * sy * abs(zy) * zy - gamma * zy * zy
+    d10 = -beta * sx * abs(zx) * zy - gamma * zx * zy
+    return d00, d01, d10, d11
+
+
+@njit(cache=True)
+def law_bw_esb(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
+    """ESB, Eq. (11a) of [004]; p = [A, beta, gamma, cx, cy, mu0, mu1, mu2, S, W]."""
+    d00, d01, d10, d11 = _bw_advance(p, s, u, s_new)
+    mu0 = p[5]
+    mu1 = p[6]
+    mu2 = p[7]
+    S = p[8]
+    W = p[9]
+    V = math.sqrt(v[0] * v[0] + v[1] * v[1])
+    # friction coefficient: pressure in N/mm^2, velocity in mm/s (text below Eq. (11) of [004])
+    mu = mu0 * (W / S * 1e-6) ** mu1 * (V * 1e3) ** mu2 if V > 0.0 else 0.0
+    Vr = max(V, 1e-6)
+    dmu = mu * mu2 / (Vr * Vr)  # d mu / d v_j = dmu * v_j
+    for i in range(2):
+        f[i] = mu * W * s_new[2 + i] + p[3 + i] * v[i]  # Eq. (11a) of [004]
+        for j in range(2):
+            Ct[i, j] = W * s_new[2 + i] * dmu * v[j]
+        Ct[i, i] += p[3 + i]
+    Kt[0, 0] = mu * W * d00
+    Kt[0, 1] = mu * W * d01
+    Kt[1, 0] = mu * W * d10
+    Kt[1, 1] = mu * W * d11
+
+
+@njit(cache=True)
+def law_bw_sdp(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
+    """SDP, Eq. (11b) of [004]; p = [A, beta, gamma, cx, cy, alpha, kxx, kxy, kyy]."""
+    d00, d01, d10, d11 = _bw_advance(p, s, u, s_new)
+    a = p[5]
+    Kxx = p[6]
+    Kxy = p[7]
+    Kyy = p[8]
+    wx = a * u[0] + (1.0 - a) * s_new[2]
+    wy = a * u[1] + (1.0 - a) * s_new[3]
+    f[0] = Kxx * wx + Kxy * wy + p[3] * v[0]  # Eq. (11b) of [004]
+    f[1] = Kxy * wx + Kyy * wy + p[4] * v[1]  # Eq. (11b) of [004]
+    g00 = a + (1.0 - a) * d00
+    g01 = (1.0 - a) * d01
+    g10 = (1.0 - a) * d10
+    g11 = a + (1.0 - a) * d11
+    Kt[0, 0] = Kxx * g00 + Kxy * g10
+    Kt[0, 1] = Kxx * g01 + Kxy * g11
+    Kt[1, 0] = Kxy * g00 + Kyy * g10
+    Kt[1, 1] = Kxy * g01 + Kyy * g11
+    Ct[0, 1] = 0.0
+    Ct[1, 0] = 0.0
+    Ct[0, 0] = p[3]
+    Ct[1, 1] = p[4]
+
+
+def _check_bw(A: float, beta: float, gamma: float, c: list[float]) -> None:
+    if not (A > 0 and beta + gamma > 0 and beta >= -abs(gamma)) or min(c) < 0:
+        msg = (
+            f"A, beta, gamma, c: expected A > 0, beta + gamma > 0, c >= 0, "
+            f"got A={A}, beta={beta}, gamma={gamma}, c={c}"
+        )
+        raise ModelError(msg)
+
+
+class BoucWenESB(Device):
+    """Elastic sliding bearing: bidirectional Bouc-Wen with friction, Eqs. (10)-(11a) of [004].
+
+    Parameters
+    ----------
+    A, beta, gamma : float
+        Bouc-Wen shape parameters, 1/m (Z is dimensionless, bounded by sqrt(A/(b+g))).
+    c : sequence of float
+        Viscous damping (cxx, cyy), N s/m.
+    W : float
+        Vertical load carried, N (not tabulated in [004]; the caller must supply it).
+    mu0, mu1, mu2 : float
+        Friction-law coefficients; defaults 0.0606, -0.5883, 0.1148 (text of [004]).
+    S : float
+        Slider effective area, m^2; default 0.1018 (text of [004]).
+    name : str
+        Label.
+    """
+
+    kind = KIND_BW_ESB
+
+    def __init__(
+        self,
+        A: float,
+        beta: float,
+        gamma: float,
+        c: list[float],
+        *,
+        W: float,
+        mu0: float = 0.0606,
+        mu1: float = -0.5883,
+        mu2: float = 0.1148,
+        S: float = 0.1018,
+        name: str = "ESB",
+    ) -> None:
+        c = [float(x) for x in c]
+        _check_bw(A, beta, gamma, c)
+        if not (W > 0 and S > 0 and mu0 >= 0 and mu2 >= 0):
+            msg = f"W, S, mu0, mu2: expected positive, got W={W}, S={S}, mu0={mu0}, mu2={mu2}"
+            raise ModelError(msg)
+        super().__init__(
+            [A, beta, gamma, c[0], c[1], mu0, mu1, mu2, S, W], n_dir=2, name=name
+        )
+
+    def reference_stiffness(self) -> FloatArray:
+        """Return zeros: the friction force vanishes at rest (mu(V = 0) = 0)."""
+        return np.zeros((2, 2))
+
+    def reference_damping(self) -> FloatArray:
+        """Return diag(c)."""
+        return np.diag(self.params[3:5])
+
+
+class BoucWenSDP(Device):
+    """U-shaped steel damper pair: bidirectional Bouc-Wen, Eqs. (10)-(11b) of [004].
+
+    Parameters
+    ----------
+    A, beta, gamma : float
+        Bouc-Wen parameters (A dimensionless, beta and gamma in 1/m^2; Z in m).
+    K : FloatArray
+        Symmetric (2, 2) stiffness K_SDP, N/m.
+    alpha : float
+        Post- to pre-yield stiffness ratio.
+    c : sequence of float
+        Viscous damping (cxx, cyy), N s/m.
+    name : str
+        Label.
+    """
+
+    kind = KIND_BW_SDP
+
+    def __init__(
+        self,
+        A: float,
+        beta: float,
+        gamma: float,
+        K: FloatArray,
+        alpha: float,
+        c: list[float],
+        *,
+        name: str = "SDP",
+    ) -> None:
+        c = [float(x) for x in c]
+        _check_bw(A, beta, gamma, c)
+        K = np.asarray(K, dtype=float)
+        if K.shape != (2, 2) or abs(K[0, 1] - K[1, 0]) > 1e-12 * np.abs(K).max():
+            msg = f"K: expected a symmetric (2, 2) matrix, got {K.tolist()}"
+            raise ModelError(msg)
+        if not 0.0 <= alpha <= 1.0:
+            msg = f"alpha: expected 0 <= alpha <= 1, got {alpha}"
+            raise ModelError(msg)
+        super().__init__(
+            [A, beta, gamma, c[0], c[1], alpha, K[0, 0], K[0, 1], K[1, 1]], n_dir=2, name=name
+        )
+
+    def reference_damping(self) -> FloatArray:
+        """Return diag(c)."""
+        return np.diag(self.params[3:5])
+
+
+# Table 10 of [004]: A (1/m), beta (1/m), gamma (1/m), cxx, cyy (Mg/s).
+_TABLE10_ESB = {
+    "ESB1": (47.13, 10.41, 36.72, 3.79e3, 50.04e3),
+    "ESB2": (54.10, 25.41, 28.69, 30.00e3, 20.00e3),
+}
+
+
+def table10_esb(device: str, *, W: float) -> BoucWenESB:
+    """Return ESB1 or ESB2 as calibrated in Table 10 of [004].
+
+    Parameters
+    ----------
+    device : {"ESB1", "ESB2"}
+    W : float
+        Vertical load on the bearing, N ([004] does not tabulate it).
+
+    Raises
+    ------
+    ModelError
+        For an unknown label.
+    """
+    if device not in _TABLE10_ESB:
+        msg = f"device: expected one of {sorted(_TABLE10_ESB)}, got {device!r}"
+        raise ModelError(msg)
+    A, b, g, cx, cy = _TABLE10_ESB[device]
+    return BoucWenESB(A, b, g, [cx, cy], W=W, name=device)
+
+
+def table10_sdp(name: str = "SDP") -> BoucWenSDP:
+    """Return the SDP model of Table 10 of [004] (both SDPs share it).
+
+    kxx = 3.975 MN/m, kyy = 3.779 MN/m, kxy = 0, alpha = 0.1225, A = 1,
+    beta = 635 1/m^2, gamma = 1102 1/m^2, cxx = cyy = 90 Mg/s.
+    """
+    K = np.array([[3.975e6, 0.0], [0.0, 3.779e6]])
+    return BoucWenSDP(1.0, 635.0, 1102.0, K, 0.1225, [90.0e3, 90.0e3], name=name)

@@ -1,0 +1,1 @@
+"""twin stage of modal_twin."""

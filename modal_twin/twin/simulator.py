@@ -1,0 +1,486 @@
+"""Partially nonlinear modal time integration, Eq. (12) of [004].
+
+Equation of motion in n reduced (e.g. modal) coordinates q::
+
+    M q'' + C q' + K q = -Gamma a_g(t) - sum_d B_d^T f_d(B_d q, B_d q')        (12)
+
+(Eq. (12) of [004] after the modal transformation, with the nominal linear isolation
+stiffness already removed from K, i.e. K = Phi^T (K - K_iso^nom) Phi.) Each device d sees the
+local drift u_d = B_d q (1 or 2 components) and returns the force f_d (see
+:mod:`modal_twin.models.devices`). Outputs: y = C_out [q; q'; q''] + D_out a_g.
+
+Integration scheme ("modal-foh")
+--------------------------------
+1. Exact linear part. Each device's initial stiffness and its viscous damping are moved
+   into the linear operator, ``K_l = K + sum B^T K_ref B``, ``C_l = C + sum B^T C_ref B``,
+   and subtracted from the device force, ``ft = f - K_ref u - C_ref u'`` (an identity that
+   makes K_l non-singular for an isolated building and the nonlinear residual small).
+   The first-order system x' = A x + B_w w, x = [q; q'], is diagonalised once,
+   A = V Lambda V^-1, and propagated exactly for inputs w = [a_g; ft] varying linearly over
+   a step (first-order hold, the discretisation of ``scipy.signal.lsim``)::
+
+       xi_{k+1} = exp(Lambda dt) xi_k + E0 V^-1 B_w w_k + E1 V^-1 B_w w_{k+1}
+
+   Conjugate eigenpairs are carried once (x = Re(sum w_r V_r xi_r), w_r in {1, 2}), so a
+   step of the linear part costs O(n) plus the input and device projections.
+2. Implicit device coupling. w_{k+1} contains the unknown device forces; the drifts are
+   affine in them, u = u_pred + H_u ft, u' = v_pred + H_v ft, and the (2 n_dev) residual
+   equations ft - [f(u, u') - K_ref u - C_ref u'] = 0 are solved by Newton with the
+   device tangents (relative residual ``rtol`` of the largest device force).
+
+Why this and not Newmark: the linear part is exact at any step (no period elongation;
+Newmark's average acceleration errs by (w dt)^2 / 12, 0.4 % at 35 Hz and 1 kHz), it is
+unconditionally stable, and the per-step cost is O(n n_dev), which is what a real-time
+factor above 1000 on 36 modes needs. Accuracy of the coupling is second order in dt.
+The eigenvector matrix must be well conditioned (its condition number is reported;
+above 1e10 a ModelError is raised: a defective A, e.g. rigid-body modes without any
+device stiffness).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import scipy.linalg
+
+from modal_twin._types import FloatArray, IntArray
+from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError, SignalError
+from modal_twin.models.devices.base import N_PARAM, N_STATE, Device
+from modal_twin.twin.kernels import STATUS_DIVERGED, STATUS_NONFINITE, run_block
+
+__all__ = ["DeviceAttachment", "ReducedSystem", "SimResult", "Simulator", "simulate"]
+
+_log = logging.getLogger(__name__)
+_METHODS = ("modal-foh",)
+
+
+@dataclass(frozen=True, slots=True)
+class DeviceAttachment:
+    """A device and the matrix that extracts its local drift from q.
+
+    Attributes
+    ----------
+    device : Device
+        The law (1 or 2 directions).
+    B : FloatArray
+        Shape (n_dir, n): u_d = B q (m per unit of q).
+    """
+
+    device: Device
+    B: FloatArray
+
+
+@dataclass(frozen=True, slots=True)
+class ReducedSystem:
+    """Reduced linear structure with nonlinear devices, Eq. (12) of [004].
+
+    Attributes
+    ----------
+    M, C, K : FloatArray
+        (n, n) mass (identity if mass-normalised), damping and stiffness of the linear part.
+    Gamma : FloatArray
+        (n, n_in) participation of the base acceleration a_g (e.g. Phi^T M P), SI.
+    devices : tuple of DeviceAttachment
+        Nonlinear devices.
+    C_out : FloatArray
+        (n_out, 3 n) output matrix acting on [q; q'; q''].
+    D_out : FloatArray
+        (n_out, n_in) direct feed-through of a_g (absolute accelerations).
+    output_names : tuple of str
+        Optional channel names (length n_out or empty).
+    """
+
+    M: FloatArray
+    C: FloatArray
+    K: FloatArray
+    Gamma: FloatArray
+    devices: tuple[DeviceAttachment, ...]
+    C_out: FloatArray
+    D_out: FloatArray
+    output_names: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        """Validate shapes and finiteness."""
+        n = np.shape(self.M)[0] if np.ndim(self.M) == 2 else -1
+        for name, A, shape in (
+            ("M", self.M, (n, n)),
+            ("C", self.C, (n, n)),
+            ("K", self.K, (n, n)),
+        ):
+            if np.shape(A) != shape or n < 1:
+                msg = f"{name}: expected (n, n) with n = {n}, got {np.shape(A)}"
+                raise ShapeError(msg)
+        n_in = np.shape(self.Gamma)[1] if np.ndim(self.Gamma) == 2 else -1
+        if np.shape(self.Gamma) != (n, n_in):
+            msg = f"Gamma: expected (n, n_in) with n = {n}, got {np.shape(self.Gamma)}"
+            raise ShapeError(msg)
+        n_out = np.shape(self.C_out)[0] if np.ndim(self.C_out) == 2 else -1
+        if np.shape(self.C_out) != (n_out, 3 * n):
+            msg = f"C_out: expected (n_out, 3 n) = (n_out, {3 * n}), got {np.shape(self.C_out)}"
+            raise ShapeError(msg)
+        if np.shape(self.D_out) != (n_out, n_in):
+            msg = f"D_out: expected ({n_out}, {n_in}), got {np.shape(self.D_out)}"
+            raise ShapeError(msg)
+        if self.output_names and len(self.output_names) != n_out:
+            msg = f"output_names: expected {n_out} names, got {len(self.output_names)}"
+            raise ShapeError(msg)
+        for i, att in enumerate(self.devices):
+            if np.shape(att.B) != (att.device.n_dir, n):
+                msg = (
+                    f"devices[{i}].B ({att.device.name}): expected ({att.device.n_dir}, {n}), "
+                    f"got {np.shape(att.B)}"
+                )
+                raise ShapeError(msg)
+        for name in ("M", "C", "K", "Gamma", "C_out", "D_out"):
+            if not np.all(np.isfinite(getattr(self, name))):
+                msg = f"{name}: expected finite entries, found NaN or inf"
+                raise ModelError(msg)
+
+    @property
+    def n(self) -> int:
+        """Number of reduced coordinates."""
+        return int(np.shape(self.M)[0])
+
+    @property
+    def n_in(self) -> int:
+        """Number of base-acceleration inputs."""
+        return int(np.shape(self.Gamma)[1])
+
+
+@dataclass(frozen=True, slots=True)
+class SimResult:
+    """Time histories of a (block of a) simulation.
+
+    Attributes
+    ----------
+    t : FloatArray
+        (nt,) time of each sample, s.
+    y : FloatArray
+        (n_out, nt) outputs (C_out [q; q'; q''] + D_out a_g), SI.
+    q, qd, qdd : FloatArray or None
+        (n, nt) reduced coordinates and their first two derivatives (None when the
+        simulator was built with ``modal_histories=False``).
+    drift : FloatArray
+        (n_rows, nt) device drifts, one row per device direction (order of ``rows``), m.
+    force : FloatArray
+        (n_rows, nt) device forces, N.
+    rows : tuple of str
+        "name.x" / "name.y" label of each drift / force row.
+    newton_iterations : IntArray
+        (nt,) device-force evaluations per step (0 for the rest sample).
+    cond_V : float
+        Condition number of the modal eigenvector matrix.
+    method : str
+        Integration method.
+    """
+
+    t: FloatArray
+    y: FloatArray
+    q: FloatArray | None
+    qd: FloatArray | None
+    qdd: FloatArray | None
+    drift: FloatArray
+    force: FloatArray
+    rows: tuple[str, ...]
+    newton_iterations: IntArray
+    cond_V: float  # noqa: N815 - matrix symbol V
+    method: str
+
+
+def _discretise(lam: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return exp(lam dt), E0, E1 of the first-order hold (as in scipy.signal.lsim)."""
+    lam = np.asarray(lam, dtype=complex)
+    Phi = np.empty(lam.shape, dtype=complex)
+    E0 = np.empty(lam.shape, dtype=complex)
+    E1 = np.empty(lam.shape, dtype=complex)
+    for i, li in enumerate(lam):
+        Mx = np.array([[li * dt, dt, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]], dtype=complex)
+        F = scipy.linalg.expm(Mx)
+        Phi[i] = F[0, 0]
+        E1[i] = F[0, 2]
+        E0[i] = F[0, 1] - F[0, 2]
+    return Phi, E0, E1
+
+
+class Simulator:
+    """Streaming integrator of a :class:`ReducedSystem` (state kept between blocks).
+
+    Parameters
+    ----------
+    system : ReducedSystem
+        The model.
+    dt : float
+        Sample interval, s.
+    rtol : float
+        Newton tolerance on the device residual, relative to the largest device force.
+    max_iter : int
+        Newton iterations allowed per step.
+    modal_histories : bool
+        Return q, q', q'' (False: only y, drifts and forces, which is faster).
+
+    Raises
+    ------
+    ModelError
+        If M is singular or the state matrix is (numerically) defective.
+    OptionError
+        If dt, rtol or max_iter are not positive.
+    """
+
+    def __init__(
+        self,
+        system: ReducedSystem,
+        dt: float,
+        *,
+        rtol: float = 1e-10,
+        max_iter: int = 50,
+        modal_histories: bool = True,
+    ) -> None:
+        self.modal_histories = bool(modal_histories)
+        if not (np.isfinite(dt) and dt > 0):
+            msg = f"dt: expected a positive finite sample interval, got {dt!r}"
+            raise OptionError(msg)
+        if not (rtol > 0 and max_iter >= 1):
+            msg = f"rtol, max_iter: expected positive, got {rtol!r}, {max_iter!r}"
+            raise OptionError(msg)
+        self.system = system
+        self.dt = float(dt)
+        self.rtol = float(rtol)
+        self.max_iter = int(max_iter)
+        n, n_in = system.n, system.n_in
+        nd = len(system.devices)
+        nf = 2 * nd
+        M = np.asarray(system.M, float)
+        cM = np.linalg.cond(M)
+        if not np.isfinite(cM) or cM > 1e12:
+            msg = f"M: expected a well-conditioned mass matrix, cond(M) = {cM:.3e}"
+            raise ModelError(msg)
+        Bs = np.zeros((nf, n))
+        self.kinds = np.zeros(nd, dtype=np.int64)
+        self.params = np.zeros((nd, N_PARAM))
+        self.Kr = np.zeros((nd, 2, 2))
+        self.Cr = np.zeros((nd, 2, 2))
+        rows: list[str] = []
+        self._row_index: list[int] = []
+        for d, att in enumerate(system.devices):
+            dev = att.device
+            nd_ = dev.n_dir
+            Bs[2 * d : 2 * d + nd_] = att.B
+            self.kinds[d] = dev.kind
+            self.params[d] = dev.params
+            self.Kr[d, :nd_, :nd_] = dev.reference_stiffness()[:nd_, :nd_]
+            self.Cr[d, :nd_, :nd_] = dev.reference_damping()[:nd_, :nd_]
+            for a in range(nd_):
+                rows.append(f"{dev.name}.{'xy'[a]}")
+                self._row_index.append(2 * d + a)
+        self.rows = tuple(rows)
+        self._Bs = Bs
+        Kl = system.K + sum(
+            (Bs[2 * d : 2 * d + 2].T @ self.Kr[d] @ Bs[2 * d : 2 * d + 2] for d in range(nd)),
+            np.zeros((n, n)),
+        )
+        Cl = system.C + sum(
+            (Bs[2 * d : 2 * d + 2].T @ self.Cr[d] @ Bs[2 * d : 2 * d + 2] for d in range(nd)),
+            np.zeros((n, n)),
+        )
+        Minv = np.linalg.inv(M)
+        self._Minv = Minv
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ Kl, -Minv @ Cl]])
+        Bw = np.vstack([np.zeros((n, n_in + nf)), -Minv @ np.hstack([system.Gamma, Bs.T])])
+        lam, V = np.linalg.eig(A)
+        self.cond_V = float(np.linalg.cond(V))
+        if not np.isfinite(self.cond_V) or self.cond_V > 1e10:
+            msg = (
+                f"A: modal eigenvector matrix is ill-conditioned, cond(V) = {self.cond_V:.3e} "
+                "(defective state matrix: rigid-body or critically damped modes?)"
+            )
+            raise ModelError(msg)
+        Vinv = np.linalg.inv(V)
+        scale = np.abs(lam).max() if lam.size else 1.0
+        tol = 1e-9 * max(scale, 1e-300)
+        keep = np.flatnonzero((lam.imag > tol) | (np.abs(lam.imag) <= tol))
+        n_pair = int(np.count_nonzero(lam.imag > tol))
+        if 2 * n_pair + int(np.count_nonzero(np.abs(lam.imag) <= tol)) != 2 * n:
+            msg = f"A: eigenvalues not in conjugate pairs ({lam.size} found)"
+            raise ModelError(msg)
+        w = np.where(lam[keep].imag > tol, 2.0, 1.0)
+        Vw = V[:, keep] * w
+        G = Vinv[keep] @ Bw
+        lam_d, e0, e1 = _discretise(lam[keep], self.dt)
+        self._ns = ns = lam_d.size
+        c = np.ascontiguousarray
+        self._lr, self._li = c(lam_d.real), c(lam_d.imag)
+        self._e0r, self._e0i, self._e1r, self._e1i = c(e0.real), c(e0.imag), c(e1.real), c(e1.imag)
+        Ga, Gf = G[:, :n_in], G[:, n_in:]
+        self._GaR, self._GaI = c(Ga.real), c(Ga.imag)
+        self._GfR, self._GfI = c(Gf.real), c(Gf.imag)
+
+        def split(Z: np.ndarray) -> FloatArray:
+            """Real matrix acting on [Re xi; Im xi] that returns Re(Z xi)."""
+            return c(np.hstack([Z.real, -Z.imag]))
+
+        Pu, Pv = Bs @ Vw[:n], Bs @ Vw[n:]
+        self._P = c(np.vstack([split(Pu), split(Pv)]))
+        e1G = e1[:, None] * Gf
+        self._H = c(np.vstack([(Pu @ e1G).real, (Pv @ e1G).real]))
+        # outputs: q, q' from the modal state; q'' from Eq. (12) of [004]
+        Lq, Lv = split(Vw[:n]), split(Vw[n:])
+        Co = np.asarray(system.C_out, float)
+        Cq, Cv, Ca = Co[:, :n], Co[:, n : 2 * n], Co[:, 2 * n :]
+        CaMi = Ca @ Minv
+        self._Lq, self._Lv = Lq, Lv
+        self._Ly = c(Cq @ Lq + Cv @ Lv - CaMi @ (system.C @ Lv + system.K @ Lq))
+        self._Dy = c(system.D_out - CaMi @ system.Gamma)
+        self._Fy = c(-CaMi @ Bs.T)
+        self._Bs = Bs
+        _ = ns
+        self.reset()
+
+    def reset(self) -> None:
+        """Return to rest (virgin device states, zero motion, time 0)."""
+        ns = self._ns
+        nd = len(self.system.devices)
+        self._X = np.zeros(2 * ns)
+        self._w_prev = np.zeros(2 * ns)
+        self._ft = np.zeros(2 * nd)
+        self._states = np.zeros((nd, N_STATE))
+        for d, att in enumerate(self.system.devices):
+            self._states[d] = att.device.initial_state()
+        self._started = False
+        self._k0 = 0
+
+    def step_block(self, ag: FloatArray) -> SimResult:
+        """Integrate one block of base-acceleration samples, continuing the stored state.
+
+        Parameters
+        ----------
+        ag : FloatArray
+            (n_in, nb) base acceleration samples, m/s^2 (rad/s^2 for rotations). The very
+            first sample of a run is the rest state.
+
+        Returns
+        -------
+        SimResult
+            The block's samples (t continues from the previous block).
+
+        Raises
+        ------
+        ShapeError
+            If ag does not have n_in rows.
+        SignalError
+            If ag holds a non-finite sample (message names sample index and channel), or
+            the state becomes non-finite.
+        ConvergenceError
+            If the device-force Newton iteration fails.
+        """
+        sysm = self.system
+        ag = np.asarray(ag, dtype=float)
+        if ag.ndim != 2 or ag.shape[0] != sysm.n_in:
+            msg = f"ag: expected shape (n_in, nb) = ({sysm.n_in}, nb), got {ag.shape}"
+            raise ShapeError(msg)
+        bad = np.argwhere(~np.isfinite(ag))
+        if bad.size:
+            ch, k = int(bad[0, 0]), int(bad[0, 1])
+            msg = (
+                f"ag: non-finite value {ag[ch, k]} at sample {self._k0 + k} "
+                f"(block index {k}), channel {ch}"
+            )
+            raise SignalError(msg)
+        ag = np.ascontiguousarray(ag)
+        nb = ag.shape[1]
+        nf = self._ft.size
+        out_X = np.empty((2 * self._ns, nb))
+        out_u = np.empty((nf, nb))
+        out_f = np.empty((nf, nb))
+        out_it = np.empty(nb, dtype=np.int64)
+        status, idx = run_block(
+            ag, self._started, self._lr, self._li, self._e0r, self._e0i, self._e1r,
+            self._e1i, self._GaR, self._GaI, self._GfR, self._GfI, self._P, self._H,
+            self.kinds, self.params, self.Kr, self.Cr,
+            self._X, self._w_prev, self._ft, self._states,
+            out_X, out_u, out_f, out_it, self.rtol, self.max_iter,
+        )  # fmt: skip
+        if status == STATUS_NONFINITE:
+            msg = (
+                f"state became non-finite at sample {self._k0 + idx} "
+                "(unstable device law or step too large)"
+            )
+            raise SignalError(msg)
+        if status == STATUS_DIVERGED:
+            msg = (
+                f"device-force Newton did not converge in {self.max_iter} iterations at "
+                f"sample {self._k0 + idx} (rtol = {self.rtol:g})"
+            )
+            raise ConvergenceError(msg)
+        self._started = self._started or nb > 0
+        # y = C_out [q; q'; q''] + D_out a_g with q'' from Eq. (12) of [004], folded
+        y = self._Ly @ out_X + self._Dy @ ag + self._Fy @ out_f
+        q = qd = qdd = None
+        if self.modal_histories:
+            q = self._Lq @ out_X
+            qd = self._Lv @ out_X
+            rhs = -sysm.C @ qd - sysm.K @ q - sysm.Gamma @ ag - self._Bs.T @ out_f
+            qdd = self._Minv @ rhs  # Eq. (12) of [004] solved for q''
+
+        t = (self._k0 + np.arange(nb)) * self.dt
+        self._k0 += nb
+        ri = self._row_index
+        return SimResult(
+            t=t, y=y, q=q, qd=qd, qdd=qdd, drift=out_u[ri], force=out_f[ri], rows=self.rows,
+            newton_iterations=out_it, cond_V=self.cond_V, method="modal-foh",
+        )  # fmt: skip
+
+
+def simulate(
+    system: ReducedSystem,
+    ag: FloatArray,
+    dt: float,
+    *,
+    method: Literal["modal-foh"] = "modal-foh",
+    rtol: float = 1e-10,
+    max_iter: int = 50,
+) -> SimResult:
+    """Simulate Eq. (12) of [004] from rest for a base-acceleration record.
+
+    Parameters
+    ----------
+    system : ReducedSystem
+        Linear reduced structure and its devices.
+    ag : FloatArray
+        (n_in, nt) base acceleration, sample 0 at t = 0 (rest state), SI.
+    dt : float
+        Sample interval, s.
+    method : {"modal-foh"}
+        Integration scheme (see module docstring).
+    rtol, max_iter : float, int
+        Newton controls on the device forces.
+
+    Returns
+    -------
+    SimResult
+
+    Raises
+    ------
+    OptionError
+        For an unknown method.
+    SignalError, ConvergenceError, ShapeError, ModelError
+        As :class:`Simulator`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from modal_twin.twin.simulator import ReducedSystem, simulate
+    >>> w = 2 * np.pi
+    >>> s = ReducedSystem(M=np.eye(1), C=np.array([[0.1 * w]]), K=np.array([[w * w]]),
+    ...                   Gamma=np.eye(1), devices=(), C_out=np.array([[1.0, 0, 0]]),
+    ...                   D_out=np.zeros((1, 1)))
+    >>> r = simulate(s, np.ones((1, 60001)), 1e-3)
+    >>> print(round(r.q[0, -1] * w * w, 4))
+    -1.0
+    """
+    if method not in _METHODS:
+        msg = f"method: expected one of {list(_METHODS)}, got {method!r}"
+        raise OptionError(msg)
+    return Simulator(system, dt, rtol=rtol, max_iter=max_iter).step_block(ag)
