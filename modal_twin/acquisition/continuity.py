@@ -63,15 +63,19 @@ class StreamMonitor:
             unknown = [c for c in block.channel_names if c not in self.expected]
             missing = [c for c in self.expected if c not in block.channel_names]
             return BlockVerdict(
-                Verdict.LAYOUT, None,
+                Verdict.LAYOUT,
+                None,
                 f"block at sample {block.first_index} has {block.n_channels} channels "
-                f"(expected {len(self.expected)}); unknown {unknown}, missing {missing}")
+                f"(expected {len(self.expected)}); unknown {unknown}, missing {missing}",
+            )
         if self.layout is not None and layout != self.layout:
             return BlockVerdict(
-                Verdict.LAYOUT, None,
+                Verdict.LAYOUT,
+                None,
                 f"block at sample {block.first_index}: channels / rate changed from "
                 f"{len(self.layout[0])} ch at {self.layout[1]} Hz to {block.n_channels} ch at "
-                f"{block.fs_hz} Hz")
+                f"{block.fs_hz} Hz",
+            )
         bad = block.nonfinite()
         if bad:
             where = ", ".join(f"{c} at sample {i}" for c, i in bad[:4])
@@ -83,15 +87,28 @@ class StreamMonitor:
             n = block.first_index - self.next_index
             self.missing_samples += n
             return BlockVerdict(
-                Verdict.GAP, block,
-                f"gap: samples {self.next_index}..{block.first_index - 1} ({n}) missing", n)
+                Verdict.GAP,
+                block,
+                f"gap: samples {self.next_index}..{block.first_index - 1} ({n}) missing",
+                n,
+            )
         if block.next_index <= self.next_index:
             return BlockVerdict(
-                Verdict.REPEAT, None,
-                f"repeated block: samples {block.first_index}..{block.next_index - 1} seen")
+                Verdict.REPEAT,
+                None,
+                f"repeated block: samples {block.first_index}..{block.next_index - 1} seen",
+            )
         cut = self.next_index - block.first_index
-        trimmed = SignalBlock(block.channel_names, block.fs_hz, self.next_index,
-                              block.data[:, cut:],
-                              block.stamp_ns + round(cut / block.fs_hz * 1e9), block.source)
-        return BlockVerdict(Verdict.OVERLAP, trimmed,
-                            f"overlap: {cut} repeated samples from {block.first_index} trimmed")
+        trimmed = SignalBlock(
+            block.channel_names,
+            block.fs_hz,
+            self.next_index,
+            block.data[:, cut:],
+            block.stamp_ns + round(cut / block.fs_hz * 1e9),
+            block.source,
+        )
+        return BlockVerdict(
+            Verdict.OVERLAP,
+            trimmed,
+            f"overlap: {cut} repeated samples from {block.first_index} trimmed",
+        )

@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from modal_twin.acquisition.continuity import StreamMonitor, Verdict
 from modal_twin.signal_block import SignalBlock
 
@@ -17,15 +18,19 @@ def test_contiguous_gap_overlap_repeat() -> None:
     assert m.check(blk(0)).verdict is Verdict.OK
     assert m.check(blk(10)).verdict is Verdict.OK
     g = m.check(blk(25))
-    assert g.verdict is Verdict.GAP and g.missing == 5
+    assert g.verdict is Verdict.GAP
+    assert g.missing == 5
     assert "samples 20..24 (5) missing" in g.message
     o = m.check(blk(30))  # samples 30..34 seen already
-    assert o.verdict is Verdict.OVERLAP and o.block is not None
-    assert o.block.first_index == 35 and o.block.n_samples == 5
+    assert o.verdict is Verdict.OVERLAP
+    assert o.block is not None
+    assert o.block.first_index == 35
+    assert o.block.n_samples == 5
     np.testing.assert_array_equal(o.block.data[0], np.arange(35, 40))
     assert o.block.stamp_ns == int(0.35e9)
     r = m.check(blk(30))
-    assert r.verdict is Verdict.REPEAT and r.block is None
+    assert r.verdict is Verdict.REPEAT
+    assert r.block is None
     assert m.next_index == 40
     assert m.missing_samples == 5
 
@@ -34,14 +39,17 @@ def test_bad_blocks_are_dropped_with_reasons() -> None:
     m = StreamMonitor(expected_channels=CH)
     assert m.check(blk(0)).verdict is Verdict.OK
     w = m.check(blk(10, ch=("a", "b", "zz")))
-    assert w.verdict is Verdict.LAYOUT and "unknown ['zz']" in w.message
+    assert w.verdict is Verdict.LAYOUT
+    assert "unknown ['zz']" in w.message
     bad = blk(10)
     bad.data[1, 3] = np.nan
     n = m.check(bad)
-    assert n.verdict is Verdict.NONFINITE and "b at sample 13" in n.message
+    assert n.verdict is Verdict.NONFINITE
+    assert "b at sample 13" in n.message
     assert m.check(SignalBlock(CH, 100.0, 10, np.zeros((2, 0)))).verdict is Verdict.EMPTY
     assert m.check(blk(10)).verdict is Verdict.OK  # the stream goes on
     m2 = StreamMonitor()
     m2.check(blk(0))
     assert m2.check(blk(10, fs=200.0)).verdict is Verdict.LAYOUT
-    assert m.counts[Verdict.LAYOUT] == 1 and m.counts[Verdict.NONFINITE] == 1
+    assert m.counts[Verdict.LAYOUT] == 1
+    assert m.counts[Verdict.NONFINITE] == 1

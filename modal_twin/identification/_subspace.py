@@ -1,0 +1,145 @@
+"""Poles, damping and shapes from an extended observability matrix, for all orders (private).
+
+Shared by :mod:`.n4sid` and :mod:`.ssi_cov`. With :math:`\\Gamma = U_n S_n^{1/2}` from one
+SVD, the order-n model uses the first n columns (truncated SVD); the callers pass the
+orthonormal basis :math:`U` (a diagonal change of state basis, same poles, better
+conditioned when trailing singular values vanish). Shift invariance gives
+:math:`A_n = \\underline{\\Gamma}_n^{+} \\overline{\\Gamma}_n` and :math:`C_n` = first l rows.
+One QR of :math:`\\underline{\\Gamma}_{n_{max}} = QR` serves every order:
+:math:`\\underline{\\Gamma}_n = Q_{:, :n} R_{:n, :n}`, so
+:math:`A_n = R_{:n,:n}^{-1} (Q^T \\overline{\\Gamma})_{:n,:n}`, and since R is upper
+triangular :math:`R_{:n,:n}^{-1} = (R^{-1})_{:n,:n}`: one triangular inverse for all orders.
+Discrete poles :math:`\\mu` map to :math:`\\lambda = f_s \\ln \\mu`,
+:math:`f = |\\lambda| / 2\\pi`, :math:`\\zeta = -\\mathrm{Re}\\,\\lambda / |\\lambda|`;
+shapes are :math:`C_n V` (eigenvectors :math:`V` of :math:`A_n`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.linalg as sla
+
+from modal_twin._types import ComplexArray, FloatArray, IntArray
+from modal_twin.errors import OptionError
+from modal_twin.identification.modal_model import PoleSet, normalize_shapes
+
+__all__ = ["check_orders", "poles_over_orders"]
+
+
+def check_orders(orders: object, max_allowed: int, what: str) -> IntArray:
+    """Validate model orders: positive integers, ascending, <= ``max_allowed``."""
+    o = np.atleast_1d(np.asarray(orders))
+    if o.ndim != 1 or o.size == 0 or not np.issubdtype(o.dtype, np.integer) or np.any(o < 1):
+        msg = f"orders: expected a non-empty 1-D sequence of integers >= 1, got {orders!r}"
+        raise OptionError(msg)
+    o = np.unique(o.astype(np.int64))
+    if o[-1] > max_allowed:
+        msg = (
+            f"orders: expected orders <= {max_allowed} ({what}), got max order {o[-1]}; "
+            "lower the order or add block rows / data"
+        )
+        raise OptionError(msg)
+    return o
+
+
+def _continuous(mu: ComplexArray, fs_hz: float) -> ComplexArray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam: ComplexArray = np.log(mu.astype(np.complex128)) * fs_hz
+    return lam
+
+
+def _keep(mu: ComplexArray) -> np.ndarray:
+    """Mask of poles kept: one of each conjugate pair (Im > 0), finite, non-zero."""
+    return (mu.imag > 1e-12 * np.abs(mu)) & np.isfinite(mu) & (np.abs(mu) > 0)
+
+
+def _fz(lam: ComplexArray) -> tuple[FloatArray, FloatArray]:
+    w = np.abs(lam)
+    return w / (2 * np.pi), -lam.real / np.where(w > 0, w, 1.0)
+
+
+def _shift_solver(G: FloatArray, l: int) -> tuple[FloatArray, FloatArray]:
+    """Return (R^-1, Q^T G_down); the leading n x n block of R^-1 is R[:n, :n]^-1."""
+    Q, R = np.linalg.qr(G[:-l])
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        Rinv = sla.solve_triangular(R, np.eye(R.shape[0]), check_finite=False)
+    return Rinv, Q.T @ G[l:]
+
+
+def poles_over_orders(
+    G: FloatArray,
+    l: int,
+    orders: Sequence[int] | IntArray,
+    fs_hz: float,
+    *,
+    G_blocks: Sequence[FloatArray] = (),
+    out_scale: FloatArray | None = None,
+) -> tuple[PoleSet, ...]:
+    """Poles, frequencies, damping, shapes (and block spread) for every order.
+
+    Parameters
+    ----------
+    G : ndarray, shape (l * i, n_max)
+        Observability matrix in a common basis for all orders (columns by importance).
+    l : int
+        Number of outputs.
+    orders : sequence of int
+        Model orders, each <= n_max.
+    fs_hz : float
+        Sample rate.
+    G_blocks : sequence of ndarray, each shape (l * i, n_max)
+        Observability matrices from data blocks in the same basis; their pole spread
+        gives the standard deviation of the full-data estimate (std / sqrt(n_blocks)).
+    out_scale : ndarray, shape (l,), optional
+        Channel scale to undo on the shapes.
+
+    Returns
+    -------
+    tuple of PoleSet
+    """
+    R, M = _shift_solver(G, l)
+    blk = [_shift_solver(Gb, l) for Gb in G_blocks]
+    nb = len(blk)
+    out = []
+    for n in orders:
+        A = R[:n, :n] @ M[:n, :n]  # R holds R^-1 here
+        if not np.all(np.isfinite(A)):
+            msg = f"orders: order {n} exceeds the rank of the observability matrix"
+            raise OptionError(msg)
+        mu, V = np.linalg.eig(A)
+        k = _keep(mu)
+        lam = _continuous(mu[k], fs_hz)
+        f, z = _fz(lam)
+        shapes = G[:l, :n] @ V[:, k]
+        if out_scale is not None:
+            shapes = shapes * out_scale[:, None]
+        sf = np.full(f.shape, np.nan)
+        sz = np.full(f.shape, np.nan)
+        if nb >= 2 and lam.size:
+            fb = np.empty((nb, lam.size))
+            zb = np.empty((nb, lam.size))
+            for b, (Rb, Mb) in enumerate(blk):
+                Ab = Rb[:n, :n] @ Mb[:n, :n]
+                mub = np.linalg.eigvals(Ab) if np.all(np.isfinite(Ab)) else np.zeros(0)
+                lb = _continuous(mub[_keep(mub)], fs_hz)
+                if lb.size == 0:
+                    fb[b], zb[b] = np.nan, np.nan
+                    continue
+                j = np.argmin(np.abs(lb[None, :] - lam[:, None]), axis=1)
+                fb[b], zb[b] = _fz(lb[j])
+            sf = np.nanstd(fb, axis=0, ddof=1) / np.sqrt(nb)
+            sz = np.nanstd(zb, axis=0, ddof=1) / np.sqrt(nb)
+        order = np.argsort(f)
+        out.append(
+            PoleSet(
+                int(n),
+                f[order],
+                z[order],
+                normalize_shapes(shapes[:, order]),
+                sf[order],
+                sz[order],
+            )
+        )
+    return tuple(out)

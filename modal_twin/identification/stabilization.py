@@ -1,0 +1,205 @@
+"""Stabilization diagram and automatic selection of physical modes.
+
+Stability rule of sec. 3 of [004] (after Peeters, 2000): a pole of order n is stable when
+a pole of the next order lies within 1 % in frequency and 5 % in damping ratio and their
+mode shapes have MAC > 0.95. All three thresholds are options; deviations are relative.
+
+Selection: stable poles with damping in (0, ``zeta_max``) are clustered by the distance
+:math:`d = \\max(|\\Delta f| / \\bar f / \\mathrm{tol}_f, (1 - \\mathrm{MAC}) / (1 -
+\\mathrm{MAC}_{min}))` (average linkage, cut at 1), so that close modes with distinct
+shapes stay apart. Clusters supported by fewer than ``min_support`` poles (isolated poles)
+are rejected; each remaining cluster is one mode, represented by the pole nearest the
+cluster's median frequency and damping.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.cluster.hierarchy as sch
+
+from modal_twin._types import BoolArray, FloatArray
+from modal_twin.errors import OptionError
+from modal_twin.identification.metrics import mac
+from modal_twin.identification.modal_model import (
+    ModalModel,
+    PoleSet,
+    PoleSweep,
+    StabilizationDiagram,
+)
+
+__all__ = ["select_modes", "stabilization_diagram"]
+
+
+def _compare(
+    a: PoleSet, b: PoleSet, tol_f: float, tol_z: float, mac_min: float
+) -> tuple[BoolArray, BoolArray, BoolArray]:
+    n = a.f_hz.size
+    if n == 0 or b.f_hz.size == 0:
+        z = np.zeros(n, dtype=bool)
+        return z, z.copy(), z.copy()
+    df = np.abs(b.f_hz[None, :] - a.f_hz[:, None]) / np.maximum(a.f_hz[:, None], 1e-300)
+    M = mac(a.shapes, b.shapes)
+    # candidate of the next order: within the frequency tolerance, best MAC; else nearest
+    score = np.where(df <= tol_f, M, -1.0 - df)
+    j = np.argmax(score, axis=1)
+    r = np.arange(n)
+    ok_f = df[r, j] <= tol_f
+    za, zb = a.zeta, b.zeta[j]
+    ok_z = np.abs(zb - za) <= tol_z * np.abs(za)
+    ok_m = M[r, j] >= mac_min
+    return ok_f, ok_z & ok_f, ok_m & ok_f
+
+
+def stabilization_diagram(
+    sweep: PoleSweep,
+    *,
+    rel_tol_f: float = 0.01,
+    rel_tol_zeta: float = 0.05,
+    mac_min: float = 0.95,
+) -> StabilizationDiagram:
+    """Flag each pole as stable against the next model order (sec. 3 of [004]).
+
+    Parameters
+    ----------
+    sweep : PoleSweep
+        Poles over orders from :func:`~modal_twin.identification.n4sid.n4sid`,
+        :func:`~modal_twin.identification.ssi_cov.ssi_cov` or
+        :func:`~modal_twin.identification.polymax.polymax`.
+    rel_tol_f : float
+        Relative frequency deviation allowed (0.01 = 1 % in [004]).
+    rel_tol_zeta : float
+        Relative damping deviation allowed (0.05 = 5 % in [004]).
+    mac_min : float
+        Minimum MAC with the matching pole (0.95 in [004]).
+
+    Returns
+    -------
+    StabilizationDiagram
+
+    Raises
+    ------
+    OptionError
+        Tolerances not positive, ``mac_min`` outside [0, 1], or fewer than two orders.
+    """
+    if not (rel_tol_f > 0 and rel_tol_zeta > 0 and 0.0 <= mac_min <= 1.0):
+        msg = (
+            "rel_tol_f, rel_tol_zeta, mac_min: expected > 0, > 0 and in [0, 1], got "
+            f"{rel_tol_f!r}, {rel_tol_zeta!r}, {mac_min!r}"
+        )
+        raise OptionError(msg)
+    P = sweep.poles
+    if len(P) < 2:
+        msg = f"sweep: expected at least 2 model orders for stability, got {len(P)}"
+        raise OptionError(msg)
+    sf, sz, sm = [], [], []
+    for k, a in enumerate(P):
+        b = P[k + 1] if k + 1 < len(P) else P[k - 1]
+        f_ok, z_ok, m_ok = _compare(a, b, rel_tol_f, rel_tol_zeta, mac_min)
+        sf.append(f_ok)
+        sz.append(z_ok)
+        sm.append(m_ok)
+    st = tuple(a & b & c for a, b, c in zip(sf, sz, sm, strict=True))
+    return StabilizationDiagram(
+        sweep.method,
+        sweep.orders,
+        P,
+        tuple(sf),
+        tuple(sz),
+        tuple(sm),
+        st,
+        float(rel_tol_f),
+        float(rel_tol_zeta),
+        float(mac_min),
+    )
+
+
+def select_modes(
+    diagram: StabilizationDiagram,
+    *,
+    zeta_max: float = 0.2,
+    min_support: int | None = None,
+    f_range_hz: tuple[float, float] | None = None,
+) -> ModalModel:
+    """Pick physical modes from the stable poles of a diagram.
+
+    Parameters
+    ----------
+    diagram : StabilizationDiagram
+    zeta_max : float
+        Poles with damping outside (0, zeta_max) are rejected (0.2 = 20 %).
+    min_support : int, optional
+        Minimum number of stable poles in a cluster; default
+        ``max(3, ceil(0.2 * n_orders))``.
+    f_range_hz : (float, float), optional
+        Keep modes in this band only.
+
+    Returns
+    -------
+    ModalModel
+        Empty (zero modes) when no cluster qualifies.
+
+    Raises
+    ------
+    OptionError
+        ``zeta_max`` outside (0, 1] or ``min_support`` < 1.
+    """
+    if not 0.0 < zeta_max <= 1.0:
+        msg = f"zeta_max: expected a value in (0, 1], got {zeta_max!r}"
+        raise OptionError(msg)
+    n_ord = len(diagram.orders)
+    ms = max(3, int(np.ceil(0.2 * n_ord))) if min_support is None else int(min_support)
+    if ms < 1:
+        msg = f"min_support: expected an integer >= 1, got {min_support!r}"
+        raise OptionError(msg)
+    rows = []
+    for k, (p, s) in enumerate(zip(diagram.poles, diagram.stable, strict=True)):
+        keep = s & (p.zeta > 0) & (p.zeta < zeta_max)
+        if f_range_hz is not None:
+            keep &= (p.f_hz >= f_range_hz[0]) & (p.f_hz <= f_range_hz[1])
+        rows.extend((k, int(q)) for q in np.nonzero(keep)[0])
+    n_ch = diagram.poles[0].shapes.shape[0]
+    if len(rows) < ms:
+        e = np.zeros(0)
+        return ModalModel(
+            e, e, np.zeros((n_ch, 0), complex), e, e, diagram.method, 0,
+            np.zeros(0, np.int64), np.zeros(0, np.int64),
+        )  # fmt: skip
+    f = np.array([diagram.poles[k].f_hz[q] for k, q in rows])
+    z = np.array([diagram.poles[k].zeta[q] for k, q in rows])
+    S = np.stack([diagram.poles[k].shapes[:, q] for k, q in rows], axis=1)
+    if len(rows) > 1:
+        df = np.abs(f[:, None] - f[None, :]) / (0.5 * (f[:, None] + f[None, :]))
+        d = np.maximum(df / diagram.rel_tol_f, (1.0 - mac(S, S)) / max(1 - diagram.mac_min, 1e-6))
+        np.fill_diagonal(d, 0.0)
+        Z = sch.linkage(d[np.triu_indices(len(rows), 1)], method="average")
+        lab = sch.fcluster(Z, t=1.0, criterion="distance")
+    else:
+        lab = np.ones(1, dtype=int)
+    modes = []
+    for c in np.unique(lab):
+        idx = np.nonzero(lab == c)[0]
+        if idx.size < ms:
+            continue
+        fm, zm = np.median(f[idx]), np.median(z[idx])
+        best = idx[np.argmin(np.abs(f[idx] - fm) / fm + np.abs(z[idx] - zm) / zm)]
+        modes.append((best, idx.size))
+    modes.sort(key=lambda t: f[t[0]])
+    sel = [rows[b] for b, _ in modes]
+    P = diagram.poles
+
+    def pick(attr: str) -> FloatArray:
+        return np.array([getattr(P[k], attr)[q] for k, q in sel], dtype=float)
+
+    shapes = np.stack([P[k].shapes[:, q] for k, q in sel], axis=1) if sel else np.zeros((n_ch, 0))
+    mode_orders = np.array([int(diagram.orders[k]) for k, _ in sel], dtype=np.int64)
+    return ModalModel(
+        pick("f_hz"),
+        pick("zeta"),
+        shapes.astype(np.complex128),
+        pick("std_f_hz"),
+        pick("std_zeta"),
+        diagram.method,
+        int(mode_orders.max()) if sel else 0,
+        mode_orders,
+        np.array([s for _, s in modes], dtype=np.int64),
+    )

@@ -1,0 +1,87 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+import scipy.signal as sig
+
+from modal_twin.errors import OptionError, ShapeError, SignalError
+from modal_twin.identification.metrics import mac
+from modal_twin.identification.ssi_cov import correlations, ssi_cov
+from modal_twin.identification.stabilization import select_modes, stabilization_diagram
+
+
+def _chain_response(n_samples: int, seed: int, snr_db: float = 20.0) -> tuple:
+    """5-DOF chain, white forces at every DOF (unmeasured), noisy accelerations."""
+    n = 5
+    k = np.linspace(1.0, 0.6, n) * 1e3
+    K = np.diag(k + np.r_[k[1:], 0.0]) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    w2, Phi = sla.eigh(K)
+    w = np.sqrt(w2)
+    C = Phi @ np.diag(2 * 0.02 * w) @ Phi.T
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-K, -C]])
+    B = np.vstack([np.zeros((n, n)), np.eye(n)])
+    fs = 4.0 * w.max() / (2 * np.pi)
+    sysd = sig.cont2discrete((A, B, A[n:], np.eye(n)), 1 / fs)
+    rng = np.random.default_rng(seed)
+    _, y, _ = sig.dlsim(sig.dlti(*sysd[:4], dt=1 / fs), rng.standard_normal((n_samples, n)))
+    y = y.T
+    y = y + rng.standard_normal(y.shape) * y.std(axis=1, keepdims=True) * 10 ** (-snr_db / 20)
+    return y, fs, w / (2 * np.pi), np.full(n, 0.02), Phi
+
+
+@pytest.fixture(scope="module")
+def data() -> tuple:
+    return _chain_response(100_000, seed=1)
+
+
+def test_chain_20db_output_only(data: tuple) -> None:
+    y, fs, f, z, Phi = data
+    sweep = ssi_cov(y, fs, orders=range(2, 41, 2))
+    assert sweep.method == "ssi_cov"
+    assert sweep.n_blocks_std == 8
+    mm = select_modes(stabilization_diagram(sweep))
+    assert mm.f_hz.size == 5
+    np.testing.assert_allclose(mm.f_hz, f, rtol=3e-3)
+    np.testing.assert_allclose(mm.zeta, z, rtol=0.10)
+    assert np.diag(mac(mm.shapes, Phi)).min() > 0.99
+    assert np.all(np.isfinite(mm.std_zeta))
+    assert np.all(mm.std_zeta > 0)
+    # the spread is of the right size: damping errors within 4 standard deviations
+    assert np.all(np.abs(mm.zeta - z) < 4 * mm.std_zeta)
+
+
+def test_reference_channels_and_truncation(data: tuple) -> None:
+    y, fs, f, *_ = data
+    a = ssi_cov(y, fs, orders=[10, 20], ref_channels=[0, 2, 4], block_rows=12, n_blocks_std=0)
+    b = ssi_cov(y, fs, orders=[10], ref_channels=[0, 2, 4], block_rows=12, n_blocks_std=0)
+    np.testing.assert_allclose(a.poles[0].f_hz, b.poles[0].f_hz, rtol=1e-10)
+    np.testing.assert_allclose(a.poles[0].f_hz, f, rtol=1e-2)
+
+
+def test_correlations_known_answer() -> None:
+    y = np.array([[1.0, 2.0, 3.0, 4.0]])
+    R = correlations(y, y, 2)
+    np.testing.assert_allclose(R[:, 0, 0], [30.0 / 4, (2 + 6 + 12) / 3])
+
+
+def test_bad_input(data: tuple) -> None:
+    y, fs, *_ = data
+    with pytest.raises(
+        ShapeError, match="at least 640 samples for 20 lags x 8 std blocks, got 500"
+    ):
+        ssi_cov(y[:, :500], fs, orders=[10])
+    bad = y[:, :5000].copy()
+    bad[0, 7] = np.nan
+    with pytest.raises(SignalError, match=r"NaN/Inf in channel\(s\) \[0\]"):
+        ssi_cov(bad, fs, orders=[4])
+    const = y[:, :5000].copy()
+    const[1] = 0.0
+    with pytest.raises(SignalError, match="constant channel"):
+        ssi_cov(const, fs, orders=[4])
+    with pytest.raises(OptionError, match="orders: expected orders <= 20"):
+        ssi_cov(y[:, :5000], fs, orders=[30], block_rows=5)
+    with pytest.raises(OptionError, match="ref_channels: expected indices"):
+        ssi_cov(y[:, :5000], fs, orders=[4], ref_channels=[7])
+    with pytest.raises(OptionError, match="block_rows: expected an integer >= 2"):
+        ssi_cov(y[:, :5000], fs, orders=[2], block_rows=1)
