@@ -59,22 +59,24 @@ class StreamMonitor:
         if block.n_samples == 0:
             return BlockVerdict(Verdict.EMPTY, None, f"empty block at sample {block.first_index}")
         layout = (block.channel_names, block.fs_hz)
-        if self.expected is not None and block.channel_names != self.expected:
-            unknown = [c for c in block.channel_names if c not in self.expected]
-            missing = [c for c in self.expected if c not in block.channel_names]
+        want = self.expected if self.expected is not None else (
+            self.layout[0] if self.layout is not None else None)
+        if want is not None and block.channel_names != want:
+            unknown = [c for c in block.channel_names if c not in want]
+            missing = [c for c in want if c not in block.channel_names]
             return BlockVerdict(
                 Verdict.LAYOUT,
                 None,
                 f"block at sample {block.first_index} has {block.n_channels} channels "
-                f"(expected {len(self.expected)}); unknown {unknown}, missing {missing}",
+                f"(expected {len(want)}); unknown {unknown[:8]}, missing {missing[:8]}"
+                + ("" if unknown or missing else " (order differs)"),
             )
-        if self.layout is not None and layout != self.layout:
+        if self.layout is not None and block.fs_hz != self.layout[1]:
             return BlockVerdict(
                 Verdict.LAYOUT,
                 None,
-                f"block at sample {block.first_index}: channels / rate changed from "
-                f"{len(self.layout[0])} ch at {self.layout[1]} Hz to {block.n_channels} ch at "
-                f"{block.fs_hz} Hz",
+                f"block at sample {block.first_index}: sample rate {block.fs_hz} Hz, the "
+                f"stream runs at {self.layout[1]} Hz",
             )
         bad = block.nonfinite()
         if bad:

@@ -17,13 +17,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
-from modal_twin._types import ComplexArray
+from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import ShapeError, SignalError
 from modal_twin.identification.modal_model import normalize_shapes
 
-__all__ = ["LSFDResult", "lsfd"]
+__all__ = ["LSFDResult", "lsfd", "lsfd_shapes", "rank1_factors"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,22 +113,8 @@ def lsfd(
     if 2 * s.size < n_unk:
         msg = f"H: expected at least {n_unk // 2 + 1} finite lines with f > 0, got {s.size}"
         raise ShapeError(msg)
-    a = 1.0 / (s[:, None] - lam[None, :])  # Eq. (5) of [002]
-    b = 1.0 / (s[:, None] - lam.conj()[None, :])
-    cols = [a + b, 1j * (a - b)]
-    if lower:
-        w2 = -1.0 / (s.imag**2)
-        cols += [w2[:, None], 1j * w2[:, None]]
-    if upper:
-        one = np.ones((s.size, 1))
-        cols += [one, 1j * one]
-    D = np.concatenate(cols, axis=1)
     rhs = Ha[..., use].reshape(n_out * n_in, -1).T
-    Dr = np.vstack([D.real, D.imag])
-    cn = np.linalg.norm(Dr, axis=0)
-    cn = np.where(cn > 0, cn, 1.0)
-    x, *_ = np.linalg.lstsq(Dr / cn, np.vstack([rhs.real, rhs.imag]), rcond=None)
-    x = x / cn[:, None]
+    D, x = _solve(s, lam, np.vstack([rhs.real, rhs.imag]), lower, upper)
     nm = lam.size
     Rr = (x[:nm] + 1j * x[nm : 2 * nm]).reshape(nm, n_out, n_in)
     k = 2 * nm
@@ -140,7 +127,58 @@ def lsfd(
         RU = (x[k] + 1j * x[k + 1]).reshape(n_out, n_in)
     model = (D @ x).T.reshape(n_out, n_in, -1)
     res = float(np.linalg.norm(model - Ha[..., use]) / max(np.linalg.norm(Ha[..., use]), 1e-300))
-    U, sv, Vh = np.linalg.svd(Rr)  # rank-1 factor of each residue matrix
-    psi = (U[:, :, 0] * sv[:, :1]).T
-    L = Vh[:, 0, :].T
+    psi, L = rank1_factors(Rr)
     return LSFDResult(Rr, normalize_shapes(psi), L, RL, RU, res)
+
+
+def _solve(
+    s: ComplexArray, lam: ComplexArray, rhs_ri: FloatArray, lower: bool, upper: bool
+) -> tuple[ComplexArray, FloatArray]:
+    """Design matrix of Eq. (5) of [002] and the real least-squares solution.
+
+    ``rhs_ri`` is ``[Re H; Im H]`` with lines on the rows (shape (2 n_f, n_frf)); returns
+    the complex design matrix D (n_f, n_unk) and the stacked unknowns x (n_unk, n_frf).
+    """
+    a = 1.0 / (s[:, None] - lam[None, :])  # Eq. (5) of [002]
+    b = 1.0 / (s[:, None] - lam.conj()[None, :])
+    cols = [a + b, 1j * (a - b)]
+    if lower:
+        w2 = -1.0 / (s.imag**2)
+        cols += [w2[:, None], 1j * w2[:, None]]
+    if upper:
+        one = np.ones((s.size, 1))
+        cols += [one, 1j * one]
+    D = np.concatenate(cols, axis=1)
+    Dr = np.vstack([D.real, D.imag])
+    cn = np.linalg.norm(Dr, axis=0)
+    cn = np.where(cn > 0, cn, 1.0)
+    Dn = Dr / cn
+    q, r = np.linalg.qr(Dn)  # Householder QR: the least-squares solution of lstsq when
+    d = np.abs(np.diag(r))  # Dn has full column rank, at half the cost of its SVD
+    if d.size and d.min() > 1e-10 * d.max():
+        x = sla.solve_triangular(r, q.T @ rhs_ri, check_finite=False)
+    else:  # (near) rank deficient, e.g. repeated poles: minimum-norm solution
+        x = np.linalg.lstsq(Dn, rhs_ri, rcond=None)[0]
+    return D, x / cn[:, None]
+
+
+def rank1_factors(Rr: ComplexArray) -> tuple[ComplexArray, ComplexArray]:
+    """Shapes psi (n_out, n_modes) and participations L (n_in, n_modes) of residues
+    R_r = psi_r L_r^T: dominant singular pair of each (n_out, n_in) residue matrix."""
+    U, sv, Vh = np.linalg.svd(Rr)
+    return (U[:, :, 0] * sv[:, :1]).T, Vh[:, 0, :].T
+
+
+def lsfd_shapes(
+    rhs_ri: FloatArray, f_hz: FloatArray, poles: ComplexArray, n_out: int, n_in: int,
+    *, lower: bool = True, upper: bool = True,
+) -> ComplexArray:
+    """Normalised LSFD mode shapes only (the fast path used per order by PolyMAX).
+
+    Same solution as :func:`lsfd` for finite lines with f > 0; ``rhs_ri`` is the stacked
+    ``[Re H; Im H]`` of shape (2 n_f, n_out * n_in), prepared once for every order.
+    """
+    nm = poles.size
+    _, x = _solve(2j * np.pi * f_hz, poles, rhs_ri, lower, upper)
+    Rr = (x[:nm] + 1j * x[nm : 2 * nm]).reshape(nm, n_out, n_in)
+    return normalize_shapes(rank1_factors(Rr)[0])

@@ -25,12 +25,13 @@ Poles and participation factors come from the companion matrix of Eq. (4); a roo
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import OptionError, ShapeError, SignalError
 from modal_twin.identification._subspace import check_orders
-from modal_twin.identification.lsfd import lsfd
+from modal_twin.identification.lsfd import lsfd_shapes
 from modal_twin.identification.modal_model import PoleSet, PoleSweep
 
 __all__ = ["polymax", "polymax_poles"]
@@ -71,22 +72,31 @@ def polymax_poles(
     d = np.arange(-pmax, pmax + 1)
     E = np.exp(-1j * np.outer(d, wdt))  # conj(Z^r) Z^s = Z^(s - r), index s - r + pmax
     r0 = E.sum(axis=1).real  # R Toeplitz generator
-    s0 = -np.einsum("dk,oik->odi", E, H).real  # S_o generator, (n_out, 2p+1, m)
-    P = np.einsum("oik,ojk->kij", H.conj(), H)  # sum_o conj(H_oi) H_oj per line
-    t0 = np.einsum("dk,kij->dij", E, P).real  # sum_o T_o generator, (2p+1, m, m)
+    nf = wdt.size
+    # the frequency sums as BLAS products (same sums as einsum "dk,oik->odi" etc.)
+    s0 = -(E @ H.reshape(n_out * m, nf).T).real.reshape(-1, n_out, m)  # S_o generator
+    Hk = H.transpose(2, 0, 1)  # (n_f, n_out, m)
+    P = np.matmul(Hk.conj().transpose(0, 2, 1), Hk)  # sum_o conj(H_oi) H_oj per line
+    t0 = (E @ P.reshape(nf, m * m)).real.reshape(-1, m, m)  # sum_o T_o generator
     idx = np.arange(pmax + 1)
     D = idx[None, :] - idx[:, None] + pmax  # (r, s) -> s - r + pmax
     R_full = r0[D]
-    S_full = s0[:, D, :]  # (n_out, r, s, m) ; column (s, i)
+    S_full = np.ascontiguousarray(s0[D].transpose(0, 2, 1, 3))  # (r, o, s, i)
     T_full = t0[D].transpose(0, 2, 1, 3)  # (r, i, s, j)
     out = []
     for p in o:
         q = int(p) + 1
         Rp = R_full[:q, :q]
-        Sp = S_full[:, :q, :q, :].reshape(n_out, q, q * m)
+        Sq = S_full[:q, :, :q, :].reshape(q, n_out * q * m)  # every output in one solve
         Tp = T_full[:q, :, :q, :].reshape(q * m, q * m)
-        RiS = np.linalg.solve(Rp[None], Sp)
-        Mp = 2.0 * (Tp - np.einsum("orc,ord->cd", Sp, RiS))  # reduced normal eq.
+        try:  # R = Re(X^H X) is SPD: sum_o S_o^T R^-1 S_o = W^T W with W = chol(R)^-1 S
+            W = sla.solve_triangular(sla.cholesky(Rp, lower=True, check_finite=False), Sq,
+                                     lower=True, check_finite=False).reshape(q * n_out, q * m)
+            SRS = W.T @ W
+        except np.linalg.LinAlgError:
+            SRS = Sq.reshape(q * n_out, q * m).T @ np.linalg.solve(Rp, Sq).reshape(
+                q * n_out, q * m)
+        Mp = 2.0 * (Tp - SRS)  # reduced normal equations, M alpha = 0
         Mp = 0.5 * (Mp + Mp.T)
         a_low = np.linalg.lstsq(Mp[: m * p, : m * p], -Mp[: m * p, m * p :], rcond=None)[0]
         alpha = np.vstack([a_low, np.eye(m)])  # alpha_p = I
@@ -177,6 +187,9 @@ def polymax(
         msg = "H: expected a non-zero FRF in the band, got all zeros"
         raise SignalError(msg)
     sets = []
+    n_out = Ha.shape[0]
+    rhs = Hb.reshape(n_out * m, -1).T
+    rhs_ri = np.vstack([rhs.real, rhs.imag])  # prepared once for the LSFD of every order
     for p, lam, _ in polymax_poles(Hb / scale, fb, o, dt):
         keep = np.isfinite(lam) & (lam.imag > 1e-12 * np.abs(lam))
         lk = lam[keep]
@@ -185,7 +198,7 @@ def polymax(
         order = np.argsort(fr)
         lk, fr, zr = lk[order], fr[order], zr[order]
         if lk.size and 2 * fb.size >= 2 * lk.size + 4 * (lower + upper):
-            shapes = lsfd(Hb, fb, lk, lower=lower, upper=upper).shapes
+            shapes = lsfd_shapes(rhs_ri, fb, lk, n_out, m, lower=lower, upper=upper)
         else:
             shapes = np.full((Ha.shape[0], lk.size), np.nan + 0j)
         nan = np.full(fr.shape, np.nan)

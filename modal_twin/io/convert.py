@@ -19,6 +19,9 @@ __all__ = [
     "block_from_msg",
     "block_to_msg",
     "block_to_rosbags",
+    "channel_map_from_msg",
+    "channel_map_to_msg",
+    "metrics_to_msg",
     "ns_to_stamp",
     "stamp_to_ns",
     "to_float_array",
@@ -103,3 +106,42 @@ def block_to_rosbags(block: SignalBlock, store: Any) -> Any:
         n_samples=int(block.n_samples),
         data=np.ascontiguousarray(block.data, dtype=np.float64).ravel(),
     )
+
+
+def channel_map_to_msg(channels: Any, source: str, msg_cls: Any, info_cls: Any) -> Any:
+    """Sequence of :class:`~modal_twin.channels.ChannelSpec` -> ``ChannelMap`` message."""
+    msg = msg_cls()
+    msg.source = source
+    for c in channels:
+        info = info_cls()
+        info.name, info.quantity, info.unit = c.name, c.quantity, c.unit
+        info.location, info.direction = c.location, c.direction
+        info.sensitivity = float(c.sensitivity)
+        info.position_m = [float(v) for v in c.position_m]
+        msg.channels.append(info)
+    return msg
+
+
+def channel_map_from_msg(msg: Any) -> list[Any]:
+    """``ChannelMap`` message -> list of :class:`~modal_twin.channels.ChannelSpec`."""
+    from modal_twin.channels import ChannelSpec
+
+    return [ChannelSpec(c.name, c.quantity, c.location, c.direction, float(c.sensitivity),
+                        tuple(float(v) for v in c.position_m)) for c in msg.channels]
+
+
+def metrics_to_msg(names: list[str], m: Any, window_s: float, version: str,
+                   msg_cls: Any) -> Any:
+    """:class:`~modal_twin.twin.metrics.ChannelMetrics` -> ``ComparisonMetrics``."""
+    msg = msg_cls()
+    msg.model_version = version
+    msg.window_s = float(window_s)
+    msg.channel_names = list(names)
+    msg.rms_error = to_float_array(m.rms_error_pct)
+    msg.residual_rms = to_float_array(m.residual_pct)
+    msg.rms_measured = to_float_array(m.rms_measured)
+    msg.rms_predicted = to_float_array(m.rms_predicted)
+    finite = m.rms_error_pct[np.isfinite(m.rms_error_pct)]
+    msg.overall_rms_error = float(finite.max()) if finite.size else float("nan")
+    msg.samples = int(m.samples)
+    return msg

@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+import rclpy.logging
 from rclpy.node import Node
 
 from modal_twin.errors import BagError
@@ -88,7 +89,7 @@ class RecorderNode(Node):
     def close(self) -> None:
         """Finish the bag (summary and metadata.yaml)."""
         self.writer.close()
-        self.get_logger().info(f"bag closed: {self.writer.counts}")
+        rclpy.logging.get_logger(self.get_name()).info(f"bag closed: {self.writer.counts}")
 
 
 def main(argv: list[str] | None = None) -> int:

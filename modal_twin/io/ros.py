@@ -15,7 +15,14 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from modal_twin.errors import ConfigError
 from modal_twin.io.topics import TOPICS, QosKind
 
-__all__ = ["message_class", "qos_for", "qos_profile", "run_node", "wait_for_subscribers"]
+__all__ = [
+    "message_class",
+    "qos_for",
+    "qos_profile",
+    "report",
+    "run_node",
+    "wait_for_subscribers",
+]
 
 
 def qos_profile(kind: QosKind) -> QoSProfile:
@@ -78,6 +85,28 @@ def wait_for_subscribers(
             return False
         rclpy.spin_once(node, timeout_sec=0.05)
     return True
+
+
+_last_report: dict[tuple[str, str], float] = {}
+
+
+def report(logger: Any, verdict: Any, *, every_s: float = 1.0) -> None:
+    """Log a stream-continuity verdict: an error when the block was dropped, else a warning.
+
+    Throttled per kind of fault (a burst of one fault does not hide another kind).
+    rclpy forbids one call site from logging at two severities, hence two sites.
+    """
+    import time
+
+    key = (logger.name, verdict.verdict.value)
+    now = time.monotonic()
+    if now - _last_report.get(key, -1e9) < every_s:
+        return
+    _last_report[key] = now
+    if verdict.block is None:
+        logger.error(f"dropped block: {verdict.message}")
+    else:
+        logger.warning(verdict.message)
 
 
 def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:

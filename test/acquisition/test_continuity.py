@@ -50,6 +50,7 @@ def test_bad_blocks_are_dropped_with_reasons() -> None:
     assert m.check(blk(10)).verdict is Verdict.OK  # the stream goes on
     m2 = StreamMonitor()
     m2.check(blk(0))
-    assert m2.check(blk(10, fs=200.0)).verdict is Verdict.LAYOUT
+    v = m2.check(blk(10, fs=200.0))
+    assert v.verdict is Verdict.LAYOUT and "sample rate 200.0 Hz" in v.message
     assert m.counts[Verdict.LAYOUT] == 1
     assert m.counts[Verdict.NONFINITE] == 1

@@ -1,0 +1,216 @@
+"""Readers for strong-motion records: CSMIP Volume 2 (``.v2``) and USGS NSMP SMC (``.smc``).
+
+Everything the data needs is read from the headers, not assumed:
+
+- **CSMIP V2** (California Strong Motion Instrumentation Program, corrected data): the
+  channel line ``Chan  4:  Long    (Sta Chn:  6)     Location: Bent 3: ...`` gives the
+  orientation, station channel number and location; the start line gives the UTC start;
+  the data line ``13000 points of accel data equally spaced at 0.005 sec, in cm/sec2.
+  (8f10.6)`` gives the count, the sample interval, the unit and the fixed-width format.
+- **SMC** (USGS National Strong-Motion Project): 11 text lines (line 1 = data type code,
+  ``2 CORRECTED ACCELEROGRAM``; ``station = ... component= 351`` gives the azimuth),
+  48 integers in 8I10 (I(16) = number of comment lines, I(17) = number of samples),
+  50 reals in 5E15.7 (R(2) = sample rate in samples/s), the comments (``<loclbl=>...<end>``
+  gives the sensor location), then the samples in 8E10.4. The format fixes the unit of
+  corrected acceleration to cm/s^2; the reader checks it against the peak stated in
+  the text header (``pk acc = ...``) and refuses a file where they disagree.
+
+Data are returned in SI (m/s^2).
+"""
+
+from __future__ import annotations
+
+import re
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from modal_twin._types import FloatArray
+from modal_twin.errors import SignalError
+
+__all__ = ["StrongMotionChannel", "read_smc", "read_v2", "read_zip"]
+
+_UNIT_TO_SI = {"cm/sec2": 0.01, "cm/sec/sec": 0.01, "cm/s2": 0.01, "m/sec2": 1.0,
+               "g": 9.80665, "mm/sec2": 0.001}
+
+
+@dataclass(frozen=True, slots=True)
+class StrongMotionChannel:
+    """One acceleration channel of a strong-motion record, data in m/s^2.
+
+    Attributes
+    ----------
+    name : str
+        Channel id: ``"58658.ch06"`` (station.station-channel) or the SMC SCNL code.
+    station : str
+        Station number or name as written in the header.
+    location : str
+        Sensor location (``"Bent 3: South Column, Grnd Level"``).
+    orientation : str
+        ``"Up"``, ``"Long"``, ``"Tran"`` (CSMIP) or the SMC component (azimuth or ``"UP"``).
+    azimuth_deg : float
+        Azimuth of a horizontal component in degrees from north (NaN when not stated or
+        vertical).
+    fs_hz : float
+        Sample rate in Hz.
+    start_utc : str
+        Start time as written in the header.
+    unit_in_file : str
+        Unit of the file's samples (converted to m/s^2 in ``data``).
+    data : ndarray, shape (n_samples,)
+        Acceleration in m/s^2.
+    """
+
+    name: str
+    station: str
+    location: str
+    orientation: str
+    azimuth_deg: float
+    fs_hz: float
+    start_utc: str
+    unit_in_file: str
+    data: FloatArray
+
+
+def _fixed(lines: list[str], n: int, width: int, what: str) -> FloatArray:
+    """``n`` fixed-width numbers from ``lines`` (fields may touch: ``-0.0046972-0.0099594``)."""
+    vals: list[str] = []
+    for ln in lines:
+        s = ln.rstrip("\n\r")
+        vals.extend(s[k : k + width] for k in range(0, len(s.rstrip()), width))
+        if len(vals) >= n:
+            break
+    if len(vals) < n:
+        msg = f"{what}: expected {n} samples, found {len(vals)}"
+        raise SignalError(msg)
+    try:
+        return np.array([float(v) for v in vals[:n]], dtype=np.float64)
+    except ValueError as err:
+        msg = f"{what}: malformed sample field ({err})"
+        raise SignalError(msg) from err
+
+
+def _search(pattern: str, text: str, what: str, name: str) -> re.Match[str]:
+    m = re.search(pattern, text, flags=re.MULTILINE)
+    if m is None:
+        msg = f"{name}: expected a {what} line in the header, found none"
+        raise SignalError(msg)
+    return m
+
+
+def read_v2(text: str, name: str = "v2") -> StrongMotionChannel:
+    """Parse the acceleration section of a CSMIP Volume 2 file.
+
+    Parameters
+    ----------
+    text : str
+        File contents.
+    name : str
+        File name for messages.
+
+    Returns
+    -------
+    StrongMotionChannel
+
+    Raises
+    ------
+    SignalError
+        A header line is missing, the unit is unknown, or samples are missing / malformed.
+    """
+    lines = text.splitlines()
+    ch = _search(r"^Chan\s+(\d+):\s+(\S+)\s+(?:\(Sta Chn:\s*(\d+)\))?\s*Location:\s*(.*?)\s*$",
+                 text, "channel ('Chan n: ... Location:')", name)
+    sta = _search(r"Station No\.\s+(\d+)", text, "station ('Station No.')", name).group(1)
+    start = re.search(r"Start time:\s*(.*?)\s*$", text, flags=re.MULTILINE)
+    acc = _search(
+        r"^\s*(\d+)\s+points of accel data equally spaced at\s+([\d.Ee+-]+)\s+sec,\s+in\s+"
+        r"(\S+?)\.?\s+\((\d+)[fFeE](\d+)\.\d+\)",
+        text, "accel data ('N points of accel data ...')", name,
+    )
+    n, dt, unit, width = int(acc.group(1)), float(acc.group(2)), acc.group(3), int(acc.group(5))
+    if unit.lower() not in _UNIT_TO_SI:
+        msg = f"{name}: expected an acceleration unit in {sorted(_UNIT_TO_SI)}, got {unit!r}"
+        raise SignalError(msg)
+    if not dt > 0:
+        msg = f"{name}: expected a positive sample interval, got {dt}"
+        raise SignalError(msg)
+    first = text[: acc.end()].count("\n") + 1
+    data = _fixed(lines[first:], n, width, name) * _UNIT_TO_SI[unit.lower()]
+    st_ch = int(ch.group(3)) if ch.group(3) else int(ch.group(1))
+    return StrongMotionChannel(
+        f"{sta}.ch{st_ch:02d}", sta, ch.group(4), ch.group(2), np.nan, 1.0 / dt,
+        start.group(1) if start else "", unit, data,
+    )
+
+
+def read_smc(text: str, name: str = "smc") -> StrongMotionChannel:
+    """Parse a USGS SMC file of corrected acceleration (data type code 2).
+
+    Raises
+    ------
+    SignalError
+        Not corrected acceleration, truncated header or data, or the data peak disagrees
+        with the peak stated in the header (a unit other than cm/s^2).
+    """
+    lines = text.splitlines()
+    if len(lines) < 27 or not lines[0].strip().startswith("2 "):
+        head = lines[0].strip() if lines else ""
+        msg = f"{name}: expected an SMC file of type '2 CORRECTED ACCELEROGRAM', got {head!r}"
+        raise SignalError(msg)
+    ints = _fixed(lines[11:17], 48, 10, name).astype(np.int64)
+    reals = _fixed(lines[17:27], 50, 15, name)
+    n_comment, n = int(ints[15]), int(ints[16])
+    fs = float(reals[1])
+    if not (n > 0 and 0 < fs < 1e6):
+        msg = f"{name}: expected samples > 0 and a sample rate in (0, 1e6), got {n}, {fs}"
+        raise SignalError(msg)
+    comments = lines[27 : 27 + n_comment]
+    data_cm = _fixed(lines[27 + n_comment :], n, 10, name)
+    header = "\n".join(lines[:11])
+    pk = re.search(r"pk acc\s*=\s*([-+\d.Ee]+)", header)
+    if pk is not None:
+        stated, found = abs(float(pk.group(1))), float(np.max(np.abs(data_cm)))
+        if not abs(found - stated) <= 0.02 * stated:  # 3 significant digits in the header
+            msg = (f"{name}: expected the data peak to match the header 'pk acc' "
+                   f"{stated} cm/s^2, got {found}")
+            raise SignalError(msg)
+    comp = re.search(r"component=\s*(\S+)", header)
+    orient = comp.group(1) if comp else ""
+    try:
+        az = float(orient)
+    except ValueError:
+        az = np.nan
+    stam = re.search(r"station\s*=\s*(.*?)\s+component=", header)
+    loc = re.search(r"<loclbl=>(.*?)<end>", "\n".join(comments))
+    scnl = re.search(r"<SCNL>(\S+)", "\n".join(comments))
+    start = "{:04d}-{:02d}-{:02d} {:02d}:{:02d}:{:02d}.{:03d}".format(*(int(v) for v in ints[1:8]))
+    return StrongMotionChannel(
+        scnl.group(1) if scnl else name, stam.group(1).strip() if stam else "",
+        loc.group(1).strip() if loc else "", orient, az, fs, start, "cm/s^2",
+        data_cm * 0.01,
+    )
+
+
+def read_zip(path: str | Path) -> tuple[StrongMotionChannel, ...]:
+    """Every acceleration channel of a zip of V2 files or of SMC files (``*_a.smc``).
+
+    Raises
+    ------
+    SignalError
+        The zip holds no V2 or SMC acceleration file.
+    """
+    out = []
+    with zipfile.ZipFile(path) as z:
+        for info in sorted(z.infolist(), key=lambda i: i.filename):
+            fn = info.filename
+            low = fn.lower()
+            if low.endswith(".v2"):
+                out.append(read_v2(z.read(fn).decode("latin-1"), fn))
+            elif low.endswith("_a.smc"):
+                out.append(read_smc(z.read(fn).decode("latin-1"), fn))
+    if not out:
+        msg = f"{path}: expected .v2 or _a.smc files in the zip, found none"
+        raise SignalError(msg)
+    return tuple(out)

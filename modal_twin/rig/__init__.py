@@ -1,0 +1,1 @@
+"""rig stage of modal_twin."""

@@ -1,0 +1,1 @@
+"""updating stage of modal_twin."""
