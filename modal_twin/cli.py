@@ -4,6 +4,7 @@
     modal-twin record -o BAG /topic [/topic:pkg/msg/Type ...]
     modal-twin replay BAG [--rate R]
     modal-twin bag info BAG | modal-twin bag salvage BAG [--out DIR]
+    modal-twin model info config/structures/building.yaml [--json]
     modal-twin demo
 """
 
@@ -71,6 +72,20 @@ def _cmd_bag(a: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_model(a: argparse.Namespace) -> int:
+    import json
+
+    from modal_twin.models.building import build_building, modal_reduction
+    from modal_twin.models.model_info import model_info
+
+    bld = build_building(a.file)
+    red = modal_reduction(bld, a.modes)
+    info = model_info(bld.assembly, red.f_hz, red.Phi, red.zeta, name=bld.spec.name,
+                      groups=[f.nodes for f in bld.spec.floors], n_show=a.show)
+    print(json.dumps(info.to_dict(), indent=1) if a.json else info.table())
+    return 0
+
+
 def _cmd_demo(a: argparse.Namespace) -> int:
     from modal_twin.demo import run_demo
 
@@ -100,6 +115,14 @@ def _parser() -> argparse.ArgumentParser:
     bs.add_argument("bag", type=Path)
     bs.add_argument("--out", type=Path, default=None)
     bag.set_defaults(func=_cmd_bag)
+    mo = sub.add_parser("model", help="structural model tools")
+    msub = mo.add_subparsers(dest="model_cmd", required=True)
+    mi = msub.add_parser("info", help="DOF count, total mass, lowest modes")
+    mi.add_argument("file", type=Path, help="structure YAML (config/structures/...)")
+    mi.add_argument("--json", action="store_true")
+    mi.add_argument("--modes", type=int, default=None, help="modes to compute")
+    mi.add_argument("--show", type=int, default=12, help="modes to list")
+    mo.set_defaults(func=_cmd_model)
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)
