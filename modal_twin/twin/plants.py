@@ -10,22 +10,17 @@ from modal_twin.errors import OptionError
 from modal_twin.models.building import build_building, modal_reduction
 from modal_twin.models.devices import Device
 from modal_twin.models.effects import effect_device
+from modal_twin.models.structure_yaml import DeviceSpec
 from modal_twin.rig.config import EffectSpec
 from modal_twin.twin.plant import Plant, Source
 
-__all__ = ["INPUTS_6DOF", "load_plant"]
+__all__ = ["INPUTS_6DOF", "PlantFactory", "load_plant", "plant_sites"]
 
 INPUTS_6DOF = ("ax", "ay", "az", "arx", "ary", "arz")
 
 
-def load_plant(
-    structure_file: str | Path,
-    *,
-    theta: Mapping[str, float] | None = None,
-    effects: Iterable[EffectSpec] = (),
-    n_modes: int | None = None,
-) -> Plant:
-    """Build the plant of a structure file.
+class PlantFactory:
+    """Build plants of one structure with different effects, reusing its modal reduction.
 
     Every device is its nominal linear spring-dashpot (Table 6 of [004]) unless an effect
     replaces it (:func:`~modal_twin.models.effects.effect_device`). Channels: the sensors'
@@ -37,41 +32,68 @@ def load_plant(
     structure_file : path
     theta : mapping, optional
         Parameter values (e.g. ``E_Fc27``, ``k_RB2_x``) replacing the nominal ones.
-    effects : iterable of EffectSpec
-        Laws placed at components.
     n_modes : int, optional
         Modes kept (the file's ``n_modes`` by default).
     """
-    bld = build_building(structure_file)
-    mb = modal_reduction(bld, n_modes, theta=dict(theta) if theta else None)
-    W = bld.gravity_loads()
-    devices: dict[str, Device] = {}
-    for e in effects:
-        if e.component not in bld.device_names:
-            msg = (f"effect {e.law!r}: unknown component {e.component!r}; components: "
-                   f"{list(bld.device_names)}")
-            raise OptionError(msg)
-        spec = bld.spec.devices[bld.device_names.index(e.component)]
-        d = bld.device_names.index(e.component)
-        devices[e.component] = effect_device(spec, e.law, e.params, weight=float(W[d]))
-    system = mb.to_reduced_system(devices or None, outputs=("acc", "drift", "force"))
-    y_index = {n: i for i, n in enumerate(system.output_names)}
-    f_rows = [f"{att.device.name}_f{a}" for att in system.devices
-              for a in "xy"[: att.device.n_dir]]
-    channels: list[ChannelSpec] = []
-    sources: list[Source] = []
-    for name, xyz in zip(bld.channel_names, bld.channel_xyz, strict=True):
-        loc, _, direction = name.rpartition("_")
-        channels.append(ChannelSpec(name, "acceleration", loc, direction,
-                                    position_m=(float(xyz[0]), float(xyz[1]), float(xyz[2]))))
-        sources.append(("y", y_index[name]))
-    for qty, key in (("displacement", "d"), ("force", "f")):
-        for dev in bld.device_names:
-            for a in "xy":
-                name = f"{dev}_{key}{a}"
-                channels.append(ChannelSpec(name, qty, dev, a))
-                sources.append(("y", y_index[name]) if name in y_index
-                               else ("force", f_rows.index(name)))
-    label = ",".join(f"{e.component}:{e.law}" for e in effects) or "nominal"
-    return Plant(system, INPUTS_6DOF, tuple(channels), tuple(sources),
-                 name=f"{bld.spec.name}@{label}")
+
+    def __init__(self, structure_file: str | Path, *, theta: Mapping[str, float] | None = None,
+                 n_modes: int | None = None) -> None:
+        self.bld = build_building(structure_file)
+        self.mb = modal_reduction(self.bld, n_modes, theta=dict(theta) if theta else None)
+        self.weights = self.bld.gravity_loads()
+        self.sites = {d.name: d for d in self.bld.spec.devices}
+
+    def weight(self, component: str) -> float:
+        """Weight carried by a component, N."""
+        return float(max(self.weights[self.bld.device_names.index(component)], 0.0))
+
+    def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
+        """The plant with ``effects`` placed at their components."""
+        bld = self.bld
+        effects = tuple(effects)
+        devices: dict[str, Device] = {}
+        for e in effects:
+            if e.component not in bld.device_names:
+                msg = (f"effect {e.law!r}: unknown component {e.component!r}; components: "
+                       f"{list(bld.device_names)}")
+                raise OptionError(msg)
+            devices[e.component] = effect_device(self.sites[e.component], e.law, e.params,
+                                                 weight=self.weight(e.component))
+        system = self.mb.to_reduced_system(devices or None, outputs=("acc", "drift", "force"))
+        y_index = {n: i for i, n in enumerate(system.output_names)}
+        f_rows = [f"{att.device.name}_f{a}" for att in system.devices
+                  for a in "xy"[: att.device.n_dir]]
+        channels: list[ChannelSpec] = []
+        sources: list[Source] = []
+        for name, xyz in zip(bld.channel_names, bld.channel_xyz, strict=True):
+            loc, _, direction = name.rpartition("_")
+            channels.append(ChannelSpec(name, "acceleration", loc, direction, position_m=(
+                float(xyz[0]), float(xyz[1]), float(xyz[2]))))
+            sources.append(("y", y_index[name]))
+        for qty, key in (("displacement", "d"), ("force", "f")):
+            for dev in bld.device_names:
+                for a in "xy":
+                    name = f"{dev}_{key}{a}"
+                    channels.append(ChannelSpec(name, qty, dev, a))
+                    sources.append(("y", y_index[name]) if name in y_index
+                                   else ("force", f_rows.index(name)))
+        label = ",".join(f"{e.component}:{e.law}" for e in effects) or "nominal"
+        return Plant(system, INPUTS_6DOF, tuple(channels), tuple(sources),
+                     name=f"{bld.spec.name}@{label}")
+
+
+def load_plant(
+    structure_file: str | Path,
+    *,
+    theta: Mapping[str, float] | None = None,
+    effects: Iterable[EffectSpec] = (),
+    n_modes: int | None = None,
+) -> Plant:
+    """Build the plant of a structure file (see :class:`PlantFactory`)."""
+    return PlantFactory(structure_file, theta=theta, n_modes=n_modes).plant(effects)
+
+
+def plant_sites(structure_file: str | Path) -> tuple[dict[str, DeviceSpec], dict[str, float]]:
+    """Components where effects can be placed (the devices) and their carried weights."""
+    f = PlantFactory(structure_file)
+    return f.sites, {n: f.weight(n) for n in f.sites}

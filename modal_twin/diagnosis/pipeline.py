@@ -1,0 +1,160 @@
+"""The diagnosis: where the model fails, which effect is missing, and how much it helps.
+
+1. Run the nominal plant on the measured inputs of both records; break the held-out
+   residual down by place, direction, band and level (:mod:`.where`).
+2. Screen every candidate law at every component on the training record's force-state
+   data (:mod:`.screening`).
+3. Fit the best few by full simulation on the training record and rank them by the error
+   on the held-out record (:mod:`.fitting`), with BIC against over-fitting.
+4. Decide: nothing significant (the nominal error is at noise level and no candidate
+   explains a meaningful share) or the top candidate with its evidence.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
+from modal_twin.diagnosis.record import Record
+from modal_twin.diagnosis.screening import ScreenedCandidate, screen_components
+from modal_twin.diagnosis.where import WhereReport, where_it_fails
+from modal_twin.errors import ModalTwinError
+from modal_twin.twin.plants import PlantFactory
+
+__all__ = ["Diagnosis", "diagnose"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnosis:
+    """Outcome of :func:`diagnose`."""
+
+    significant: bool
+    summary: str
+    where: WhereReport
+    screened: tuple[ScreenedCandidate, ...]
+    fitted: tuple[FittedEffect, ...]  # best first (held-out error)
+    skipped: tuple[str, ...]
+
+    @property
+    def best(self) -> FittedEffect | None:
+        """Top candidate, or None when nothing significant is missing."""
+        return self.fitted[0] if self.significant and self.fitted else None
+
+    def format(self) -> str:
+        """Report text: where, candidates, decision."""
+        out = ["WHERE THE MODEL FAILS (held-out record)", self.where.format(), "",
+               "CANDIDATES (screening on force-state maps, training record)"]
+        for c in self.screened[:8]:
+            out.append(f"  {c.component:<6}{c.law:<20} explains {100 * c.score:6.2f} % "
+                       f"(+{100 * c.gain:5.2f} % over linear)")
+        out.append("")
+        out.append("FITTED BY SIMULATION (ranked by held-out error)")
+        out.append(f"  {'component':<10}{'law':<20}{'train %':>9}{'held-out %':>11}"
+                   f"{'nominal %':>10}{'x better':>9}{'BIC':>12}  parameters")
+        for f in self.fitted:
+            p = ", ".join(f"{k}={v:.4g}" for k, v in f.effect.params.items())
+            out.append(f"  {f.effect.component:<10}{f.effect.law:<20}{f.train_nmse_pct:9.3f}"
+                       f"{f.test_nmse_pct:11.3f}{f.test_nmse_nominal_pct:10.3f}"
+                       f"{f.error_ratio:9.1f}{f.bic:12.1f}  {p}")
+        for s in self.skipped:
+            out.append(f"  skipped: {s}")
+        out += ["", f"DECISION: {self.summary}"]
+        return "\n".join(out)
+
+
+def _device_data(rec: Record, names: list[str]) -> tuple[dict, dict]:  # type: ignore[type-arg]
+    drifts, forces = {}, {}
+    for n in names:
+        cols_d, cols_f = [f"{n}_dx", f"{n}_dy"], [f"{n}_fx", f"{n}_fy"]
+        if all(c in rec.channel_names for c in cols_d + cols_f):
+            drifts[n], forces[n] = rec.channels(cols_d), rec.channels(cols_f)
+    return drifts, forces
+
+
+def diagnose(
+    factory: PlantFactory,
+    train: Record,
+    test: Record,
+    *,
+    n_fit: int = 3,
+    nmse_threshold_pct: float = 1.0,
+    gain_threshold: float = 0.01,
+    progress: Callable[[str], None] | None = None,
+) -> Diagnosis:
+    """Diagnose the nominal plant of ``factory`` against two records (module docstring).
+
+    Parameters
+    ----------
+    n_fit : int
+        Candidates fitted by simulation (best screened, distinct components and laws).
+    nmse_threshold_pct : float
+        Mean NMSE of the nominal model below which its error counts as insignificant.
+    gain_threshold : float
+        Share of force variance a candidate must explain beyond linear terms to count.
+    """
+    say = progress or (lambda s: None)
+    nominal = factory.plant()
+    plant_names = set(nominal.channel_names)
+    skipped = [f"channel {c}: not in the model" for c in test.channel_names
+               if c not in plant_names]
+    if skipped:
+        keep = [c for c in test.channel_names if c in plant_names]
+        train = Record(train.fs_hz, train.input_names, train.inputs, tuple(keep),
+                       train.channels(keep), train.source)
+        test = Record(test.fs_hz, test.input_names, test.inputs, tuple(keep),
+                      test.channels(keep), test.source)
+    say("simulating the nominal model on both records")
+    pred_test = simulate_record(nominal, test)
+    specs = {c.name: c for c in nominal.channels}
+    where = where_it_fails(test.data, pred_test, tuple(specs[c] for c in test.channel_names),
+                           test.fs_hz, inputs=test.inputs)
+    nominal_nmse = float(np.nanmean(where.nmse_pct))
+    say("screening candidate effects on the force-state maps")
+    drifts, forces = _device_data(train, list(factory.sites))
+    screened = screen_components(drifts, forces, factory.sites,
+                                 {n: factory.weight(n) for n in factory.sites}, train.fs_hz)
+    if not drifts:
+        skipped.append("screening: no component has measured drift and force")
+    picks: list[ScreenedCandidate] = []
+    for c in screened:
+        if c.law == "linear" or c.gain < gain_threshold / 4:
+            continue
+        if any(p.component == c.component and p.law == c.law for p in picks):
+            continue
+        picks.append(c)
+        if len(picks) >= n_fit:
+            break
+    lin = [c for c in screened if c.law == "linear"]
+    if lin and lin[0].score > gain_threshold:
+        picks.append(lin[0])
+    fitted: list[FittedEffect] = []
+    for c in picks:
+        say(f"fitting {c.law} at {c.component} by simulation")
+        try:
+            fitted.append(fit_effect(factory, c.component, c.law, c.params, train, test))
+        except (ModalTwinError, ValueError) as err:
+            skipped.append(f"{c.law} at {c.component}: {err}")
+    fitted.sort(key=lambda f: (f.test_nmse_pct, f.bic))
+    top_gain = max((c.gain for c in screened if c.law != "linear"), default=0.0)
+    significant = nominal_nmse > nmse_threshold_pct or top_gain > gain_threshold
+    if not significant:
+        summary = (f"nothing significant is missing: nominal error {nominal_nmse:.3f} % NMSE "
+                   f"(threshold {nmse_threshold_pct} %), no candidate explains more than "
+                   f"{100 * top_gain:.2f} % of a device force beyond a linear law")
+    elif fitted:
+        b = fitted[0]
+        summary = (f"missing: {b.effect.law} at {b.effect.component} -- held-out error "
+                   f"{b.test_nmse_nominal_pct:.3f} % -> {b.test_nmse_pct:.3f} % NMSE "
+                   f"({b.error_ratio:.1f}x better); worst place "
+                   f"{where.worst('location', 1)[0].key}")
+    else:
+        summary = (f"the model fails (nominal error {nominal_nmse:.2f} % NMSE) but no "
+                   "candidate could be fitted")
+    return Diagnosis(significant, summary, where, tuple(screened), tuple(fitted),
+                     tuple(skipped))

@@ -1,0 +1,84 @@
+"""A test record: measured inputs and responses of one run, as one contiguous array."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from modal_twin._types import FloatArray
+from modal_twin.errors import ShapeError, SignalError
+from modal_twin.signal_block import SignalBlock, concatenate_blocks
+
+__all__ = ["Record", "record_from_blocks"]
+
+INPUT_PREFIX = "table_"
+
+
+@dataclass(frozen=True, slots=True)
+class Record:
+    """Inputs (n_in, nt) and measured channels (n_ch, nt) sampled at ``fs_hz``."""
+
+    fs_hz: float
+    input_names: tuple[str, ...]
+    inputs: FloatArray
+    channel_names: tuple[str, ...]
+    data: FloatArray
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        if self.inputs.shape != (len(self.input_names), self.data.shape[-1]):
+            msg = (f"inputs: expected ({len(self.input_names)}, {self.data.shape[-1]}), got "
+                   f"{self.inputs.shape}")
+            raise ShapeError(msg)
+        if self.data.shape[0] != len(self.channel_names):
+            msg = f"data: expected {len(self.channel_names)} rows, got {self.data.shape[0]}"
+            raise ShapeError(msg)
+        if self.data.shape[-1] < 2:
+            msg = f"record {self.source!r}: too short ({self.data.shape[-1]} samples)"
+            raise SignalError(msg)
+        for name, arr in (("inputs", self.inputs), ("data", self.data)):
+            if not np.all(np.isfinite(arr)):
+                msg = f"record {self.source!r}: non-finite samples in {name}"
+                raise SignalError(msg)
+
+    @property
+    def n_samples(self) -> int:
+        """Samples per channel."""
+        return int(self.data.shape[-1])
+
+    def channels(self, names: list[str] | tuple[str, ...]) -> FloatArray:
+        """Rows of ``data`` for ``names`` (SignalError names the unknown ones)."""
+        idx = {n: i for i, n in enumerate(self.channel_names)}
+        missing = [n for n in names if n not in idx]
+        if missing:
+            msg = f"record {self.source!r} lacks channels {missing[:6]}"
+            raise SignalError(msg)
+        return self.data[[idx[n] for n in names]]
+
+    def segment(self, start: int, stop: int) -> Record:
+        """Samples ``start:stop`` as a new record."""
+        return Record(self.fs_hz, self.input_names, self.inputs[:, start:stop],
+                      self.channel_names, self.data[:, start:stop],
+                      f"{self.source}[{start}:{stop}]")
+
+
+def record_from_blocks(blocks: list[SignalBlock], *, source: str = "",
+                       input_prefix: str = INPUT_PREFIX) -> Record:
+    """Join measurement frames into a record; channels ``table_<x>`` become the inputs
+    (named ``<x>``), the rest the measured channels.
+
+    Raises
+    ------
+    SignalError
+        Gaps between frames (named by sample index), or no input channel.
+    """
+    blk = concatenate_blocks(blocks)
+    ins = [i for i, n in enumerate(blk.channel_names) if n.startswith(input_prefix)]
+    outs = [i for i, n in enumerate(blk.channel_names) if not n.startswith(input_prefix)]
+    if not ins:
+        msg = f"record {source!r}: no input channel ({input_prefix}*) among the frames"
+        raise SignalError(msg)
+    return Record(blk.fs_hz, tuple(blk.channel_names[i].removeprefix(input_prefix) for i in ins),
+                  blk.data[ins], tuple(blk.channel_names[i] for i in outs), blk.data[outs],
+                  source)

@@ -1,0 +1,156 @@
+"""Cheap screening of candidate effects on residual force-state maps (Eq. (20) of [003]).
+
+At each component whose drift ``u`` and force ``f`` are measured (isolators with load
+cells, Sec. 2 of [004]), the residual restoring force of the nominal linear law is
+
+    r(t) = f(t) - (k u(t) + c u'(t))
+
+and its map over (u, u') shows what is missing: a loop that encloses area is a missing
+internal state (hysteresis, friction), an odd function of ``u`` a stiffness nonlinearity,
+a jump at velocity reversal friction, a linear map a wrong ``k`` or ``c``, and noise alone
+nothing. Each candidate law of :mod:`modal_twin.models.effects` is driven along the
+measured (u, u') for a small grid of parameters; its residual shape
+``g = f_law(u, u') - (k u + c u')`` enters ONE least-squares fit together with the linear
+terms (``r ~ a u + b u' + alpha g``: fitting the linear part first and the residual second
+picks wrong terms). The score of a candidate is the share of the measured force variance
+it explains beyond the linear terms; the best grid point gives its starting parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from modal_twin._types import FloatArray
+from modal_twin.acquisition.decimation import lowpass_zero_phase
+from modal_twin.errors import ModalTwinError
+from modal_twin.models.effects import effect_device
+from modal_twin.models.structure_yaml import DeviceSpec
+
+__all__ = ["ScreenedCandidate", "parameter_grid", "screen_components"]
+
+
+@dataclass(frozen=True, slots=True)
+class ScreenedCandidate:
+    """A candidate effect at a component after screening."""
+
+    component: str
+    law: str
+    params: dict[str, float]
+    score: float  # share of the measured force variance explained (linear terms + law)
+    gain: float  # share explained beyond the linear terms alone
+    linear_share: float  # share explained by the linear terms alone (k, c error)
+    residual_share: float  # share of force variance the nominal law leaves
+    alpha: float  # fitted scale of the law's residual shape (1 = right magnitude)
+    evidence: str = ""
+    extra: dict[str, float] = field(default_factory=dict)
+
+
+def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
+                   ) -> list[dict[str, float]]:
+    """Starting grid of a law's parameters, scaled to the measured drift and force."""
+    if law == "stick_slip":
+        fk = [0.4 * f_max, 0.6 * f_max, 0.8 * f_max]
+        return [{"Fs": r * a, "Fk": a} for a in fk for r in (1.0, 1.5)]
+    if law in ("bilinear", "bilinear_hysteretic"):
+        return [{"ub": g * u_max, "ratio": r} for g in (0.2, 0.4, 0.6) for r in (0.5, 0.75)]
+    if law == "cubic":
+        return [{"k3": s * 0.3 * k / max(u_max, 1e-9) ** 2} for s in (-1.0, 1.0)]
+    if law == "gap":
+        return [{"g": g * u_max} for g in (0.3, 0.5, 0.7)]
+    return [{}]
+
+
+SCREEN_LAWS = ("stick_slip", "bilinear", "bilinear_hysteretic", "cubic", "gap")
+
+
+def _velocity(u: FloatArray, fs_hz: float, cutoff_hz: float) -> FloatArray:
+    smooth = lowpass_zero_phase(u, fs_hz, cutoff_hz) if cutoff_hz < 0.45 * fs_hz else u
+    return np.gradient(smooth, 1.0 / fs_hz, axis=-1)
+
+
+def screen_components(
+    drifts: Mapping[str, FloatArray],
+    forces: Mapping[str, FloatArray],
+    sites: Mapping[str, DeviceSpec],
+    weights: Mapping[str, float],
+    fs_hz: float,
+    *,
+    laws: tuple[str, ...] = SCREEN_LAWS,
+    cutoff_hz: float = 25.0,
+) -> list[ScreenedCandidate]:
+    """Screen every (component, law) on the measured force-state data.
+
+    Parameters
+    ----------
+    drifts, forces : mapping component -> (2, nt) array
+        Measured drift (m) and force (N) in x and y.
+    sites : mapping component -> DeviceSpec
+        Nominal linear law of each component (``k``, ``c``).
+    weights : mapping component -> float
+        Carried weight, N (for friction laws).
+    fs_hz : float
+    cutoff_hz : float
+        Low-pass applied to the drift before differentiating it.
+
+    Returns
+    -------
+    list of ScreenedCandidate, best first (one per component and law: the best grid point),
+    plus one ``linear`` candidate per component (a k / c error).
+    """
+    out: list[ScreenedCandidate] = []
+    for name, spec in sites.items():
+        if name not in drifts or name not in forces:
+            continue
+        u = np.asarray(drifts[name], dtype=float)
+        f = np.asarray(forces[name], dtype=float)
+        v = _velocity(u, fs_hz, cutoff_hz)
+        k, c = np.asarray(spec.k, float)[:, None], np.asarray(spec.c, float)[:, None]
+        r = (f - (k * u + c * v)).ravel()  # residual restoring force, Eq. (20) of [003]
+        f_var = float(np.sum((f - f.mean(axis=1, keepdims=True)) ** 2))
+        if f_var <= 0:
+            continue
+        lin = np.column_stack([np.concatenate([u[0], 0 * u[1]]), np.concatenate([0 * u[0], u[1]]),
+                               np.concatenate([v[0], 0 * v[1]]), np.concatenate([0 * v[0], v[1]]),
+                               np.ones(r.size)])
+        _, sse_lin = _lstsq(lin, r)
+        sse0 = float(r @ r)
+        lin_share = (sse0 - sse_lin) / f_var
+        res_share = sse0 / f_var
+        ev = f"nominal law leaves {100 * res_share:.1f} % of the force variance at {name}"
+        out.append(ScreenedCandidate(name, "linear", {}, lin_share, 0.0, lin_share, res_share, 1.0,
+                                     f"{ev}; linear k/c change explains {100 * lin_share:.1f} %"))
+        u_max = float(np.quantile(np.abs(u), 0.99))
+        f_max = float(np.quantile(np.abs(f), 0.99))
+        for law in laws:
+            best: ScreenedCandidate | None = None
+            for params in parameter_grid(law, u_max, f_max, float(k.mean()),
+                                         float(weights.get(name, 0.0))):
+                try:
+                    dev = effect_device(spec, law, params, weight=float(weights.get(name, 0.0)))
+                    g = (dev.respond(u, v).f - (k * u + c * v)).ravel()
+                except (ModalTwinError, ValueError):
+                    continue
+                if not np.all(np.isfinite(g)) or not np.any(g):
+                    continue
+                coef, sse = _lstsq(np.column_stack([lin, g]), r)
+                gain = (sse_lin - sse) / f_var
+                if best is None or gain > best.gain:
+                    best = ScreenedCandidate(
+                        name, law, dict(params), lin_share + gain, gain, lin_share, res_share,
+                        float(coef[-1]), f"{ev}; {law} explains {100 * gain:.1f} % more "
+                        f"(shape scale {coef[-1]:.2f})")
+            if best is not None:
+                out.append(best)
+    return sorted(out, key=lambda s: (-s.score, s.gain))
+
+
+def _lstsq(A: FloatArray, b: FloatArray) -> tuple[FloatArray, float]:
+    scale = np.linalg.norm(A, axis=0)
+    scale[scale == 0] = 1.0
+    coef, *_ = np.linalg.lstsq(A / scale, b, rcond=None)
+    coef = coef / scale
+    res = b - A @ coef
+    return coef, float(res @ res)
