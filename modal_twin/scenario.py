@@ -25,7 +25,7 @@ import yaml
 
 from modal_twin.errors import ConfigError
 
-__all__ = ["NodeSpec", "Scenario", "load_scenario"]
+__all__ = ["NodeSpec", "Scenario", "load_scenario", "with_parameters"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -152,3 +152,16 @@ def load_scenario(path: str | Path) -> Scenario:
         global_parameters=_params(p, doc, "/**"),
         extra=extra,
     )
+
+
+def with_parameters(sc: Scenario, node: str, **params: Any) -> Scenario:
+    """A copy of ``sc`` with parameters of ``node`` replaced (ConfigError if not launched)."""
+    from dataclasses import replace
+
+    names = [n.name for n in sc.nodes]
+    if node not in names:
+        msg = f"{sc.path}: no node {node!r} to set parameters on; nodes: {names}"
+        raise ConfigError(msg)
+    nodes = tuple(replace(n, parameters={**n.parameters, **params}) if n.name == node else n
+                  for n in sc.nodes)
+    return replace(sc, nodes=nodes)

@@ -12,7 +12,7 @@ from modal_twin.excitation import signals
 
 __all__ = ["KINDS", "ExcitationConfig", "make_drive"]
 
-KINDS = ("random", "chirp", "multisine", "record")
+KINDS = ("random", "chirp", "multisine", "earthquake", "record")
 
 
 @dataclass(frozen=True, slots=True)
@@ -29,7 +29,7 @@ class ExcitationConfig:
     block_size: int = field(default=50, metadata={"doc": "samples per published block"})
     rms: tuple[float, ...] = field(
         default=(0.2, 0.2, 0.05, 0.0, 0.0, 0.0),
-        metadata={"doc": "RMS per channel (random, multisine) or peak (chirp)"},
+        metadata={"doc": "RMS per channel (random, multisine) or peak (chirp, earthquake)"},
     )
     f_min_hz: float = field(default=0.2, metadata={"doc": "band lower edge"})
     f_max_hz: float = field(default=30.0, metadata={"doc": "band upper edge"})
@@ -65,6 +65,10 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
             n_ch, cfg.duration_s, cfg.fs_hz, f_min_hz=cfg.f_min_hz, f_max_hz=cfg.f_max_hz,
             rms=np.where(rms > 0, rms, 1.0), rng=rng,
         ) * (rms > 0)[:, None]
+    if cfg.kind == "earthquake":  # independent synthetic components, peak = rms entry
+        return np.vstack([
+            signals.earthquake_like(cfg.duration_s, cfg.fs_hz, pga=1.0, rng=rng) * r
+            for r in rms])
     if cfg.kind in ("chirp", "multisine"):
         if cfg.kind == "chirp":
             one = signals.chirp(cfg.duration_s, cfg.fs_hz, f_min_hz=cfg.f_min_hz,

@@ -17,6 +17,7 @@ from modal_twin.errors import ConfigError, OptionError, SignalError
 __all__ = [
     "band_limited_random",
     "chirp",
+    "earthquake_like",
     "impact",
     "load_record",
     "multisine",
@@ -165,3 +166,36 @@ def resample_record(data: FloatArray, fs_in_hz: float, fs_out_hz: float) -> Floa
 
     r = Fraction(fs_out_hz / fs_in_hz).limit_denominator(1000)
     return signal.resample_poly(data, r.numerator, r.denominator, axis=-1)
+
+
+def earthquake_like(
+    duration_s: float,
+    fs_hz: float,
+    *,
+    pga: float,
+    rng: np.random.Generator,
+    f_g_hz: float = 2.5,
+    zeta_g: float = 0.6,
+    t_rise_s: float | None = None,
+    t_strong_s: float | None = None,
+) -> FloatArray:
+    """Synthetic ground acceleration: Kanai-Tajimi filtered white noise under a
+    Jennings-type envelope (quadratic rise, strong phase, exponential decay), scaled to the
+    peak ``pga`` (m/s^2), shape (1, n).
+
+    The Kanai-Tajimi filter ``H(s) = (2 zeta_g w_g s + w_g^2) / (s^2 + 2 zeta_g w_g s +
+    w_g^2)`` gives the soil-filtered spectrum; a 0.1 Hz high-pass removes drift.
+    """
+    n = _n_samples(duration_s, fs_hz)
+    t = np.arange(n) / fs_hz
+    t1 = 0.1 * duration_s if t_rise_s is None else t_rise_s
+    t2 = t1 + (0.4 * duration_s if t_strong_s is None else t_strong_s)
+    env = np.where(t < t1, (t / t1) ** 2, np.where(t < t2, 1.0, np.exp(-3.0 * (t - t2) /
+                                                                       (duration_s - t2))))
+    w = rng.standard_normal(n)
+    wg = 2 * np.pi * f_g_hz
+    b, a = signal.bilinear([2 * zeta_g * wg, wg**2], [1.0, 2 * zeta_g * wg, wg**2], fs=fs_hz)
+    x = signal.lfilter(b, a, w) * env
+    sos = signal.butter(2, 0.1, "highpass", fs=fs_hz, output="sos")
+    x = signal.sosfiltfilt(sos, x)
+    return (pga * x / np.max(np.abs(x)))[None, :]

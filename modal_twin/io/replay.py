@@ -63,13 +63,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rate", type=float, default=1.0, help="speed factor (2 = twice as fast)")
     p.add_argument("--topics", nargs="*", default=None)
     p.add_argument("--wait", type=float, default=10.0, help="s to wait for subscribers")
-    a = p.parse_args(sys.argv[1:] if argv is None else argv)
+    argv = sys.argv[1:] if argv is None else argv
+    ros_args: list[str] = []
+    if "--ros-args" in argv:  # as the launcher starts it
+        i = argv.index("--ros-args")
+        argv, ros_args = argv[:i], argv[i:]
+    a = p.parse_args(argv)
     try:
         info = bag_info(a.bag)
     except BagError as err:
         print(f"modal-twin replay: {err}", file=sys.stderr)
         return 2
-    rclpy.init()
+    rclpy.init(args=["replay", *ros_args])
     node = rclpy.create_node("replay")
     try:
         n = replay(node, a.bag, rate=a.rate, topics=a.topics, wait_subscribers_s=a.wait)

@@ -18,7 +18,7 @@ from modal_twin.errors import ModalTwinError
 from modal_twin.io.convert import block_from_msg, block_to_msg, metrics_to_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import qos_for, report, run_node
-from modal_twin.twin.plants import load_plant
+from modal_twin.twin.plants import load_model
 from modal_twin.twin.runner import TwinRunner
 
 __all__ = ["TwinConfig", "TwinNode", "main"]
@@ -28,8 +28,8 @@ __all__ = ["TwinConfig", "TwinNode", "main"]
 class TwinConfig:
     """Parameters of the twin node."""
 
-    structure_file: str = field(default="config/structures/building.yaml",
-                                metadata={"doc": "nominal structure model"})
+    model_file: str = field(default="config/structures/building.yaml",
+                            metadata={"doc": "structure file or model version file"})
     fs_hz: float = field(default=1000.0, metadata={"doc": "frame rate the twin runs at"})
     window_s: float = field(default=10.0, metadata={"doc": "metrics window"})
     metrics_period_s: float = field(default=1.0, metadata={"doc": "metrics publish period"})
@@ -41,7 +41,7 @@ class TwinNode(Node):
     def __init__(self) -> None:
         super().__init__("twin")
         self.cfg = declare_config(self, TwinConfig)
-        self.plant = load_plant(self.cfg.structure_file)
+        self.plant = load_model(self.cfg.model_file)
         self.version = self.plant.name
         self.runner = TwinRunner(self.plant, self.cfg.fs_hz, window_s=self.cfg.window_s)
         self.monitor = StreamMonitor()
@@ -76,7 +76,7 @@ class TwinNode(Node):
     def _on_parameters(self, msg: ModelParameters) -> None:
         try:
             theta = dict(zip(msg.names, msg.values, strict=True))
-            plant = load_plant(self.cfg.structure_file, theta=theta)
+            plant = load_model(msg.model_file or self.cfg.model_file, theta=theta)
         except (ModalTwinError, ValueError) as err:
             self.get_logger().error(f"model parameters {msg.model_version!r} refused: {err}")
             return

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from dataclasses import replace
 from pathlib import Path
 
 from modal_twin.channels import ChannelSpec
@@ -14,7 +15,7 @@ from modal_twin.models.structure_yaml import DeviceSpec
 from modal_twin.rig.config import EffectSpec
 from modal_twin.twin.plant import Plant, Source
 
-__all__ = ["INPUTS_6DOF", "PlantFactory", "load_plant", "plant_sites"]
+__all__ = ["INPUTS_6DOF", "PlantFactory", "load_model", "load_plant", "plant_sites"]
 
 INPUTS_6DOF = ("ax", "ay", "az", "arx", "ary", "arz")
 
@@ -97,3 +98,14 @@ def plant_sites(structure_file: str | Path) -> tuple[dict[str, DeviceSpec], dict
     """Components where effects can be placed (the devices) and their carried weights."""
     f = PlantFactory(structure_file)
     return f.sites, {n: f.weight(n) for n in f.sites}
+
+
+def load_model(model_file: str | Path, *, theta: Mapping[str, float] | None = None) -> Plant:
+    """Plant of a model file: a structure file or a version file (structure, parameter
+    values and added effects, :mod:`modal_twin.models.versions`); ``theta`` overrides."""
+    from modal_twin.models.versions import read_version
+
+    mv = read_version(model_file)
+    th = {**mv.theta, **(theta or {})}
+    plant = PlantFactory(mv.structure, theta=th or None).plant(mv.effects)
+    return replace(plant, name=f"{plant.name}#{mv.label}")

@@ -74,3 +74,21 @@ def test_bad_excitation_input(tmp_path: Path) -> None:
         ExcitationConfig(kind="sweep")
     with pytest.raises(OptionError, match="rms: expected 1 or 6 values"):
         ExcitationConfig(rms=(1.0, 2.0))
+
+
+def test_earthquake_like_peak_envelope_and_band() -> None:
+    rng = np.random.default_rng(5)
+    x = signals.earthquake_like(40.0, 100.0, pga=3.0, rng=rng)[0]
+    assert np.max(np.abs(x)) == pytest.approx(3.0)
+    n = x.size
+    rms = [np.sqrt(np.mean(x[i:i + n // 10] ** 2)) for i in range(0, n, n // 10)]
+    assert rms[0] < 0.5 * max(rms[2:5])  # rise
+    assert rms[-1] < 0.3 * max(rms[2:5])  # decay
+    f = np.fft.rfftfreq(n, 0.01)
+    p = np.abs(np.fft.rfft(x)) ** 2
+    f_mean = np.sum(f * p) / np.sum(p)
+    assert 1.0 < f_mean < 8.0  # soil-filtered around f_g = 2.5 Hz
+    cfg = ExcitationConfig(kind="earthquake", duration_s=10.0, fs_hz=100.0,
+                           rms=(3.0, 2.0, 1.0, 0.0, 0.0, 0.0))
+    d = make_drive(cfg)
+    np.testing.assert_allclose(np.max(np.abs(d), axis=1), [3, 2, 1, 0, 0, 0], atol=1e-12)

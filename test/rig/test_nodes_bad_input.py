@@ -24,7 +24,7 @@ rig:
 acquisition:
   ros__parameters: {{rig_file: {ROOT}/config/rigs/building_rig.yaml}}
 twin:
-  ros__parameters: {{structure_file: {ROOT}/config/structures/building.yaml,
+  ros__parameters: {{model_file: {ROOT}/config/structures/building.yaml,
                     metrics_period_s: 0.5}}
 """
 

@@ -1,0 +1,72 @@
+"""Whole-job helpers: records from bags, diagnose, add an effect as a new model version."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
+from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
+from modal_twin.diagnosis.record import Record, record_from_blocks
+from modal_twin.errors import OptionError
+from modal_twin.io.bag import read_blocks
+from modal_twin.models.versions import ModelVersion, latest_version, read_version, write_version
+from modal_twin.twin.plants import PlantFactory
+
+__all__ = ["add_effect", "channel_errors", "diagnose_model", "record_from_bag"]
+
+
+def record_from_bag(bag: str | Path, topic: str = "/measurement/frames") -> Record:
+    """The measurement frames of a bag as one :class:`Record`."""
+    return record_from_blocks(read_blocks(bag, topic), source=str(bag))
+
+
+def _factory(mv: ModelVersion) -> PlantFactory:
+    return PlantFactory(mv.structure, theta=mv.theta or None)
+
+
+def channel_errors(mv: ModelVersion, rec: Record) -> dict[str, float]:
+    """Held-out NMSE (percent) per channel of a model version on a record."""
+    plant = _factory(mv).plant(mv.effects)
+    keep = [c for c in rec.channel_names if c in plant.channel_names]
+    sub = Record(rec.fs_hz, rec.input_names, rec.inputs, tuple(keep), rec.channels(keep),
+                 rec.source)
+    pred = simulate_record(plant, sub)
+    nmse = 100 * np.var(pred - sub.data, axis=1) / np.maximum(np.var(sub.data, axis=1), 1e-300)
+    return dict(zip(keep, (float(v) for v in nmse), strict=True))
+
+
+def diagnose_model(model_file: str | Path, train: Record, test: Record,
+                   **kwargs: object) -> Diagnosis:
+    """Diagnose a model file (structure or version) against two records."""
+    mv = read_version(model_file)
+    if mv.effects:
+        msg = (f"{model_file}: diagnosing a model that already has effects "
+               f"{[e.law for e in mv.effects]} is not supported yet; diagnose its parent")
+        raise OptionError(msg)
+    return diagnose(_factory(mv), train, test, **kwargs)  # type: ignore[arg-type]
+
+
+def add_effect(
+    model_file: str | Path,
+    component: str,
+    law: str,
+    start: dict[str, float],
+    train: Record,
+    test: Record,
+    folder: str | Path,
+) -> tuple[ModelVersion, FittedEffect]:
+    """Fit ``law`` at ``component`` on ``train`` and write it as the next model version in
+    ``folder`` (the nominal model becomes version 0 first if the folder is empty). Each
+    version stores its per-channel held-out NMSE, so the folder is the error history."""
+    base = read_version(model_file)
+    if latest_version(folder) is None:
+        write_version(folder, replace(base, note="nominal", errors=channel_errors(base, test)))
+    fitted = fit_effect(_factory(base), component, law, start, train, test)
+    new = replace(base, effects=(*base.effects, fitted.effect),
+                  note=(f"added {law} at {component} (held-out NMSE "
+                        f"{fitted.test_nmse_nominal_pct:.3f} % -> {fitted.test_nmse_pct:.3f} %)"))
+    new = replace(new, errors=channel_errors(new, test))
+    return write_version(folder, new), fitted
