@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from modal_twin.errors import LaunchError
 from modal_twin.io.bag import read_messages
 
 __all__ = ["error_report", "run_demo"]
@@ -66,7 +67,7 @@ def _run(sc: Any, run_dir: Path, **excitation: Any) -> Path:
     res = Launcher(with_parameters(sc, "excitation", **excitation), run_dir=run_dir).run()
     if res.exit_code != 0 or res.bag is None:
         msg = f"run {run_dir.name} failed: {res.message}"
-        raise RuntimeError(msg)
+        raise LaunchError(msg)
     return res.bag
 
 
@@ -108,11 +109,12 @@ def run_demo(run_dir: Path | None = None) -> int:
     print(f"   wrote {mv.path} ({mv.note})")
     print("\n== 4. WATCH THE ERROR FALL: held-out bag replayed into the twin running "
           f"{mv.label}")
-    replay_sc = replace(sc, nodes=tuple(
-        replace(n, executable="replay_node", args=(str(test), "--rate", "2", "--topics", "/measurement/frames"), one_shot=True)
-        if n.name == "excitation" else n for n in sc.nodes
-        if n.name not in ("rig", "acquisition")), record_topics=("/twin/metrics",),
-        duration_s=25.0)
+    replayer = replace(sc.nodes[0], name="replay", executable="replay_node", parameters={},
+                       args=(str(test), "--rate", "2", "--topics", "/measurement/frames"),
+                       one_shot=True)
+    twin = next(n for n in sc.nodes if n.name == "twin")
+    replay_sc = replace(sc, nodes=(replayer, twin), record_topics=("/twin/metrics",),
+                        duration_s=25.0)
     replay_sc = with_parameters(replay_sc, "twin", model_file=str(mv.path))
     from modal_twin.launch import Launcher
 

@@ -10,6 +10,7 @@ __all__ = [
     "BagError",
     "ConfigError",
     "ConvergenceError",
+    "LaunchError",
     "ModalTwinError",
     "ModelError",
     "OptionError",
@@ -48,3 +49,7 @@ class ConvergenceError(ModalTwinError, RuntimeError):
 
 class BagError(ModalTwinError, OSError):
     """A bag file is missing, truncated, foreign or cannot be written."""
+
+
+class LaunchError(ModalTwinError, RuntimeError):
+    """A launched run failed (a node died or did not come up); the message names it."""

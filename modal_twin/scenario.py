@@ -56,10 +56,24 @@ class Scenario:
     def params_file_text(self, node: str) -> str:
         """YAML params file for one node (its section and the ``/**`` section)."""
         spec = next(n for n in self.nodes if n.name == node)
-        doc: dict[str, Any] = {node: {"ros__parameters": spec.parameters}}
+        doc: dict[str, Any] = {node: {"ros__parameters": _ros_values(spec.parameters)}}
         if self.global_parameters:
-            doc["/**"] = {"ros__parameters": self.global_parameters}
+            doc["/**"] = {"ros__parameters": _ros_values(self.global_parameters)}
         return yaml.safe_dump(doc, sort_keys=False)
+
+
+def _ros_values(params: dict[str, Any]) -> dict[str, Any]:
+    """ROS parameter arrays are homogeneous: a list mixing ints and floats becomes floats."""
+    out: dict[str, Any] = {}
+    for k, v in params.items():
+        if isinstance(v, list) and v and all(
+                isinstance(x, int | float) and not isinstance(x, bool) for x in v) and any(
+                isinstance(x, float) for x in v):
+            v = [float(x) for x in v]
+        elif isinstance(v, dict):
+            v = _ros_values(v)
+        out[k] = v
+    return out
 
 
 def _err(path: Path, key: str, problem: str) -> ConfigError:

@@ -114,10 +114,10 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
 
     Returns the process exit code (0, or 1 if the node raised).
     """
-    rclpy.init(args=args if args is not None else sys.argv)
     node: Node | None = None
     code = 0
     try:
+        rclpy.init(args=args if args is not None else sys.argv)
         node = factory()
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

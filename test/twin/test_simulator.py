@@ -224,3 +224,55 @@ def test_errors() -> None:
                          np.zeros((1, 3)), np.zeros((1, 1)))
     with pytest.raises(ModelError, match="ill-conditioned"):
         Simulator(free, 1e-3)
+
+
+def test_one_law_evaluation_per_step_at_default_tolerance() -> None:
+    # the modified Newton with the correction bound accepts most samples after one
+    # evaluation, and the result stays far below the time-discretisation error
+    s, *_ = _isolated_building()
+    rng = np.random.default_rng(5)
+    ag = rng.standard_normal((2, 3001)) * 2.0
+    fast = simulate(s, ag, 1e-3)
+    tight = simulate(s, ag, 1e-3, rtol=1e-12)
+    assert fast.newton_iterations[1:].mean() < 1.2  # 1.03 measured
+    assert np.abs(tight.drift).max() > 0.03  # past the RB yield drift (0.026 m)
+    err = np.sqrt(np.mean((fast.drift - tight.drift) ** 2)) / np.sqrt(np.mean(tight.drift**2))
+    assert err < 1e-6  # ~1e-9 measured
+    # dt against dt / 4 (first-order hold: the input is linear between samples)
+    t = np.arange(ag.shape[1]) * 1e-3
+    t4 = np.arange(4 * (ag.shape[1] - 1) + 1) * 0.25e-3
+    fine = simulate(s, np.vstack([np.interp(t4, t, a) for a in ag]), 0.25e-3, rtol=1e-12)
+    disc = np.sqrt(np.mean((tight.drift - fine.drift[:, ::4]) ** 2))
+    assert np.sqrt(np.mean((fast.drift - tight.drift) ** 2)) < 1e-2 * disc
+
+
+def test_stick_slip_corrections_bounded() -> None:
+    # Coulomb friction: the sticking stiffness enters the correction bound (kjump), so
+    # the default tolerance tracks a tight solve through stick-slip transitions
+    B = np.array([[1.0]])
+    w = 2 * np.pi * 2.0
+    s = ReducedSystem(np.eye(1), np.array([[0.1 * w]]), np.array([[w * w]]), np.eye(1),
+                      (DeviceAttachment(CoulombFriction(2.0, 1.5, 1e4), B),),
+                      np.array([[1.0, 0.0, 0.0]]), np.zeros((1, 1)))
+    t = np.arange(4001) * 1e-3
+    ag = 8.0 * np.sin(2 * np.pi * 1.3 * t)[None, :]
+    fast = simulate(s, ag, 1e-3)
+    tight = simulate(s, ag, 1e-3, rtol=1e-12)
+    f = np.abs(tight.force[0])
+    assert 1.9 < f.max() <= 2.0  # breakaway (static force) reached
+    assert np.count_nonzero(np.abs(f - 1.5) < 1e-9) > 1000  # sliding at the kinetic force
+    assert np.count_nonzero(f < 1.4) > 50  # sticking again after reversals
+    np.testing.assert_allclose(fast.force, tight.force, rtol=0, atol=1e-5 * 2.0)
+    np.testing.assert_allclose(fast.drift, tight.drift, rtol=0,
+                               atol=1e-5 * np.abs(tight.drift).max())
+
+
+def test_invert_inplace_matches_numpy() -> None:
+    from modal_twin.twin.kernels import invert_inplace
+
+    rng = np.random.default_rng(2)
+    A = rng.standard_normal((7, 7))
+    A[0, 0] = 0.0  # needs a row exchange
+    Ainv = np.empty_like(A)
+    invert_inplace(A.copy(), Ainv)
+    np.testing.assert_allclose(Ainv @ A, np.eye(7), atol=1e-12 * np.linalg.cond(A))

@@ -64,7 +64,8 @@ def law_bilinear_elastic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - ji
         f[i] = fi
         Kt[i, i] = kt
         Ct[i, i] = p[3 + i]
-    s_new[:] = s
+    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
+        s_new[ic] = s[ic]
     s_new[0] = u[0]
     s_new[1] = u[1]
 
@@ -76,7 +77,8 @@ def law_bilinear_hysteretic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover -
     kb = p[1]
     ub = p[2]
     nd = int(p[5])
-    s_new[:] = s
+    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
+        s_new[ic] = s[ic]
     for i in range(2):
         for j in range(2):
             Kt[i, j] = 0.0

@@ -85,7 +85,8 @@ def _bw_advance(p, s, u, s_new):  # pragma: no cover - jitted
         k4x, k4y = bw_rate(A, beta, gamma, zx + k3x, zy + k3y, hx, hy)
         zx += (k1x + 2.0 * k2x + 2.0 * k3x + k4x) / 6.0
         zy += (k1y + 2.0 * k2y + 2.0 * k3y + k4y) / 6.0
-    s_new[:] = s
+    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
+        s_new[ic] = s[ic]
     s_new[0] = u[0]
     s_new[1] = u[1]
     s_new[2] = zx

@@ -74,7 +74,8 @@ def law_coulomb(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
     Ct[0, 0] = c
     if nd == 2:
         Ct[1, 1] = c
-    s_new[:] = s
+    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
+        s_new[ic] = s[ic]
     s_new[0] = u[0]
     s_new[1] = u[1] if nd == 2 else 0.0
     s_new[2] = fx

@@ -37,7 +37,8 @@ def law_gap(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
             continue
         Kt[i, i] = k
         Ct[i, i] = c
-    s_new[:] = s
+    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
+        s_new[ic] = s[ic]
     s_new[0] = u[0]
     s_new[1] = u[1]
 

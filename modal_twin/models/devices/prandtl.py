@@ -78,7 +78,8 @@ def law_prandtl(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
     Fs = p[4]
     Kb = p[5]
     x = u[0]
-    s_new[:] = s
+    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
+        s_new[ic] = s[ic]
     d = s[2]
     xr = s[3]
     rr = s[4]
