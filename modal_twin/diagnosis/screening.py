@@ -138,8 +138,11 @@ def screen_components(
                 coef, sse = _lstsq(np.column_stack([lin, g]), r)
                 gain = (sse_lin - sse) / f_var
                 if best is None or gain > best.gain:
+                    start = dict(params)
+                    if law == "cubic":  # the shape is linear in k3: take the fitted scale
+                        start["k3"] *= float(coef[-1])
                     best = ScreenedCandidate(
-                        name, law, dict(params), lin_share + gain, gain, lin_share, res_share,
+                        name, law, start, lin_share + gain, gain, lin_share, res_share,
                         float(coef[-1]), f"{ev}; {law} explains {100 * gain:.1f} % more "
                         f"(shape scale {coef[-1]:.2f})")
             if best is not None:
