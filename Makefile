@@ -9,7 +9,7 @@ demo: setup
 	@$(PY) -m modal_twin.cli demo
 
 test: setup
-	@$(PY) -m pytest -q -p no:cacheprovider
+	@OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -p no:cacheprovider
 
 bench: setup
 	@for b in test/benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

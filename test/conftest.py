@@ -6,6 +6,9 @@ import itertools
 import os
 from pathlib import Path
 
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # 2 shared cores: BLAS threads only contend
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import pytest
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
