@@ -5,6 +5,9 @@
     modal-twin replay BAG [--rate R]
     modal-twin bag info BAG | modal-twin bag salvage BAG [--out DIR]
     modal-twin model info config/structures/building.yaml [--json]
+    modal-twin diagnose MODEL --train BAG --test BAG
+    modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
+    modal-twin effects history DIR [--png FILE]
     modal-twin demo
 """
 
@@ -86,6 +89,69 @@ def _cmd_model(a: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_diagnose(a: argparse.Namespace) -> int:
+    from modal_twin.diagnosis.workflow import diagnose_model, record_from_bag
+
+    train, test = record_from_bag(a.train), record_from_bag(a.test)
+    d = diagnose_model(a.model, train, test, n_fit=a.n_fit,
+                       progress=lambda s: print(f"  {s}", file=sys.stderr))
+    print(d.format())
+    return 0
+
+
+def _cmd_effects(a: argparse.Namespace) -> int:
+    from modal_twin.diagnosis.workflow import add_effect, diagnose_model, record_from_bag
+    from modal_twin.models.versions import history
+    from modal_twin.viz.error_history import plot_error_history
+
+    if a.effects_cmd == "history":
+        for v in history(a.folder):
+            mean = sum(v.errors.values()) / max(len(v.errors), 1)
+            print(f"{v.label:>5}  mean held-out NMSE {mean:8.3f} %  {v.note}")
+        if a.png:
+            print(f"plot: {plot_error_history(a.folder, a.png)}")
+        return 0
+    train, test = record_from_bag(a.train), record_from_bag(a.test)
+    if a.auto:
+        d = diagnose_model(a.model, train, test)
+        if d.best is None:
+            print(f"nothing to add: {d.summary}")
+            return 1
+        component, law, start = d.best.effect.component, d.best.effect.law, d.best.effect.params
+    else:
+        if not (a.component and a.law):
+            print("modal-twin effects add: give --component and --law, or --auto",
+                  file=sys.stderr)
+            return 2
+        component, law, start = a.component, a.law, _start_params(a)
+    mv, fitted = add_effect(a.model, component, law, dict(start), train, test, a.out)
+    print(f"wrote {mv.path}: {mv.note}")
+    print(f"held-out NMSE {fitted.test_nmse_nominal_pct:.3f} % -> {fitted.test_nmse_pct:.3f} %"
+          f" ({fitted.error_ratio:.1f}x), parameters {fitted.effect.params}")
+    return 0
+
+
+def _start_params(a: argparse.Namespace) -> dict[str, float]:
+    from modal_twin.diagnosis.screening import parameter_grid
+    from modal_twin.diagnosis.workflow import record_from_bag
+    from modal_twin.twin.plants import PlantFactory
+
+    out: dict[str, float] = {}
+    for item in a.param or []:
+        key, _, value = item.partition("=")
+        out[key] = float(value)
+    if out:
+        return out
+    f = PlantFactory(a.model)
+    rec = record_from_bag(a.train)
+    u = rec.channels([f"{a.component}_dx", f"{a.component}_dy"])
+    fo = rec.channels([f"{a.component}_fx", f"{a.component}_fy"])
+    spec = f.sites[a.component]
+    grid = parameter_grid(a.law, float(abs(u).max()), float(abs(fo).max()),
+                          float(spec.k.mean()), f.weight(a.component))
+    return grid[len(grid) // 2]
+
+
 def _cmd_demo(a: argparse.Namespace) -> int:
     from modal_twin.demo import run_demo
 
@@ -123,6 +189,27 @@ def _parser() -> argparse.ArgumentParser:
     mi.add_argument("--modes", type=int, default=None, help="modes to compute")
     mi.add_argument("--show", type=int, default=12, help="modes to list")
     mo.set_defaults(func=_cmd_model)
+    dg = sub.add_parser("diagnose", help="where the model fails and which effect is missing")
+    dg.add_argument("model", type=Path, help="structure or model version file")
+    dg.add_argument("--train", type=Path, required=True, help="bag to fit candidates on")
+    dg.add_argument("--test", type=Path, required=True, help="bag held out for ranking")
+    dg.add_argument("--n-fit", type=int, default=3, help="candidates fitted by simulation")
+    dg.set_defaults(func=_cmd_diagnose)
+    ef = sub.add_parser("effects", help="add an effect to a model; error history")
+    esub = ef.add_subparsers(dest="effects_cmd", required=True)
+    ea = esub.add_parser("add", help="fit an effect and write model version n+1")
+    ea.add_argument("model", type=Path, help="structure or model version file")
+    ea.add_argument("--train", type=Path, required=True)
+    ea.add_argument("--test", type=Path, required=True)
+    ea.add_argument("--out", type=Path, required=True, help="model version folder")
+    ea.add_argument("--auto", action="store_true", help="take the diagnosis's top candidate")
+    ea.add_argument("--component")
+    ea.add_argument("--law")
+    ea.add_argument("--param", action="append", help="starting value, name=value")
+    eh = esub.add_parser("history", help="versions and their held-out errors")
+    eh.add_argument("folder", type=Path)
+    eh.add_argument("--png", type=Path, default=None)
+    ef.set_defaults(func=_cmd_effects)
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)

@@ -27,7 +27,7 @@ from modal_twin.twin.plant import Plant
 from modal_twin.twin.plants import PlantFactory
 from modal_twin.twin.simulator import Simulator
 
-__all__ = ["FittedEffect", "fit_effect", "simulate_record"]
+__all__ = ["FittedEffect", "fit_effect", "record_nmse", "simulate_record"]
 
 log = logging.getLogger(__name__)
 
@@ -66,8 +66,10 @@ def simulate_record(plant: Plant, rec: Record) -> FloatArray:
     return y[[names.index(n) for n in rec.channel_names]]
 
 
-def _nmse(pred: FloatArray, meas: FloatArray) -> FloatArray:
-    return 100.0 * np.var(pred - meas, axis=1) / np.maximum(np.var(meas, axis=1), 1e-300)
+def record_nmse(pred: FloatArray, rec: Record) -> FloatArray:
+    """NMSE (percent) per channel of a simulation of ``rec`` over its scored samples."""
+    meas, p = rec.scored, pred[:, rec.skip:]
+    return 100.0 * np.var(p - meas, axis=1) / np.maximum(np.var(meas, axis=1), 1e-300)
 
 
 # law -> (parameter names, x -> params, params -> x0, lower, upper)
@@ -134,7 +136,7 @@ def fit_effect(
         start.setdefault("c0", float(np.mean(spec.c)) or 1.0)
     names, to_params, to_x, lo, hi = _transform(law, start, k)
     x0 = np.clip(to_x(start), lo + 1e-9, hi - 1e-9)
-    scale_tr = np.maximum(np.std(train.data, axis=1), 1e-300)[:, None]
+    scale_tr = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
     n_sim = 0
 
     def residual(x: FloatArray) -> FloatArray:
@@ -145,8 +147,8 @@ def fit_effect(
             pred = simulate_record(plant, train)
         except ModalTwinError as err:  # the trial made the model fail: a large penalty
             log.debug("trial %s refused: %s", to_params(x), err)
-            return np.full(train.data[:, ::decimate].size, 1e3)
-        return ((pred - train.data) / scale_tr)[:, ::decimate].ravel()
+            return np.full(train.scored[:, ::decimate].size, 1e3)
+        return ((pred[:, train.skip:] - train.scored) / scale_tr)[:, ::decimate].ravel()
 
     sol = least_squares(residual, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
                         x_scale="jac")
@@ -155,9 +157,9 @@ def fit_effect(
                         if law != "linear" else params)
     plant = factory.plant([effect])
     nominal = factory.plant()
-    train_nmse = float(np.mean(_nmse(simulate_record(plant, train), train.data)))
-    test_nmse = float(np.mean(_nmse(simulate_record(plant, test), test.data)))
-    test_nom = float(np.mean(_nmse(simulate_record(nominal, test), test.data)))
+    train_nmse = float(np.mean(record_nmse(simulate_record(plant, train), train)))
+    test_nmse = float(np.mean(record_nmse(simulate_record(plant, test), test)))
+    test_nom = float(np.mean(record_nmse(simulate_record(nominal, test), test)))
     N = sol.fun.size
     sse = float(sol.fun @ sol.fun)
     bic = N * np.log(max(sse, 1e-300) / N) + len(names) * np.log(N)

@@ -106,15 +106,13 @@ def diagnose(
                if c not in plant_names]
     if skipped:
         keep = [c for c in test.channel_names if c in plant_names]
-        train = Record(train.fs_hz, train.input_names, train.inputs, tuple(keep),
-                       train.channels(keep), train.source)
-        test = Record(test.fs_hz, test.input_names, test.inputs, tuple(keep),
-                      test.channels(keep), test.source)
+        train, test = train.with_channels(keep), test.with_channels(keep)
     say("simulating the nominal model on both records")
     pred_test = simulate_record(nominal, test)
     specs = {c.name: c for c in nominal.channels}
-    where = where_it_fails(test.data, pred_test, tuple(specs[c] for c in test.channel_names),
-                           test.fs_hz, inputs=test.inputs)
+    where = where_it_fails(test.scored, pred_test[:, test.skip:],
+                           tuple(specs[c] for c in test.channel_names), test.fs_hz,
+                           inputs=test.inputs[:, test.skip:])
     nominal_nmse = float(np.nanmean(where.nmse_pct))
     worst = where.worst("location", 1)[0]
     say("screening candidate effects on the force-state maps")

@@ -17,7 +17,11 @@ INPUT_PREFIX = "table_"
 
 @dataclass(frozen=True, slots=True)
 class Record:
-    """Inputs (n_in, nt) and measured channels (n_ch, nt) sampled at ``fs_hz``."""
+    """Inputs (n_in, nt) and measured channels (n_ch, nt) sampled at ``fs_hz``.
+
+    The first ``skip`` samples are simulated (they set the state) but not scored: a
+    held-out segment cut from a longer run starts where the structure was already moving.
+    """
 
     fs_hz: float
     input_names: tuple[str, ...]
@@ -25,6 +29,7 @@ class Record:
     channel_names: tuple[str, ...]
     data: FloatArray
     source: str = ""
+    skip: int = 0
 
     def __post_init__(self) -> None:
         if self.inputs.shape != (len(self.input_names), self.data.shape[-1]):
@@ -33,6 +38,9 @@ class Record:
             raise ShapeError(msg)
         if self.data.shape[0] != len(self.channel_names):
             msg = f"data: expected {len(self.channel_names)} rows, got {self.data.shape[0]}"
+            raise ShapeError(msg)
+        if not 0 <= self.skip < self.data.shape[-1] - 1:
+            msg = f"skip: expected 0 <= skip < {self.data.shape[-1] - 1}, got {self.skip}"
             raise ShapeError(msg)
         if self.data.shape[-1] < 2:
             msg = f"record {self.source!r}: too short ({self.data.shape[-1]} samples)"
@@ -47,6 +55,16 @@ class Record:
         """Samples per channel."""
         return int(self.data.shape[-1])
 
+    @property
+    def scored(self) -> FloatArray:
+        """The measured samples that count (after ``skip``)."""
+        return self.data[:, self.skip:]
+
+    def with_channels(self, names: list[str] | tuple[str, ...]) -> Record:
+        """The same record restricted to ``names`` (in that order)."""
+        return Record(self.fs_hz, self.input_names, self.inputs, tuple(names),
+                      self.channels(names), self.source, self.skip)
+
     def channels(self, names: list[str] | tuple[str, ...]) -> FloatArray:
         """Rows of ``data`` for ``names`` (SignalError names the unknown ones)."""
         idx = {n: i for i, n in enumerate(self.channel_names)}
@@ -56,11 +74,13 @@ class Record:
             raise SignalError(msg)
         return self.data[[idx[n] for n in names]]
 
-    def segment(self, start: int, stop: int) -> Record:
-        """Samples ``start:stop`` as a new record."""
-        return Record(self.fs_hz, self.input_names, self.inputs[:, start:stop],
-                      self.channel_names, self.data[:, start:stop],
-                      f"{self.source}[{start}:{stop}]")
+    def segment(self, start: int, stop: int, *, warmup: bool = False) -> Record:
+        """Samples ``start:stop`` as a new record; with ``warmup`` the samples before
+        ``start`` are kept to be simulated but not scored (``skip = start``)."""
+        first = 0 if warmup else start
+        return Record(self.fs_hz, self.input_names, self.inputs[:, first:stop],
+                      self.channel_names, self.data[:, first:stop],
+                      f"{self.source}[{start}:{stop}]", start - first)
 
 
 def record_from_blocks(blocks: list[SignalBlock], *, source: str = "",

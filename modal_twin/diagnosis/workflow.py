@@ -5,9 +5,12 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
-from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
+from modal_twin.diagnosis.fitting import (
+    FittedEffect,
+    fit_effect,
+    record_nmse,
+    simulate_record,
+)
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
 from modal_twin.diagnosis.record import Record, record_from_blocks
 from modal_twin.errors import OptionError
@@ -31,10 +34,8 @@ def channel_errors(mv: ModelVersion, rec: Record) -> dict[str, float]:
     """Held-out NMSE (percent) per channel of a model version on a record."""
     plant = _factory(mv).plant(mv.effects)
     keep = [c for c in rec.channel_names if c in plant.channel_names]
-    sub = Record(rec.fs_hz, rec.input_names, rec.inputs, tuple(keep), rec.channels(keep),
-                 rec.source)
-    pred = simulate_record(plant, sub)
-    nmse = 100 * np.var(pred - sub.data, axis=1) / np.maximum(np.var(sub.data, axis=1), 1e-300)
+    sub = rec.with_channels(keep)
+    nmse = record_nmse(simulate_record(plant, sub), sub)
     return dict(zip(keep, (float(v) for v in nmse), strict=True))
 
 

@@ -121,4 +121,6 @@ def test_own_stick_slip_at_esb2_with_noisy_sensors(factory: PlantFactory) -> Non
     d = diagnose(factory, train, test, n_fit=2)
     assert d.best is not None and d.best.effect.component == "ESB2"
     assert d.best.effect.law in ("stick_slip", "bilinear_hysteretic")
-    assert error_fall(factory, d, test, BASE_H) >= 3.0
+    # 10x the sensor noise: the base accelerations' residual floor is the noise itself,
+    # so the fall is judged on the device forces (slip forces >> 2 kN noise)
+    assert error_fall(factory, d, test, ["ESB2_fx", "ESB2_fy"]) >= 3.0

@@ -1,0 +1,152 @@
+"""Diagnosis node: buffers /measurement/frames, diagnoses on request or on a schedule,
+publishes /diagnosis/report; ``~/add_effect`` fits an effect, writes model version n+1 and
+publishes it on /model/parameters so the twin loads it live."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from modal_twin_msgs.msg import (
+    CandidateEffect,
+    DiagnosisReport,
+    FailingPlace,
+    ModelParameters,
+)
+from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
+from modal_twin_msgs.srv import AddEffect, RunDiagnosis
+from rclpy.node import Node
+
+from modal_twin.acquisition.continuity import StreamMonitor, Verdict
+from modal_twin.diagnosis.pipeline import Diagnosis
+from modal_twin.diagnosis.record import Record, record_from_blocks
+from modal_twin.diagnosis.workflow import add_effect, diagnose_model
+from modal_twin.errors import ModalTwinError
+from modal_twin.io.convert import block_from_msg
+from modal_twin.io.params import declare_config
+from modal_twin.io.report_convert import diagnosis_to_msg, version_to_parameters_msg
+from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.signal_block import SignalBlock
+
+__all__ = ["DiagnosisConfig", "DiagnosisNode", "main"]
+
+
+@dataclass(frozen=True, slots=True)
+class DiagnosisConfig:
+    """Parameters of the diagnosis node."""
+
+    model_file: str = field(default="config/structures/building.yaml",
+                            metadata={"doc": "nominal model (structure or version file)"})
+    versions_dir: str = field(default="runs/models", metadata={"doc": "model version folder"})
+    buffer_s: float = field(default=120.0, metadata={"doc": "frames kept, s"})
+    train_fraction: float = field(default=0.6, metadata={"doc": "share used for fitting"})
+    period_s: float = field(default=0.0, metadata={"doc": "diagnose every N s (0: on request)"})
+    n_fit: int = field(default=3, metadata={"doc": "candidates fitted by simulation"})
+
+
+class DiagnosisNode(Node):
+    """Wiring: frames -> buffer -> diagnosis / add effect -> report, parameters."""
+
+    def __init__(self) -> None:
+        super().__init__("diagnosis")
+        self.cfg = declare_config(self, DiagnosisConfig)
+        self.blocks: list[SignalBlock] = []
+        self.monitor = StreamMonitor()
+        self.last: Diagnosis | None = None
+        self.report_pub = self.create_publisher(DiagnosisReport, "/diagnosis/report",
+                                                qos_for("/diagnosis/report"))
+        self.param_pub = self.create_publisher(ModelParameters, "/model/parameters",
+                                               qos_for("/model/parameters"))
+        self.create_subscription(SignalBlockMsg, "/measurement/frames", self._on_frame,
+                                 qos_for("/measurement/frames"))
+        self.create_service(RunDiagnosis, "~/run", self._on_run)
+        self.create_service(AddEffect, "~/add_effect", self._on_add)
+        if self.cfg.period_s > 0:
+            self.create_timer(self.cfg.period_s, self._scheduled)
+
+    def _on_frame(self, msg: SignalBlockMsg) -> None:
+        try:
+            v = self.monitor.check(block_from_msg(msg))
+        except ModalTwinError as err:
+            self.get_logger().error(f"frame refused: {err}")
+            return
+        if v.verdict is not Verdict.OK:
+            report(self.get_logger(), v)
+        if v.block is None:
+            return
+        if v.verdict is Verdict.GAP:  # a record must be contiguous: start again
+            self.blocks = []
+        self.blocks.append(v.block)
+        n = sum(b.n_samples for b in self.blocks)
+        while self.blocks and n - self.blocks[0].n_samples >= self.cfg.buffer_s * v.block.fs_hz:
+            n -= self.blocks.pop(0).n_samples
+
+    def _records(self, window_s: float) -> tuple[Record, Record]:
+        if not self.blocks:
+            msg = "no measurement frames buffered yet"
+            raise ModalTwinError(msg)
+        rec = record_from_blocks(self.blocks, source="/measurement/frames")
+        if window_s > 0:
+            n = min(rec.n_samples, round(window_s * rec.fs_hz))
+            rec = rec.segment(rec.n_samples - n, rec.n_samples)
+        cut = round(self.cfg.train_fraction * rec.n_samples)
+        return rec.segment(0, cut), rec.segment(cut, rec.n_samples, warmup=True)
+
+    def _diagnose(self, window_s: float) -> Diagnosis:
+        train, test = self._records(window_s)
+        d = diagnose_model(self.cfg.model_file, train, test, n_fit=self.cfg.n_fit)
+        self.last = d
+        self.report_pub.publish(diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
+                                                 FailingPlace, CandidateEffect))
+        self.get_logger().info(d.summary)
+        return d
+
+    def _scheduled(self) -> None:
+        try:
+            self._diagnose(0.0)
+        except (ModalTwinError, ValueError) as err:
+            self.get_logger().warning(f"scheduled diagnosis skipped: {err}")
+
+    def _on_run(self, req: RunDiagnosis.Request, res: RunDiagnosis.Response):  # type: ignore[no-untyped-def]
+        try:
+            d = self._diagnose(req.window_s)
+            res.success, res.message = True, d.summary
+            res.report = diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
+                                          FailingPlace, CandidateEffect)
+        except (ModalTwinError, ValueError) as err:
+            res.success, res.message = False, str(err)
+        return res
+
+    def _on_add(self, req: AddEffect.Request, res: AddEffect.Response):  # type: ignore[no-untyped-def]
+        try:
+            train, test = self._records(0.0)
+            if req.effect and req.component:
+                component, law, start = req.component, req.effect, {}
+                cand = [f for f in (self.last.fitted if self.last else ())
+                        if (f.effect.component, f.effect.law) == (component, law)]
+                start = dict(cand[0].effect.params) if cand else {}
+                if not start:
+                    msg = (f"no starting parameters for {law} at {component}: run the "
+                           "diagnosis first (it screens the parameters)")
+                    raise ModalTwinError(msg)
+            else:
+                d = self.last or self._diagnose(0.0)
+                if d.best is None:
+                    msg = f"nothing to add: {d.summary}"
+                    raise ModalTwinError(msg)
+                component, law = d.best.effect.component, d.best.effect.law
+                start = dict(d.best.effect.params)
+            mv, _ = add_effect(self.cfg.model_file, component, law, start, train, test,
+                               self.cfg.versions_dir)
+            self.param_pub.publish(version_to_parameters_msg(mv, ModelParameters))
+            res.success, res.model_version = True, mv.label
+            res.message = f"{mv.note}; written to {mv.path}"
+            res.parameters = version_to_parameters_msg(mv, ModelParameters)
+            self.get_logger().info(res.message)
+        except (ModalTwinError, ValueError) as err:
+            res.success, res.message = False, str(err)
+        return res
+
+
+def main() -> int:
+    """Entry point of ``diagnosis_node``."""
+    return run_node(DiagnosisNode)
