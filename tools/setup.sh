@@ -29,7 +29,8 @@ if [ ! -x "$PY" ]; then
   "$PYTHON" -m venv "$VENV"
 fi
 echo "setup: installing ROS 2 Jazzy wheels and Python dependencies"
-"$PY" -m pip install -q --disable-pip-version-check -r requirements/ros.txt -r requirements/python.txt
+"$PY" -m pip install -q --disable-pip-version-check -r requirements/ros.txt -r requirements/python.txt \
+  2>&1 | { grep -v "^WARNING: Location 'file:" || true; }
 
 echo "setup: repairing include paths in the wheels' exported CMake files"
 "$PY" - <<'PYEOF'
