@@ -40,16 +40,38 @@ class BlockVerdict:
 class StreamMonitor:
     """Follow one stream of blocks; counts every kind of fault it sees."""
 
-    def __init__(self, expected_channels: tuple[str, ...] | None = None) -> None:
+    def __init__(self, expected_channels: tuple[str, ...] | None = None, *,
+                 relock_after: int = 3) -> None:
         self.expected = expected_channels
+        self.relock_after = relock_after
+        self._pending: tuple[tuple[str, ...], float] | None = None
+        self._pending_n = 0
         self.layout: tuple[tuple[str, ...], float] | None = None
         self.next_index: int | None = None
         self.counts: dict[Verdict, int] = dict.fromkeys(Verdict, 0)
         self.missing_samples = 0
 
     def check(self, block: SignalBlock) -> BlockVerdict:
-        """Classify ``block``; returns the part of it that extends the stream, if any."""
+        """Classify ``block``; returns the part of it that extends the stream, if any.
+
+        Without ``expected_channels`` the stream locks onto the first layout it sees; a
+        different layout that then arrives ``relock_after`` times in a row is taken as the
+        stream's new layout (a stray first block cannot poison the stream).
+        """
         v = self._check(block)
+        if v.verdict is Verdict.LAYOUT and self.expected is None:
+            layout = (block.channel_names, block.fs_hz)
+            self._pending_n = self._pending_n + 1 if layout == self._pending else 1
+            self._pending = layout
+            if self._pending_n >= self.relock_after:
+                self.layout, self.next_index = None, None
+                self._pending, self._pending_n = None, 0
+                v = self._check(block)
+                v = BlockVerdict(v.verdict if v.verdict is not Verdict.OK else Verdict.GAP,
+                                 v.block, f"stream layout changed to {block.n_channels} "
+                                 f"channels at {block.fs_hz} Hz; following it", v.missing)
+        elif v.block is not None:
+            self._pending, self._pending_n = None, 0
         self.counts[v.verdict] += 1
         if v.block is not None:
             self.next_index = v.block.next_index

@@ -37,7 +37,7 @@ class AcquisitionNode(Node):
         self.cfg = declare_config(self, AcquisitionConfig)
         self.channels = rig_channels(load_rig(self.cfg.rig_file))
         self.index = {c.name: i for i, c in enumerate(self.channels)}
-        self.monitor = StreamMonitor()
+        self.monitor = StreamMonitor(expected_channels=tuple(c.name for c in self.channels))
         self.pub = self.create_publisher(SignalBlockMsg, "/measurement/frames",
                                          qos_for("/measurement/frames"))
         self.map_pub = self.create_publisher(ChannelMap, "/measurement/channels",

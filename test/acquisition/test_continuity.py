@@ -54,3 +54,13 @@ def test_bad_blocks_are_dropped_with_reasons() -> None:
     assert v.verdict is Verdict.LAYOUT and "sample rate 200.0 Hz" in v.message
     assert m.counts[Verdict.LAYOUT] == 1
     assert m.counts[Verdict.NONFINITE] == 1
+
+
+def test_stray_first_block_does_not_poison_the_stream() -> None:
+    m = StreamMonitor()
+    assert m.check(blk(0, ch=("stray",))).verdict is Verdict.OK  # locks onto it
+    assert m.check(blk(0)).verdict is Verdict.LAYOUT
+    assert m.check(blk(10)).verdict is Verdict.LAYOUT
+    v = m.check(blk(20))  # third block of the new layout in a row: follow it
+    assert v.block is not None and "layout changed" in v.message
+    assert m.check(blk(30)).verdict is Verdict.OK
