@@ -14,6 +14,7 @@ from modal_twin.errors import ModalTwinError
 from modal_twin.io.convert import block_from_msg, block_to_msg, channel_map_to_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.paths import resolve_config
 from modal_twin.rig.config import load_rig
 from modal_twin.rig.truth import rig_channels
 from modal_twin.signal_block import SignalBlock
@@ -35,7 +36,7 @@ class AcquisitionNode(Node):
     def __init__(self) -> None:
         super().__init__("acquisition")
         self.cfg = declare_config(self, AcquisitionConfig)
-        self.channels = rig_channels(load_rig(self.cfg.rig_file))
+        self.channels = rig_channels(load_rig(resolve_config(self.cfg.rig_file)))
         self.index = {c.name: i for i, c in enumerate(self.channels)}
         self.monitor = StreamMonitor(expected_channels=tuple(c.name for c in self.channels))
         self.pub = self.create_publisher(SignalBlockMsg, "/measurement/frames",

@@ -25,6 +25,7 @@ from modal_twin.io.convert import block_from_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.report_convert import diagnosis_to_msg, version_to_parameters_msg
 from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.paths import resolve_config
 from modal_twin.signal_block import SignalBlock
 
 __all__ = ["DiagnosisConfig", "DiagnosisNode", "main"]
@@ -93,7 +94,8 @@ class DiagnosisNode(Node):
 
     def _diagnose(self, window_s: float) -> Diagnosis:
         train, test = self._records(window_s)
-        d = diagnose_model(self.cfg.model_file, train, test, n_fit=self.cfg.n_fit)
+        d = diagnose_model(resolve_config(self.cfg.model_file), train, test,
+                           n_fit=self.cfg.n_fit)
         self.last = d
         self.report_pub.publish(diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
                                                  FailingPlace, CandidateEffect))
@@ -135,8 +137,8 @@ class DiagnosisNode(Node):
                     raise ModalTwinError(msg)
                 component, law = d.best.effect.component, d.best.effect.law
                 start = dict(d.best.effect.params)
-            mv, _ = add_effect(self.cfg.model_file, component, law, start, train, test,
-                               self.cfg.versions_dir)
+            mv, _ = add_effect(resolve_config(self.cfg.model_file), component, law, start,
+                               train, test, self.cfg.versions_dir)
             self.param_pub.publish(version_to_parameters_msg(mv, ModelParameters))
             res.success, res.model_version = True, mv.label
             res.message = f"{mv.note}; written to {mv.path}"
