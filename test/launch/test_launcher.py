@@ -48,8 +48,15 @@ def test_run_starts_records_and_stops_cleanly(domain_id: int, tmp_path: Path) ->
     assert (tmp_path / "run" / "logs" / "excitation.log").is_file()
     assert "ros__parameters" in (tmp_path / "run" / "params" / "excitation.yaml").read_text()
     assert res.bag is not None
-    blocks = read_blocks(res.bag, "/excitation/signal")
+    blocks = read_blocks(res.bag, "/excitation/signal")  # rosbags reader
     assert [b.first_index for b in blocks] == [25 * k for k in range(40)]
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    with next(res.bag.glob("*.mcap")).open("rb") as fh:  # the mcap package's reader
+        msgs = [m for *_, m in make_reader(fh, decoder_factories=[DecoderFactory()])
+                .iter_decoded_messages(topics=["/excitation/signal"])]
+    assert [m.first_sample_index for m in msgs] == [25 * k for k in range(40)]
 
 
 @pytest.mark.ros
