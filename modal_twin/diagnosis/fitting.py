@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -45,6 +45,7 @@ class FittedEffect:
     n_simulations: int
     seconds: float
     message: str = ""
+    std: dict[str, float] = field(default_factory=dict)  # 1-sigma of each parameter
 
     @property
     def error_ratio(self) -> float:
@@ -164,4 +165,31 @@ def fit_effect(
     sse = float(sol.fun @ sol.fun)
     bic = N * np.log(max(sse, 1e-300) / N) + len(names) * np.log(N)
     return FittedEffect(effect, len(names), train_nmse, test_nmse, test_nom, float(bic),
-                        n_sim + 3, time.perf_counter() - t0, str(sol.message))
+                        n_sim + 3, time.perf_counter() - t0, str(sol.message),
+                        _parameter_std(sol, to_params, names))
+
+
+def _parameter_std(sol: object, to_params: Callable[[FloatArray], dict[str, float]],
+                   names: list[str]) -> dict[str, float]:
+    """1-sigma of the parameters from the Gauss-Newton covariance s^2 (J'J)^-1, mapped
+    through the transform (first order). Samples are treated as independent, so this is a
+    lower bound where the residual is correlated in time."""
+    J = np.asarray(sol.jac)  # type: ignore[attr-defined]
+    x = np.asarray(sol.x)  # type: ignore[attr-defined]
+    dof = max(J.shape[0] - J.shape[1], 1)
+    s2 = float(sol.fun @ sol.fun) / dof  # type: ignore[attr-defined]
+    JTJ = J.T @ J
+    w = np.linalg.eigvalsh(JTJ)
+    if w.size == 0 or w[0] <= 1e-10 * max(w[-1], 1e-300):  # data do not determine them
+        return {n: float("nan") for n in names}
+    cov_x = s2 * np.linalg.inv(JTJ)
+    p0 = to_params(x)
+    T = np.zeros((len(names), x.size))
+    for j in range(x.size):
+        h = 1e-6 * max(1.0, abs(x[j]))
+        xp = x.copy()
+        xp[j] += h
+        pj = to_params(xp)
+        T[:, j] = [(pj[n] - p0[n]) / h for n in names]
+    cov_p = T @ cov_x @ T.T
+    return {n: float(np.sqrt(max(cov_p[i, i], 0.0))) for i, n in enumerate(names)}

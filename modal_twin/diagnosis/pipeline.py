@@ -58,7 +58,8 @@ class Diagnosis:
         out.append(f"  {'component':<10}{'law':<20}{'train %':>9}{'held-out %':>11}"
                    f"{'nominal %':>10}{'x better':>9}{'BIC':>12}  parameters")
         for f in self.fitted:
-            p = ", ".join(f"{k}={v:.4g}" for k, v in f.effect.params.items())
+            p = ", ".join(f"{k}={v:.4g}" + (f"±{f.std[k]:.2g}" if k in f.std else "")
+                          for k, v in f.effect.params.items())
             out.append(f"  {f.effect.component:<10}{f.effect.law:<20}{f.train_nmse_pct:9.3f}"
                        f"{f.test_nmse_pct:11.3f}{f.test_nmse_nominal_pct:10.3f}"
                        f"{f.error_ratio:9.1f}{f.bic:12.1f}  {p}")

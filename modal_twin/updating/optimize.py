@@ -148,8 +148,9 @@ def update(
     Returns
     -------
     UpdateResult
-        The parameters never leave their bounds; ``cost_after <= cost_before`` (when the
-        search fails to improve, the start is returned).
+        The parameters never leave their bounds; the least-squares objective
+        (:meth:`UpdatingProblem.objective`) never rises (when the search fails to improve,
+        the start is returned).
     """
     t0 = time.perf_counter()
     n0 = problem.n_eigen_solves
@@ -175,17 +176,17 @@ def update(
                                extra_points=[r1.x, theta])
         r2 = refine(rom2, r1.x, max_nfev=max_nfev)
         n_rom += rom2.n_eigen_solves
-        cand = min((r1.x, r2.x, theta), key=problem.cost)
+        cand = min((r1.x, r2.x, theta), key=problem.objective)
         theta = cand
         msg += f"reduced model: {n_rom} small eigen-solves; "
         max_nfev = full_nfev
     res = refine(problem, theta, max_nfev=max_nfev)
-    c_r = problem.cost(res.x)
-    best = res.x if c_r <= problem.cost(theta) else theta
+    # candidates are compared on what the refinement minimises (residuals + prior)
+    best = res.x if problem.objective(res.x) <= problem.objective(theta) else theta
     msg += f"refine: {res.message}"
+    if problem.objective(best) > problem.objective(start):
+        best = start
     cost1 = problem.cost(best)
-    if cost1 > cost0:
-        best, cost1 = start, cost0
     pair1 = problem.pairing(best)
     unc = None
     sig = problem.residual_sigma()

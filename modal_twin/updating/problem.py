@@ -16,6 +16,12 @@ identified ones (:func:`~modal_twin.updating.matching.match_modes`) and returns
   DOFs and ``m_i`` the modal scale factor. ``||r_phi,i||^2 = w_mac (1 - MAC)``, so the sum
   of squares is Eq. (3) of [004] with squared frequency errors (Eq. (1) of [000]).
 
+With ``prior_weight = w > 0`` the residual gains one row per parameter,
+``sqrt(w) (theta_i - theta0_i) / s_i`` with ``s_i = (upper_i - lower_i) / sqrt(12)`` (the
+spread of a uniform prior over the bounds): a Tikhonov pull towards the nominal model that
+keeps the directions the modes do not inform at plausible values instead of letting them
+drift to a bound (the pedestrian bridge: 1 parameter at a bound instead of 13 of 17).
+
 Bad trial points (``K(theta)`` not positive definite, solver failure) give a penalty, so an
 optimizer steps back instead of crashing (item 9 of issue 5).
 """
@@ -185,6 +191,8 @@ class UpdatingProblem:
         ``s_f`` of the frequency residual (1: relative error).
     r_f, r_mac : float
         Matching windows of Eq. (4) of [004].
+    prior_weight : float
+        Weight ``w`` of the pull towards ``theta0`` (module docstring; 0: none).
 
     Raises
     ------
@@ -199,7 +207,7 @@ class UpdatingProblem:
         upper: Sequence[float] | FloatArray, S: Matrix | IntArray, targets: ModeTargets, *,
         n_modes: int | None = None, w_mac: float = 1.0,
         f_scale: float | Sequence[float] | FloatArray = 1.0, r_f: float = 0.10,
-        r_mac: float = 0.15,
+        r_mac: float = 0.15, prior_weight: float = 0.0,
     ) -> None:
         n = K0.shape[0]
         self.K0, self.M0 = K0, M0
@@ -244,6 +252,11 @@ class UpdatingProblem:
         self.w_mac = float(w_mac)
         self.f_scale = np.broadcast_to(np.asarray(f_scale, dtype=float), (m,)).copy()
         self.r_f, self.r_mac = float(r_f), float(r_mac)
+        if not (math.isfinite(prior_weight) and prior_weight >= 0.0):
+            msg = f"prior_weight: expected a finite value >= 0, got {prior_weight!r}"
+            raise OptionError(msg)
+        self.prior_weight = float(prior_weight)
+        self._prior_scale = (hi - lo) / math.sqrt(12.0)
         self.n_eigen_solves = 0
         self._cache: _Modes | None = None
 
@@ -283,7 +296,8 @@ class UpdatingProblem:
     def with_targets(self, targets: ModeTargets, **options: object) -> UpdatingProblem:
         """Same model and parameters, other targets (a stage using other modes)."""
         kw: dict[str, object] = {"n_modes": self.n_modes, "w_mac": self.w_mac,
-                                 "r_f": self.r_f, "r_mac": self.r_mac}
+                                 "r_f": self.r_f, "r_mac": self.r_mac,
+                                 "prior_weight": self.prior_weight}
         kw.update(options)
         return UpdatingProblem(self.K0, self.M0, self.dK, self.dM, self.theta0, self.names,
                                self.lower, self.upper, self.S, targets, **kw)  # type: ignore[arg-type]
@@ -368,14 +382,27 @@ class UpdatingProblem:
         cost, *_ = pair_costs(self.targets.f_hz, self.targets.shapes, md.f_hz[idx],
                               md.Phi_s[:, idx], w_mac=self.w_mac)
         J = np.diag(cost)  # Eq. (3b) of [004]
-        return float(J.sum() + (pr.fem_index < 0).sum())  # Eq. (3a) of [004] + penalty
+        out = J.sum() + (pr.fem_index < 0).sum()  # Eq. (3a) of [004] + penalty
+        if self.prior_weight > 0.0:  # the prior in the units of |df|: w (z' z) mean(s_f)^2
+            z = self._prior_residual(np.asarray(theta, dtype=float))
+            out += float(z @ z) * float(np.mean(self.f_scale)) ** 2
+        return float(out)
+
+    def objective(self, theta: FloatArray) -> float:
+        """Sum of squared residuals (what :func:`~.optimize.refine` minimises)."""
+        r = self.residual(theta)
+        return float(r @ r)
+
+    def _prior_residual(self, theta: FloatArray) -> FloatArray:
+        return math.sqrt(self.prior_weight) * (theta - self.theta0) / self._prior_scale
 
     __call__ = cost
 
     def residual_size(self) -> int:
         """Length of the residual vector."""
         m = self.targets.n_modes
-        return m + (m * self.S.shape[0] if self.w_mac > 0 else 0)
+        n_prior = self.theta0.size if self.prior_weight > 0.0 else 0
+        return m + (m * self.S.shape[0] if self.w_mac > 0 else 0) + n_prior
 
     def residual(self, theta: FloatArray) -> FloatArray:
         """Least-squares residual (module docstring); ``PENALTY`` entries at a bad point."""
@@ -384,7 +411,10 @@ class UpdatingProblem:
             pr = self.pairing(theta)
         except (ModelError, ConvergenceError):
             return np.full(self.residual_size(), PENALTY)
-        return self._residual(md, self._full_index(md, pr))
+        r = self._residual(md, self._full_index(md, pr))
+        if self.prior_weight > 0.0:
+            r = np.concatenate([r, self._prior_residual(md.theta)])
+        return r
 
     def _residual(self, md: _Modes, idx: IntArray) -> FloatArray:
         t = self.targets
@@ -403,12 +433,17 @@ class UpdatingProblem:
         t = self.targets
         sf = t.std_f_hz / t.f_hz / self.f_scale
         sf = np.where(np.isfinite(sf) & (sf > 0), sf, np.inf)
+        # the prior rows carry no measurement information (parameter_covariance adds the
+        # bounds' prior itself)
+        tail = [np.full(self.theta0.size, np.inf)] if self.prior_weight > 0.0 else []
         if self.w_mac <= 0:
-            return sf
+            return np.concatenate([sf, *tail])
         na = np.linalg.norm(t.shapes, axis=0)
         sp_ = np.sqrt(self.w_mac) * t.std_shapes / na
-        sp_ = np.where(np.isfinite(sp_) & (sp_ > 0), sp_, np.inf)
-        return np.concatenate([sf, sp_.T.ravel()])
+        # a round-off std (the normalising entry of a shape: 1e-17 in the bridge data) is
+        # no information, not infinite information
+        sp_ = np.where(np.isfinite(sp_) & (sp_ > 1e-9 * np.sqrt(self.w_mac)), sp_, np.inf)
+        return np.concatenate([sf, sp_.T.ravel(), *tail])
 
     def jacobian(self, theta: FloatArray) -> FloatArray:
         """Analytic ``d residual / d theta`` (Fox-Kapoor eigenvalues, Nelson vectors)."""
@@ -422,8 +457,10 @@ class UpdatingProblem:
         der = eigen_derivatives(md.K, md.M, md.lam[idx], md.Phi[:, idx], self.dK, self.dM,
                                 method="nelson")
         Jf = der.df_hz / t.f_hz[:, None] / self.f_scale[:, None]
+        tail = ([np.diag(math.sqrt(self.prior_weight) / self._prior_scale)]
+                if self.prior_weight > 0.0 else [])
         if self.w_mac <= 0:
-            return Jf
+            return np.vstack([Jf, *tail])
         a = t.shapes
         b = md.Phi_s[:, idx]
         na = np.linalg.norm(a, axis=0)
@@ -436,7 +473,7 @@ class UpdatingProblem:
         dm = dab / bb[:, None] - (ab / bb**2)[:, None] * dbb
         dr = -(b[:, :, None] * dm[None] + m[None, :, None] * db) / na[None, :, None]
         Jp = np.sqrt(self.w_mac) * dr.transpose(1, 0, 2).reshape(-1, self.theta0.size)
-        return np.vstack([Jf, Jp])
+        return np.vstack([Jf, Jp, *tail])
 
 
 def _project(S: sp.csr_array, dPhi: FloatArray) -> FloatArray:

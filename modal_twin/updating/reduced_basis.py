@@ -79,4 +79,5 @@ def reduced_problem(problem: UpdatingProblem, *, n_samples: int = 4, seed: int =
     return UpdatingProblem(
         K0r, M0r, dK, dM, problem.theta0, problem.names, problem.lower, problem.upper,
         sp.csr_array(S), problem.targets, n_modes=n_modes, w_mac=problem.w_mac,
-        f_scale=problem.f_scale, r_f=problem.r_f, r_mac=problem.r_mac)
+        f_scale=problem.f_scale, r_f=problem.r_f, r_mac=problem.r_mac,
+        prior_weight=problem.prior_weight)

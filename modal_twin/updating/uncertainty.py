@@ -103,8 +103,13 @@ def parameter_covariance(
     rng = np.asarray(upper, dtype=float) - np.asarray(lower, dtype=float)
     prior = rng / np.sqrt(12.0)  # uniform prior over the bounds: the "no information" level
     ev = np.sort(np.linalg.eigvalsh(F))[::-1]
-    Fs = prior[:, None] * F * prior[None, :] + np.eye(prior.size)  # scaled by the prior
-    cov = prior[:, None] * np.linalg.inv(Fs) * prior[None, :]  # (J' W J + P^-1)^-1
+    Fs = prior[:, None] * F * prior[None, :]  # information scaled by the prior
+    # (J' W J + P^-1)^-1 through the eigenvectors of the symmetric Fs (eigenvalues of
+    # Fs + I are >= 1: no loss of precision when the data are far more informative than
+    # the bounds along some directions, where a plain inverse can return negative variances)
+    ev_s, V = np.linalg.eigh(0.5 * (Fs + Fs.T))
+    inv = (V / (1.0 + np.maximum(ev_s, 0.0))) @ V.T
+    cov = prior[:, None] * inv * prior[None, :]
     std = np.sqrt(np.diag(cov))
     corr = cov / np.outer(std, std)
     return ParameterUncertainty(
