@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["ChannelSpec", "QUANTITY_UNITS"]
+__all__ = ["QUANTITY_UNITS", "ChannelSpec"]
 
 QUANTITY_UNITS = {
     "acceleration": "m/s^2",

@@ -75,7 +75,12 @@ def run_demo(run_dir: Path | None = None) -> int:
     """Run the hidden-effect demo; returns 0 when the error fell by the scenario's 3x."""
     from dataclasses import replace
 
-    from modal_twin.diagnosis.workflow import add_effect, diagnose_model, record_from_bag
+    from modal_twin.diagnosis.workflow import (
+        add_effect,
+        diagnose_model,
+        force_state_plots,
+        record_from_bag,
+    )
     from modal_twin.scenario import load_scenario, with_parameters
     from modal_twin.viz.error_history import plot_error_history
 
@@ -98,6 +103,8 @@ def run_demo(run_dir: Path | None = None) -> int:
     rec_train, rec_test = record_from_bag(train), record_from_bag(test)
     diag = diagnose_model(model, rec_train, rec_test, progress=lambda s: print(f"   {s}"))
     print(diag.format())
+    for png in force_state_plots(model, diag, rec_train, out):
+        print(f"   force-state map: {png}")
     best = diag.best
     if best is None:
         print("\nnothing to add")

@@ -98,6 +98,8 @@ class Launcher:
         env["PYTHONUNBUFFERED"] = "1"
         env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
         env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
+        env.setdefault("OMP_NUM_THREADS", "1")  # many small processes on few cores
+        env.setdefault("OPENBLAS_NUM_THREADS", "1")
         return env
 
     def _spawn(self, name: str, cmd: list[str]) -> None:

@@ -1,0 +1,59 @@
+"""Residual force-state maps (Eq. (20) of [003]): residual restoring force of the nominal
+law against drift, coloured by velocity, at a component -- the picture that says which
+effect is missing (a loop: hysteresis / friction; an odd curve: stiffness nonlinearity; a
+jump at velocity reversal: friction; a line: a k or c error; a cloud: noise)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from modal_twin._types import FloatArray
+
+__all__ = ["plot_force_state"]
+
+
+def plot_force_state(
+    drift: FloatArray,
+    force: FloatArray,
+    k: FloatArray,
+    c: FloatArray,
+    fs_hz: float,
+    out_png: str | Path,
+    *,
+    title: str = "",
+    fitted_force: FloatArray | None = None,
+) -> Path:
+    """Write a PNG with one panel per direction (x, y): residual ``f - (k u + c u')`` vs
+    ``u``, coloured by ``u'``; with ``fitted_force`` a second row shows what is left after
+    the candidate law."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from modal_twin.diagnosis.screening import _velocity
+
+    v = _velocity(drift, fs_hz, min(25.0, 0.4 * fs_hz))
+    rows = 2 if fitted_force is not None else 1
+    fig, axes = plt.subplots(rows, drift.shape[0], figsize=(9, 3.8 * rows), squeeze=False)
+    step = max(1, drift.shape[1] // 8000)
+    for d in range(drift.shape[0]):
+        r = force[d] - (k[d] * drift[d] + c[d] * v[d])
+        panels = [(r, "nominal law")]
+        if fitted_force is not None:
+            panels.append((force[d] - fitted_force[d], "with the candidate"))
+        for row, (res, label) in enumerate(panels):
+            ax = axes[row, d]
+            sc = ax.scatter(1e3 * drift[d, ::step], 1e-3 * res[::step], c=v[d, ::step], s=2,
+                            cmap="coolwarm")
+            ax.set_xlabel(f"drift {'xy'[d]}, mm")
+            ax.set_ylabel("residual force, kN")
+            ax.set_title(f"{label} ({'xy'[d]})", fontsize=9)
+            ax.grid(True, alpha=0.3)
+            fig.colorbar(sc, ax=ax, label="velocity, m/s")
+    fig.suptitle(title or "residual force-state map")
+    fig.tight_layout()
+    out = Path(out_png)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out
