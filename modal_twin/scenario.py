@@ -24,6 +24,7 @@ from typing import Any
 import yaml
 
 from modal_twin.errors import ConfigError
+from modal_twin.yaml_files import read_yaml
 
 __all__ = ["NodeSpec", "Scenario", "load_scenario", "with_parameters"]
 
@@ -98,19 +99,7 @@ def load_scenario(path: str | Path) -> Scenario:
         Naming the file, the key and the problem (YAML syntax errors give the line).
     """
     p = Path(path)
-    if not p.is_file():
-        msg = f"{p}: no such scenario file"
-        raise ConfigError(msg)
-    try:
-        doc = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(err, "problem", None) or str(err)
-        msg = f"{p}: malformed YAML{where}: {problem}"
-        raise ConfigError(msg) from err
-    if not isinstance(doc, dict):
-        raise _err(p, "<top>", f"expected a mapping, got {type(doc).__name__}")
+    doc = read_yaml(p, "scenario file")
     launch = doc.get("launch")
     if not isinstance(launch, dict):
         raise _err(p, "launch", "missing or not a mapping")

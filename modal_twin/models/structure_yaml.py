@@ -51,7 +51,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ConfigError, ModelError
@@ -65,6 +64,7 @@ from modal_twin.models.devices import (
     LinearDevice,
 )
 from modal_twin.models.fe import FEModel, NodeId
+from modal_twin.yaml_files import read_yaml
 
 __all__ = [
     "DEVICE_TYPES",
@@ -268,16 +268,7 @@ def load_structure(path: str | Path) -> StructureSpec:
         Negative mass or stiffness, an unknown node, an invalid element.
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as err:
-        msg = f"{p}: cannot read structure file ({err.strerror})"
-        raise ConfigError(msg) from err
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        msg = f"{p}: invalid YAML: {err}"
-        raise ConfigError(msg) from err
+    doc = read_yaml(p, "structure file", mapping=False)  # parse_structure names a non-mapping
     return parse_structure(doc, source=str(p))
 
 

@@ -27,6 +27,7 @@ import yaml
 
 from modal_twin.errors import ConfigError
 from modal_twin.rig.config import EffectSpec
+from modal_twin.yaml_files import read_yaml
 
 __all__ = ["ModelVersion", "history", "latest_version", "read_version", "write_version"]
 
@@ -89,17 +90,7 @@ def read_version(path: str | Path) -> ModelVersion:
         Naming the file and the key.
     """
     p = Path(path)
-    if not p.is_file():
-        msg = f"{p}: no such model file"
-        raise ConfigError(msg)
-    try:
-        doc = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as err:
-        msg = f"{p}: malformed YAML: {err}"
-        raise ConfigError(msg) from err
-    if not isinstance(doc, dict):
-        msg = f"{p}: expected a mapping"
-        raise ConfigError(msg)
+    doc = read_yaml(p, "model file")
     if "structure" not in doc:  # a structure file itself
         return ModelVersion(structure=p.resolve(), path=p)
     try:

@@ -16,9 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from modal_twin.errors import ConfigError
+from modal_twin.yaml_files import read_yaml
 
 __all__ = ["EffectSpec", "RigFile", "load_rig"]
 
@@ -67,15 +66,8 @@ def load_rig(path: str | Path) -> RigFile:
         Naming the file, key and problem.
     """
     p = Path(path)
-    if not p.is_file():
-        msg = f"{p}: no such rig file"
-        raise ConfigError(msg)
-    try:
-        doc = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as err:
-        msg = f"{p}: malformed YAML: {err}"
-        raise ConfigError(msg) from err
-    if not isinstance(doc, dict) or not isinstance(doc.get("structure"), str):
+    doc = read_yaml(p, "rig file")
+    if not isinstance(doc.get("structure"), str):
         msg = f"{p}: key 'structure': missing (path of the structure file)"
         raise ConfigError(msg)
     structure = (p.parent / doc["structure"]).resolve()

@@ -176,11 +176,11 @@ def test_device_law_parameters_are_checked(params, exc, match):
 
 
 def test_load_structure_file_errors(tmp_path):
-    with pytest.raises(ConfigError, match=r"cannot read structure file"):
+    with pytest.raises(ConfigError, match=r"missing.yaml: no such structure file"):
         load_structure(tmp_path / "missing.yaml")
     bad = tmp_path / "bad.yaml"
     bad.write_text("nodes: [1, 2\n", encoding="utf-8")
-    with pytest.raises(ConfigError, match=r"bad.yaml: invalid YAML"):
+    with pytest.raises(ConfigError, match=r"bad.yaml: malformed YAML at line 2"):
         load_structure(bad)
 
 
