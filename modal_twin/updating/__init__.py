@@ -16,23 +16,32 @@ from modal_twin.updating.optimize import global_search, refine, update
 from modal_twin.updating.problem import PENALTY, ModeTargets, UpdatingProblem, real_shapes
 from modal_twin.updating.reduced_basis import reduced_problem
 from modal_twin.updating.results import UpdateResult
+from modal_twin.updating.screening import (
+    ClusterResult,
+    ScreeningResult,
+    cluster_parameters,
+    lhs_spearman,
+)
 from modal_twin.updating.sensitivity import EigenDerivatives, eigen_derivatives
 from modal_twin.updating.stages import Stage, StagedResult, building_stages, staged_update
 from modal_twin.updating.uncertainty import ParameterUncertainty, parameter_covariance
 
 __all__ = [
     "PENALTY",
+    "ClusterResult",
     "DeviceKC",
     "EigenDerivatives",
     "ModePairing",
     "ModeTargets",
     "ParameterUncertainty",
+    "ScreeningResult",
     "Stage",
     "StagedResult",
     "UpdateResult",
     "UpdatingProblem",
     "building_stages",
     "close_match",
+    "cluster_parameters",
     "converged_000",
     "cost_002",
     "cost_004",
@@ -43,6 +52,7 @@ __all__ = [
     "global_search",
     "kc_bounds",
     "kc_nominal",
+    "lhs_spearman",
     "match_modes",
     "pair_costs",
     "parameter_covariance",
