@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from modal_twin.identification.lsfd import LSFDResult, lsfd
+from modal_twin.identification.lsfd import LSFDResult, lsfd, lsfd_modes
 from modal_twin.identification.metrics import automac, complexity, mac, mpc
 from modal_twin.identification.modal_model import (
     ModalModel,
@@ -24,6 +24,7 @@ __all__ = [
     "automac",
     "complexity",
     "lsfd",
+    "lsfd_modes",
     "mac",
     "mpc",
     "n4sid",

@@ -14,7 +14,7 @@ sides gives every residue. Mode shapes :math:`\\psi_r` and participation factors
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -22,9 +22,9 @@ from numpy.typing import ArrayLike
 
 from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import ShapeError, SignalError
-from modal_twin.identification.modal_model import normalize_shapes
+from modal_twin.identification.modal_model import ModalModel, normalize_shapes
 
-__all__ = ["LSFDResult", "lsfd", "lsfd_shapes", "rank1_factors"]
+__all__ = ["LSFDResult", "lsfd", "lsfd_modes", "lsfd_shapes", "rank1_factors"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,3 +182,40 @@ def lsfd_shapes(
     _, x = _solve(2j * np.pi * f_hz, poles, rhs_ri, lower, upper)
     Rr = (x[:nm] + 1j * x[nm : 2 * nm]).reshape(nm, n_out, n_in)
     return normalize_shapes(rank1_factors(Rr)[0])
+
+
+def lsfd_modes(
+    model: ModalModel, H: ArrayLike, f_hz: ArrayLike, *, lower: bool = True, upper: bool = True
+) -> ModalModel:
+    """The same modes with LSFD shapes (Eq. (5) of [002]) fitted for those poles only.
+
+    Use after ``select_modes(stabilization_diagram(polymax(..., shapes="numerator")))``:
+    one LSFD solve for the selected poles instead of one per model order.
+
+    Parameters
+    ----------
+    model : ModalModel
+        Selected modes; their poles are :math:`\\lambda = 2\\pi f (-\\zeta + j
+        \\sqrt{1 - \\zeta^2})`.
+    H : array_like of complex, shape (n_out, n_in, n_f)
+        FRFs (the band used for the poles, or wider).
+    f_hz : array_like, shape (n_f,)
+    lower, upper : bool
+        Fit lower / upper residuals.
+
+    Returns
+    -------
+    ModalModel
+        ``model`` with ``shapes`` replaced (normalised, largest entry 1).
+
+    Raises
+    ------
+    ShapeError, SignalError
+        As :func:`lsfd`.
+    """
+    if model.f_hz.size == 0:
+        return model
+    w = 2 * np.pi * model.f_hz
+    z = model.zeta
+    lam = w * (-z + 1j * np.sqrt(np.clip(1.0 - z**2, 0.0, None)))
+    return replace(model, shapes=lsfd(H, f_hz, lam, lower=lower, upper=upper).shapes)

@@ -74,7 +74,8 @@ class PoleSweep:
     orders : ndarray of int, shape (n_orders,)
     poles : tuple of PoleSet, length n_orders
     singular_values : ndarray, shape (n_sv,)
-        Singular values of the factorised matrix (SSI); empty for PolyMAX.
+        Singular values of the factorised matrix (SSI), descending; with more than 500
+        observability rows only the leading max(2 n_max, 100); empty for PolyMAX.
     n_blocks_std : int
         Number of data blocks behind the standard deviations (0 = not estimated).
     """

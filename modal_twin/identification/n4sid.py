@@ -8,14 +8,17 @@ which has the same column space as the N4SID oblique projection weighted by
 1. Block Hankel matrices of inputs and outputs with i past and i future block rows,
    stacked as :math:`[U_f; W_p; Y_f]` with :math:`W_p = [U_p; Y_p]`.
 2. ONE factorisation of the correlation (Gram) matrix :math:`\\Phi = H H^T = L L^T`
-   instead of the QR of the tall Hankel transpose (one BLAS ``A.T @ A``, ~9x faster than
-   Householder QR here; no Q and no j x j projection is formed). The LQ factor is never
-   needed explicitly: :math:`L_{32} L_{32}^T` follows from Schur complements of
-   :math:`\\Phi` (:func:`_l32_gram`).
+   instead of the QR of the tall Hankel transpose. :math:`\\Phi` itself is never formed
+   from H: its blocks are lag sums of :math:`z = [u; y]` (computed by segmented FFT, about
+   2i / 4 times less work than the product and no 2i(m + l) x j copy) plus exact edge
+   corrections (:mod:`modal_twin.identification._lagsums`); no Q and no j x j projection
+   is formed. :math:`L_{32} L_{32}^T` follows from Schur complements of :math:`\\Phi`
+   through Cholesky factors (:func:`_l32`).
 3. :math:`Y_f \\Pi_{U_f^\\perp}` projected on the instruments :math:`W_p` has the column
    space of :math:`L_{32}`; the eigen-decomposition :math:`L_{32} L_{32}^T = U S^2 U^T`
    (the SVD of :math:`L_{32}`) gives the extended observability matrix of every model
-   order n by truncation, :math:`\\Gamma_n = U_n` (up to a diagonal change of basis).
+   order n by truncation, :math:`\\Gamma_n = U_n` (up to a diagonal change of basis);
+   above 500 rows only the leading max(2 n_max, 100) eigenpairs are computed.
 4. Poles, damping and complex shapes at the outputs for all orders from one QR of
    :math:`\\underline{\\Gamma}` (:mod:`modal_twin.identification._subspace`).
 
@@ -28,7 +31,6 @@ over :math:`\\sqrt{n_b}` estimates the standard deviation of frequency and dampi
 
 from __future__ import annotations
 
-import itertools
 import logging
 import warnings
 
@@ -39,7 +41,12 @@ from numpy.typing import ArrayLike
 from modal_twin._types import FloatArray
 from modal_twin.acquisition._validate import as_channels, check_positive, check_rank
 from modal_twin.errors import OptionError, ShapeError
-from modal_twin.identification._subspace import check_orders, poles_over_orders
+from modal_twin.identification._lagsums import hankel_gram
+from modal_twin.identification._subspace import (
+    check_orders,
+    default_block_rows,
+    poles_over_orders,
+)
 from modal_twin.identification.modal_model import PoleSweep
 
 __all__ = ["n4sid"]
@@ -47,45 +54,72 @@ __all__ = ["n4sid"]
 _log = logging.getLogger(__name__)
 
 
-def _hankel_t(u: FloatArray, y: FloatArray, i: int) -> FloatArray:
-    """Transpose of [U_f; U_p; Y_p; Y_f], shape (j, 2 i (m + l))."""
-    m, l = u.shape[0], y.shape[0]
-    j = u.shape[1] - 2 * i + 1
-    HT = np.empty((j, 2 * i * (m + l)))
-    c = 0
-    for z, blocks in ((u, range(i, 2 * i)), (u, range(i)), (y, range(i)), (y, range(i, 2 * i))):
-        w = z.shape[0]
-        for b in blocks:
-            HT[:, c : c + w] = z[:, b : b + j].T
-            c += w
-    return HT
+def _groups(m: int, l: int, i: int) -> list[tuple[slice, slice]]:
+    """Rows [U_f; U_p; Y_p; Y_f] of the Hankel of z = [u; y] as (blocks, channels) groups."""
+    uc, yc = slice(0, m), slice(m, m + l)
+    past, fut = slice(0, i), slice(i, 2 * i)
+    return [(fut, uc), (past, uc), (past, yc), (fut, yc)]
 
 
-def _spd_solve(A: FloatArray, B: FloatArray) -> FloatArray:
-    """Solve A X = B for a symmetric positive semi-definite A (relative ridge 1e-10)."""
+def _chol(A: FloatArray) -> FloatArray | None:
+    """Lower Cholesky factor of a symmetric PSD A with relative ridge 1e-10 (None if it fails)."""
     ridge = 1e-10 * max(float(np.trace(A)) / max(A.shape[0], 1), np.finfo(float).tiny)
-    A = A + ridge * np.eye(A.shape[0])
     try:
-        c = sla.cho_factor(A, lower=True, check_finite=False)
-        X: FloatArray = sla.cho_solve(c, B, check_finite=False)
+        Lc: FloatArray = sla.cholesky(A + ridge * np.eye(A.shape[0]), lower=True,
+                                      check_finite=False)
     except np.linalg.LinAlgError:
-        X = np.linalg.lstsq(A, B, rcond=None)[0]
-    return X
+        return None
+    return Lc
 
 
-def _l32_gram(Phi: FloatArray, mf: int, p: int) -> FloatArray:
-    """:math:`L_{32} L_{32}^T` from the Gram matrix :math:`\\Phi = H H^T = L L^T`.
+def _whiten(A: FloatArray, B: FloatArray) -> FloatArray:
+    """W with W^T W = B^T A^-1 B for a symmetric PSD A (Cholesky, else least squares)."""
+    Lc = _chol(A)
+    if Lc is None:  # singular beyond the ridge: symmetric square root of the pseudo-inverse
+        w, V = np.linalg.eigh(0.5 * (A + A.T))
+        keep = w > 1e-10 * max(float(w.max()), np.finfo(float).tiny)
+        out: FloatArray = (V[:, keep] / np.sqrt(w[keep])).T @ B
+        return out
+    W: FloatArray = sla.solve_triangular(Lc, B, lower=True, check_finite=False)
+    return W
+
+
+def _l32(Phi: FloatArray, mf: int, p: int) -> FloatArray:
+    """A factor :math:`W` with :math:`W^T W = L_{32} L_{32}^T`, from :math:`\\Phi = L L^T`.
 
     With the LQ factor L of [U_f; W_p; Y_f], the blocks below the first block column are
     the Schur complement :math:`\\Phi_{\\cdot|1} = \\Phi_{rr} - \\Phi_{r1}
     \\Phi_{11}^{-1} \\Phi_{1r}` (data with U_f projected out), and
-    :math:`L_{32} L_{32}^T = \\Phi_{32|1} \\Phi_{22|1}^{-1} \\Phi_{23|1}`.
+    :math:`L_{32} L_{32}^T = \\Phi_{32|1} \\Phi_{22|1}^{-1} \\Phi_{23|1}`. Both inverses
+    enter through Cholesky factors, and only the rows of the instruments (block 2) of the
+    first Schur complement are formed.
     """
-    F1r = Phi[:mf, mf:]
-    Sc = Phi[mf:, mf:] - F1r.T @ _spd_solve(Phi[:mf, :mf], F1r)
-    S23 = Sc[:p, p:]
-    out: FloatArray = S23.T @ _spd_solve(Sc[:p, :p], S23)
-    return 0.5 * (out + out.T)
+    W1 = _whiten(Phi[:mf, :mf], Phi[:mf, mf:])
+    W12 = W1[:, :p]
+    Sc2 = Phi[mf : mf + p, mf:] - W12.T @ W1  # rows [Phi_22|1, Phi_23|1]
+    return _whiten(Sc2[:, :p], Sc2[:, p:])
+
+
+def _l32_times(Phi: FloatArray, mf: int, p: int, G: FloatArray) -> FloatArray:
+    """:math:`L_{32} L_{32}^T G` for a thin G, without forming :math:`L_{32}` (std blocks).
+
+    Same algebra as :func:`_l32`, ordered so that only products with G (n_max columns)
+    and one Cholesky factor of :math:`\\Phi_{22|1}` are formed:
+    :math:`\\Phi_{32|1} \\Phi_{22|1}^{-1} (\\Phi_{23|1} G)`.
+    """
+    W1 = _whiten(Phi[:mf, :mf], Phi[:mf, mf:])
+    W12, W13 = W1[:, :p], W1[:, p:]
+    Sc22 = Phi[mf : mf + p, mf : mf + p] - W12.T @ W12
+    ScG = Phi[mf : mf + p, mf + p :] @ G - W12.T @ (W13 @ G)  # Phi_23|1 G
+    Lc = _chol(Sc22)
+    if Lc is None:
+        w, V = np.linalg.eigh(0.5 * (Sc22 + Sc22.T))
+        keep = w > 1e-10 * max(float(w.max()), np.finfo(float).tiny)
+        u = V[:, keep] @ ((V[:, keep].T @ ScG) / w[keep][:, None])
+    else:
+        u = sla.cho_solve((Lc, True), ScG, check_finite=False)
+    out: FloatArray = Phi[mf + p :, mf : mf + p] @ u - W13.T @ (W12 @ u)  # Phi_32|1 u
+    return out
 
 
 def n4sid(
@@ -96,6 +130,7 @@ def n4sid(
     orders: ArrayLike,
     block_rows: int | None = None,
     n_blocks_std: int = 8,
+    f_min_hz: float | None = None,
 ) -> PoleSweep:
     """N4SID (PO-MOESP) poles, damping, shapes and their spread for every model order.
 
@@ -111,10 +146,15 @@ def n4sid(
     orders : array_like of int
         Model orders (state dimensions) of the stabilization diagram.
     block_rows : int, optional
-        Past / future horizon i. Default ``max(ceil((max_order + 1) / n_out) + 1, 6)``.
+        Past / future horizon i. Default ``max(ceil((max_order + 1) / n_out) + 1, 6)``,
+        raised to ``ceil(fs_hz / (8 f_min_hz))`` when ``f_min_hz`` is given (capped at
+        ``i (n_in + n_out) <= 1200`` for cost).
     n_blocks_std : int
         Data blocks for the standard deviations (0 or 1 disables). Reduced, with a
         warning, when the record is too short for that many blocks.
+    f_min_hz : float, optional
+        Lowest natural frequency of interest; sets the default horizon (see
+        ``block_rows``). Ignored when ``block_rows`` is given.
 
     Returns
     -------
@@ -151,7 +191,11 @@ def n4sid(
     n = U.shape[1]
     o_req = np.atleast_1d(np.asarray(orders))
     n_max_req = int(o_req.max()) if o_req.size and np.issubdtype(o_req.dtype, np.integer) else 1
-    i = max(-(-(n_max_req + 1) // l) + 1, 6) if block_rows is None else int(block_rows)
+    i = (
+        default_block_rows(fs, f_min_hz, n_max_req, l, m + l, floor=6)
+        if block_rows is None
+        else int(block_rows)
+    )
     if i < 2:
         msg = f"block_rows: expected an integer >= 2, got {block_rows!r}"
         raise OptionError(msg)
@@ -174,27 +218,33 @@ def n4sid(
             stacklevel=2,
         )
         nb = nb_fit if nb_fit > 1 else 0
-    su = np.sqrt(np.mean((U - U.mean(axis=1, keepdims=True)) ** 2, axis=1))
-    sy = np.sqrt(np.mean((Y - Y.mean(axis=1, keepdims=True)) ** 2, axis=1))
-    Us = (U - U.mean(axis=1, keepdims=True)) / su[:, None]
-    Ys = (Y - Y.mean(axis=1, keepdims=True)) / sy[:, None]
-    HT = _hankel_t(Us, Ys, i)
+    z = np.empty((m + l, n))  # z = [u; y], means removed, unit RMS per channel
+    np.subtract(U, U.mean(axis=1, keepdims=True), out=z[:m])
+    np.subtract(Y, Y.mean(axis=1, keepdims=True), out=z[m:])
+    sz = np.sqrt(np.einsum("ij,ij->i", z, z) / n)
+    z /= sz[:, None]
+    sy = sz[m:]
     mf, p = m * i, (m + l) * i
     edges = np.linspace(0, j, nb + 1).astype(int) if nb else np.array([0, j])
-    Phi_b = [HT[a:b].T @ HT[a:b] for a, b in itertools.pairwise(edges)]
-    del HT
+    Phi_b = hankel_gram(z, 2 * i, edges, _groups(m, l, i))  # exact, from lag sums
     Phi = Phi_b[0] if len(Phi_b) == 1 else np.sum(Phi_b, axis=0)  # = H H^T = L L^T
-    P = _l32_gram(Phi, mf, p)  # the one factorisation: L32 L32^T = U S^2 U^T
-    s2, Uo = np.linalg.eigh(P)
+    W2 = _l32(Phi, mf, p)
+    P = W2.T @ W2  # the one factorisation: L32 L32^T = U S^2 U^T
+    nm = int(o[-1])
+    il = P.shape[0]
+    n_sv = min(il, max(2 * nm, 100)) if il > 500 else il
+    if n_sv < il:  # leading part of the spectrum only (LAPACK syevr): same vectors, cheaper
+        s2, Uo = sla.eigh(P, subset_by_index=[il - n_sv, il - 1], driver="evr",
+                          check_finite=False)
+    else:
+        s2, Uo = np.linalg.eigh(P)
     s2, Uo = s2[::-1], Uo[:, ::-1]
     s = np.sqrt(np.clip(s2, 0.0, None))
-    nm = int(o[-1])
     G = Uo[:, :nm]
     s2_inv = 1.0 / np.where(s2[:nm] > 0, s2[:nm], np.inf)
     G_blocks = []
-    if nb:
-        for Pk in Phi_b:
-            G_blocks.append((_l32_gram(Pk, mf, p) @ G) * s2_inv)  # Gamma_b = L32b L32b^T U S^-2
+    for Pk in Phi_b if nb else ():
+        G_blocks.append(_l32_times(Pk, mf, p, G) * s2_inv)  # Gamma_b = L32b L32b^T U S^-2
     _log.debug("n4sid: i=%d, hankel %d x %d, %d std blocks", i, k, j, len(G_blocks))
     poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=sy)
     return PoleSweep("n4sid", o, poles, s, len(G_blocks))

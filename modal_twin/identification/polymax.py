@@ -14,15 +14,23 @@ normal equations :math:`M \\alpha = 0`, :math:`M = 2 \\sum_o (T_o - S_o^T R^{-1}
 solved with :math:`\\alpha_p = I`. Because :math:`\\overline{Z^r} Z^s` depends on s - r
 only, R, S_o and T_o are Toeplitz in the polynomial index and are built from 2p + 1 sums
 over frequency; the matrices of every lower order are sub-blocks of those of the highest
-order, so the frequency sums are done once for the whole stabilization diagram.
+order, so the frequency sums are done once for the whole stabilization diagram. The
+elimination is order-recursive too: with one Cholesky factor of the highest-order R,
+:math:`\\sum_o S_o^T R^{-1} S_o` of every order is a cumulative sum of per-row Gram
+matrices (:func:`_reduced_normal`), so the per-order work is one small solve and one
+companion eigenvalue problem (no per-output products per order).
 
 Poles and participation factors come from the companion matrix of Eq. (4); a root
 :math:`z_r` of :math:`\\det A(z)` gives :math:`\\lambda_r = -\\ln(z_r) / \\Delta t`
 (Eq. (3)). Mode shapes per order follow from LSFD, Eq. (5) of [002]
-(:func:`modal_twin.identification.lsfd.lsfd`).
+(:func:`modal_twin.identification.lsfd.lsfd`), or, with ``shapes="numerator"``, from the
+numerator polynomials at the poles, with LSFD afterwards for the selected modes only
+(:func:`modal_twin.identification.lsfd.lsfd_modes`).
 """
 
 from __future__ import annotations
+
+from typing import Literal
 
 import numpy as np
 import scipy.linalg as sla
@@ -32,22 +40,91 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import OptionError, ShapeError, SignalError
 from modal_twin.identification._subspace import check_orders
 from modal_twin.identification.lsfd import lsfd_shapes
-from modal_twin.identification.modal_model import PoleSet, PoleSweep
+from modal_twin.identification.modal_model import PoleSet, PoleSweep, normalize_shapes
 
 __all__ = ["polymax", "polymax_poles"]
 
 
-def _companion(alpha: FloatArray, m: int, p: int) -> tuple[ComplexArray, ComplexArray]:
+def _companion(
+    alpha: FloatArray, m: int, p: int, participation: bool
+) -> tuple[ComplexArray, ComplexArray]:
     """Eigen-decomposition of the block companion matrix, Eq. (4) of [002]."""
     Cm = np.zeros((m * p, m * p))
     Cm[: m * (p - 1), m:] = np.eye(m * (p - 1))
     Cm[m * (p - 1) :, :] = -alpha[: m * p].T  # last block row: -alpha_0 ... -alpha_{p-1}
+    if not participation:
+        return np.linalg.eigvals(Cm), np.zeros((m, 0), complex)
     z, V = np.linalg.eig(Cm)
     return z, V[:m]  # first block of the eigenvectors = participation factors
 
 
+def _reduced_normal(
+    H: ComplexArray, f_hz: FloatArray, pmax: int, dt_s: float
+) -> tuple[FloatArray, FloatArray, FloatArray | None, FloatArray]:
+    """Blocks of every order's reduced normal matrix, from one pass over the data.
+
+    Returns ``T`` (q m x q m, q = pmax + 1), ``C`` (q, q m, q m), the Cholesky factor of R
+    (None if R was not positive definite) and :math:`W = L^{-1} S` as (q, n_out, q m),
+    such that the order-p
+    reduced normal matrix is :math:`M_p = 2 (T - C_{p})_{[:(p+1) m, :(p+1) m]}`, i.e.
+    :math:`\\sum_o S_o^T R^{-1} S_o` for every order at once: with :math:`R = L L^T`
+    (Cholesky of the highest order), :math:`R_{:q,:q} = L_{:q,:q} L_{:q,:q}^T` and
+    :math:`(L^{-1} S_o)_{:q}` only involves rows :q of :math:`S_o`, so
+    :math:`\\sum_o S_o^T R_q^{-1} S_o = \\sum_{r<q} G_r` restricted to the first q block
+    columns, with the per-row Gram matrices :math:`G_r = \\sum_o w_{o,r}^T w_{o,r}`
+    (cumulative sums :math:`C_p = \\sum_{r \\le p} G_r`).
+    """
+    n_out, m, nf = H.shape
+    q = pmax + 1
+    th = 2 * np.pi * f_hz * dt_s
+    d = np.arange(q)
+    Cs, Sn = np.cos(np.outer(d, th)), np.sin(np.outer(d, th))  # Z^(s-r) = cos - j sin
+    # Re(sum_k Z_k^(+-d) H_k) = sum_k cos(d th_k) Re H_k +- sin(d th_k) Im H_k: one real GEMM
+    # on the interleaved (re, im) view of H against [cos, +-sin]
+    Wcs = np.empty((nf, 2, 2 * q))
+    Wcs[:, 0, :q] = Wcs[:, 0, q:] = Cs.T
+    Wcs[:, 1, :q], Wcs[:, 1, q:] = Sn.T, -Sn.T
+    Hri = np.ascontiguousarray(H).reshape(n_out * m, nf).view(np.float64)  # (o i, 2 n_f)
+    ab = Hri @ Wcs.reshape(2 * nf, 2 * q)  # [:, :q] = a + b (lag +d), [:, q:] = a - b (-d)
+    s0 = -np.concatenate([ab[:, q + 1 :][:, ::-1], ab[:, :q]], axis=1).T.reshape(-1, n_out, m)
+    Hr, Hi = H.real, H.imag
+    Pr = np.einsum("oik,ojk->kij", Hr, Hr) + np.einsum("oik,ojk->kij", Hi, Hi)
+    Pi = np.einsum("oik,ojk->kij", Hr, Hi) - np.einsum("oik,ojk->kij", Hi, Hr)
+    # sum_o conj(H_oi) H_oj = Pr + j Pi per line
+    ta, tb = Cs @ Pr.reshape(nf, m * m), Sn @ Pi.reshape(nf, m * m)
+    t0 = np.concatenate([(ta - tb)[:0:-1], ta + tb]).reshape(-1, m, m)
+    r0 = Cs.sum(axis=1)
+    idx = np.arange(q)
+    D = idx[None, :] - idx[:, None] + pmax  # (r, s) -> s - r + pmax
+    R = r0[np.abs(idx[None, :] - idx[:, None])]
+    S = s0[D].transpose(0, 2, 1, 3).reshape(q, n_out * q * m)  # (r, (o, s, i))
+    T = t0[D].transpose(0, 2, 1, 3).reshape(q * m, q * m)  # (r, i, s, j)
+    Lc: FloatArray | None = None
+    try:  # R = Re(X^H X) is SPD
+        Lc = sla.cholesky(R, lower=True, check_finite=False)
+        W = sla.solve_triangular(Lc, S, lower=True, check_finite=False)
+    except np.linalg.LinAlgError:  # numerically singular basis: symmetric pseudo-root
+        Lc = None
+        w, V = np.linalg.eigh(R)
+        keep = w > 1e-12 * w.max()
+        W = np.zeros_like(S)
+        W[: int(keep.sum())] = (V[:, keep] / np.sqrt(w[keep])).T @ S
+    W3 = W.reshape(q, n_out, q * m)
+    C = np.empty((q, q * m, q * m))
+    acc = np.zeros((q * m, q * m))
+    for r in range(q):  # cumulative sum of the per-row Gram matrices (one SYRK each)
+        acc += W3[r].T @ W3[r]
+        C[r] = acc
+    return T, C, Lc, W3
+
+
 def polymax_poles(
-    H: ComplexArray, f_hz: FloatArray, orders: ArrayLike, dt_s: float
+    H: ComplexArray,
+    f_hz: FloatArray,
+    orders: ArrayLike,
+    dt_s: float,
+    *,
+    participation: bool = True,
 ) -> list[tuple[int, ComplexArray, ComplexArray]]:
     """Continuous poles and participation factors for each polynomial order.
 
@@ -60,50 +137,71 @@ def polymax_poles(
         Polynomial orders p (each gives p * n_in poles).
     dt_s : float
         Sampling time of the z-domain basis, Eq. (3) of [002].
+    participation : bool
+        Also return the participation factors (eigenvectors of the companion matrix);
+        False returns poles only (eigenvalues), with L of shape (n_in, 0).
 
     Returns
     -------
     list of (p, lambda (n,), L (n_in, n)) with all poles (both of each pair).
     """
-    n_out, m, _ = H.shape
+    return [(p, lam, L) for p, lam, L, _ in _sweep(H, f_hz, orders, dt_s, participation)]
+
+
+def _numerator_shapes(
+    z: ComplexArray, alpha: FloatArray, Lc: FloatArray, W3: FloatArray, p: int
+) -> ComplexArray:
+    """Shapes :math:`\\psi_r = B(z_r) v_r` with :math:`A(z_r) v_r = 0`, Eqs. (1)-(2) of [002].
+
+    Near a root :math:`z_r` of :math:`\\det A`, :math:`A(z)^{-1} \\approx v_r w_r^T /
+    (c_r (z - z_r))`, so the FRF row :math:`H_o = B_o A^{-1}` has residue
+    :math:`\\propto B_o(z_r) v_r`. The numerators are eliminated in the reduced normal
+    equations and recovered here as :math:`\\beta_o = -R^{-1} S_o \\alpha`.
+    """
+    m = alpha.shape[1]
+    q = p + 1
+    Wa = W3[:q, :, : q * m] @ alpha  # (q, n_out, m) = L^-1 S_o alpha
+    beta = -sla.solve_triangular(Lc[:q, :q].T, Wa.reshape(q, -1), lower=False,
+                                 check_finite=False).reshape(q, -1, m)
+    Vz = z[:, None] ** np.arange(q)[None, :]  # (n_poles, q): z_r^k
+    A = np.einsum("pk,kij->pij", Vz, alpha.reshape(q, m, m))
+    v = np.linalg.svd(A)[2][:, -1, :].conj()  # right null vectors of A(z_r)
+    B = np.einsum("pk,koi->poi", Vz, beta)
+    out: ComplexArray = np.einsum("poi,pi->op", B, v)
+    return out
+
+
+def _sweep(
+    H: ComplexArray,
+    f_hz: FloatArray,
+    orders: ArrayLike,
+    dt_s: float,
+    participation: bool,
+    numerator: bool = False,
+) -> list[tuple[int, ComplexArray, ComplexArray, ComplexArray | None]]:
+    """Poles (+ participation factors, + numerator shapes) of every order."""
+    m = H.shape[1]
     o = np.asarray(orders, dtype=np.int64)
-    pmax = int(o.max())
-    wdt = 2 * np.pi * f_hz * dt_s
-    d = np.arange(-pmax, pmax + 1)
-    E = np.exp(-1j * np.outer(d, wdt))  # conj(Z^r) Z^s = Z^(s - r), index s - r + pmax
-    r0 = E.sum(axis=1).real  # R Toeplitz generator
-    nf = wdt.size
-    # the frequency sums as BLAS products (same sums as einsum "dk,oik->odi" etc.)
-    s0 = -(E @ H.reshape(n_out * m, nf).T).real.reshape(-1, n_out, m)  # S_o generator
-    Hk = H.transpose(2, 0, 1)  # (n_f, n_out, m)
-    P = np.matmul(Hk.conj().transpose(0, 2, 1), Hk)  # sum_o conj(H_oi) H_oj per line
-    t0 = (E @ P.reshape(nf, m * m)).real.reshape(-1, m, m)  # sum_o T_o generator
-    idx = np.arange(pmax + 1)
-    D = idx[None, :] - idx[:, None] + pmax  # (r, s) -> s - r + pmax
-    R_full = r0[D]
-    S_full = np.ascontiguousarray(s0[D].transpose(0, 2, 1, 3))  # (r, o, s, i)
-    T_full = t0[D].transpose(0, 2, 1, 3)  # (r, i, s, j)
+    T, C, Lc, W3 = _reduced_normal(H, f_hz, int(o.max()), dt_s)
     out = []
     for p in o:
-        q = int(p) + 1
-        Rp = R_full[:q, :q]
-        Sq = S_full[:q, :, :q, :].reshape(q, n_out * q * m)  # every output in one solve
-        Tp = T_full[:q, :, :q, :].reshape(q * m, q * m)
-        try:  # R = Re(X^H X) is SPD: sum_o S_o^T R^-1 S_o = W^T W with W = chol(R)^-1 S
-            W = sla.solve_triangular(sla.cholesky(Rp, lower=True, check_finite=False), Sq,
-                                     lower=True, check_finite=False).reshape(q * n_out, q * m)
-            SRS = W.T @ W
-        except np.linalg.LinAlgError:
-            SRS = Sq.reshape(q * n_out, q * m).T @ np.linalg.solve(Rp, Sq).reshape(
-                q * n_out, q * m)
-        Mp = 2.0 * (Tp - SRS)  # reduced normal equations, M alpha = 0
+        mp, qm = m * int(p), m * (int(p) + 1)
+        Mp = 2.0 * (T[:qm, :qm] - C[int(p), :qm, :qm])  # reduced normal equations
         Mp = 0.5 * (Mp + Mp.T)
-        a_low = np.linalg.lstsq(Mp[: m * p, : m * p], -Mp[: m * p, m * p :], rcond=None)[0]
+        try:
+            a_low = np.linalg.solve(Mp[:mp, :mp], -Mp[:mp, mp:])
+        except np.linalg.LinAlgError:
+            a_low = np.linalg.lstsq(Mp[:mp, :mp], -Mp[:mp, mp:], rcond=None)[0]
         alpha = np.vstack([a_low, np.eye(m)])  # alpha_p = I
-        z, L = _companion(alpha, m, int(p))
+        z, L = _companion(alpha, m, int(p), participation)
         with np.errstate(divide="ignore", invalid="ignore"):
             lam = -np.log(z.astype(np.complex128)) / dt_s  # Z = exp(-j w dt), Eq. (3)
-        out.append((int(p), lam, L))
+            psi = (
+                _numerator_shapes(z, alpha, Lc, W3, int(p))
+                if numerator and Lc is not None and np.all(np.isfinite(z))
+                else None
+            )
+        out.append((int(p), lam, L, psi))
     return out
 
 
@@ -116,6 +214,7 @@ def polymax(
     dt_s: float | None = None,
     lower: bool = True,
     upper: bool = True,
+    shapes: Literal["lsfd", "numerator"] = "lsfd",
 ) -> PoleSweep:
     """PolyMAX (pLSCF) poles with LSFD mode shapes for every polynomial order.
 
@@ -134,6 +233,12 @@ def polymax(
         band, which maps the band onto the upper half of the unit circle.
     lower, upper : bool
         Fit lower / upper residuals in the LSFD shapes (Eq. (5) of [002]).
+    shapes : {"lsfd", "numerator"}
+        ``"lsfd"``: LSFD shapes (Eq. (5) of [002]) at every order. ``"numerator"``:
+        shapes :math:`B(z_r) v_r` from the fitted numerator polynomials (Eqs. (1)-(2)),
+        nearly free and good enough for the MAC of the stabilization diagram; then
+        :func:`~modal_twin.identification.lsfd.lsfd_modes` fits LSFD shapes for the
+        selected modes only (several times faster for many FRFs and orders).
 
     Returns
     -------
@@ -186,21 +291,27 @@ def polymax(
     if scale == 0.0:
         msg = "H: expected a non-zero FRF in the band, got all zeros"
         raise SignalError(msg)
+    if shapes not in ("lsfd", "numerator"):
+        msg = f"shapes: expected one of ['lsfd', 'numerator'], got {shapes!r}"
+        raise OptionError(msg)
+    numerator = shapes == "numerator"
     sets = []
     n_out = Ha.shape[0]
     rhs = Hb.reshape(n_out * m, -1).T
     rhs_ri = np.vstack([rhs.real, rhs.imag])  # prepared once for the LSFD of every order
-    for p, lam, _ in polymax_poles(Hb / scale, fb, o, dt):
+    for p, lam, _, psi in _sweep(Hb / scale, fb, o, dt, False, numerator):
         keep = np.isfinite(lam) & (lam.imag > 1e-12 * np.abs(lam))
         lk = lam[keep]
         w = np.abs(lk)
         fr, zr = w / (2 * np.pi), -lk.real / np.where(w > 0, w, 1.0)
         order = np.argsort(fr)
         lk, fr, zr = lk[order], fr[order], zr[order]
-        if lk.size and 2 * fb.size >= 2 * lk.size + 4 * (lower + upper):
-            shapes = lsfd_shapes(rhs_ri, fb, lk, n_out, m, lower=lower, upper=upper)
+        if numerator and psi is not None:
+            phi = normalize_shapes(psi[:, keep][:, order])
+        elif not numerator and lk.size and 2 * fb.size >= 2 * lk.size + 4 * (lower + upper):
+            phi = lsfd_shapes(rhs_ri, fb, lk, n_out, m, lower=lower, upper=upper)
         else:
-            shapes = np.full((Ha.shape[0], lk.size), np.nan + 0j)
+            phi = np.full((Ha.shape[0], lk.size), np.nan + 0j)
         nan = np.full(fr.shape, np.nan)
-        sets.append(PoleSet(p, fr, zr, shapes, nan, nan.copy()))
+        sets.append(PoleSet(p, fr, zr, phi, nan, nan.copy()))
     return PoleSweep("polymax", o, tuple(sets), np.zeros(0), 0)

@@ -6,9 +6,12 @@ Toeplitz matrix (Peeters & De Roeck, 1999)
 .. math:: T_{1|i} = \\begin{bmatrix} R_i & \\cdots & R_1 \\\\ \\vdots & & \\vdots \\\\
           R_{2i-1} & \\cdots & R_i \\end{bmatrix} = \\mathcal{O}_i \\mathcal{C}_i,
 
-whose SVD :math:`T = U S V^T` gives the observability matrix :math:`U_n S_n^{1/2}` of every
-order n by truncation: ONE SVD serves the whole stabilization diagram. Poles and shapes
-follow from shift invariance (see :mod:`modal_twin.identification._subspace`).
+whose SVD :math:`T = U S V^T` (computed as :math:`T T^T = U S^2 U^T`) gives the
+observability matrix :math:`U_n S_n^{1/2}` of every order n by truncation: ONE SVD serves
+the whole stabilization diagram (above 500 rows only the leading max(2 n_max, 100)
+eigenpairs are computed). Poles and shapes follow from shift invariance (see
+:mod:`modal_twin.identification._subspace`). The correlations are exact lag sums computed
+by segmented FFT (:mod:`modal_twin.identification._lagsums`).
 
 Uncertainty: the record is split into ``n_blocks_std`` blocks; each block's Toeplitz
 matrix :math:`T_b` is projected on the common right singular vectors,
@@ -22,12 +25,18 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
 from modal_twin.acquisition._validate import as_channels, check_positive
 from modal_twin.errors import OptionError, ShapeError
-from modal_twin.identification._subspace import check_orders, poles_over_orders
+from modal_twin.identification._lagsums import lag_sums
+from modal_twin.identification._subspace import (
+    check_orders,
+    default_block_rows,
+    poles_over_orders,
+)
 from modal_twin.identification.modal_model import PoleSweep
 
 __all__ = ["correlations", "ssi_cov"]
@@ -41,9 +50,8 @@ def correlations(y: FloatArray, y_ref: FloatArray, n_lags: int) -> FloatArray:
     ndarray, shape (n_lags, l, r)
     """
     n = y.shape[1]
-    R = np.empty((n_lags, y.shape[0], y_ref.shape[0]))
-    for k in range(n_lags):
-        R[k] = (y[:, k:] @ y_ref[:, : n - k].T) / (n - k)
+    S = lag_sums(y_ref, y, n_lags, 0, n, n)  # sum_s y_ref,s y_{s+k}^T, exact (FFT)
+    R: FloatArray = S.transpose(0, 2, 1) / (n - np.arange(n_lags))[:, None, None]
     return R
 
 
@@ -64,6 +72,7 @@ def ssi_cov(
     block_rows: int | None = None,
     ref_channels: ArrayLike | None = None,
     n_blocks_std: int = 8,
+    f_min_hz: float | None = None,
 ) -> PoleSweep:
     """Output-only SSI-cov poles, damping, shapes and their spread for every order.
 
@@ -78,11 +87,16 @@ def ssi_cov(
         Model orders (state dimensions) of the stabilization diagram.
     block_rows : int, optional
         Block rows i of the Toeplitz matrix (2i - 1 lags used). Default
-        ``max(ceil((max_order + 1) / n_ref) + 1, 10)``.
+        ``max(ceil((max_order + 1) / n_ref) + 1, 10)``, raised to
+        ``ceil(fs_hz / (8 f_min_hz))`` when ``f_min_hz`` is given (capped at
+        ``i * n_out <= 1200`` for cost).
     ref_channels : array_like of int, optional
         Reference outputs (default all).
     n_blocks_std : int
         Blocks for the standard deviations (0 or 1 disables them).
+    f_min_hz : float, optional
+        Lowest natural frequency of interest; sets the default horizon (see
+        ``block_rows``). Ignored when ``block_rows`` is given.
 
     Returns
     -------
@@ -118,7 +132,11 @@ def ssi_cov(
     r = ref.size
     o_req = np.atleast_1d(np.asarray(orders))
     n_max_req = int(o_req.max()) if o_req.size and np.issubdtype(o_req.dtype, np.integer) else 1
-    i = max(-(-(n_max_req + 1) // r) + 1, 10) if block_rows is None else int(block_rows)
+    i = (
+        default_block_rows(fs, f_min_hz, n_max_req, r, l, floor=10)
+        if block_rows is None
+        else int(block_rows)
+    )
     if i < 2:
         msg = f"block_rows: expected an integer >= 2, got {block_rows!r}"
         raise OptionError(msg)
@@ -146,10 +164,22 @@ def ssi_cov(
     else:
         Tb = []
         T = _toeplitz(correlations(Ys, Ys[ref], n_lags), i)
-    U, s, Vt = np.linalg.svd(T, full_matrices=False)  # the one SVD for every order
+    # the one factorisation for every order: T T^T = U S^2 U^T (symmetric eigen-solve,
+    # about half the cost of the SVD of T; the leading singular vectors are the same)
     nm = int(o[-1])
+    TT = T @ T.T
+    nr = TT.shape[0]
+    n_sv = min(nr, max(2 * nm, 100)) if nr > 500 else nr
+    if n_sv < nr:  # leading part of the spectrum only (LAPACK syevr): same vectors, cheaper
+        s2, U = sla.eigh(TT, subset_by_index=[nr - n_sv, nr - 1], driver="evr",
+                         check_finite=False)
+    else:
+        s2, U = np.linalg.eigh(TT)
+    s2, U = s2[::-1], U[:, ::-1]
+    s = np.sqrt(np.clip(s2, 0.0, None))
     G = U[:, :nm]
-    s_inv = 1.0 / np.where(s[:nm] > 0, s[:nm], np.inf)
-    G_blocks = [(Tk @ Vt[:nm].T) * s_inv for Tk in Tb]  # O_b = T_b V S^-1
+    s2_inv = 1.0 / np.where(s2[:nm] > 0, s2[:nm], np.inf)
+    TtG = T.T @ G
+    G_blocks = [(Tk @ TtG) * s2_inv for Tk in Tb]  # O_b = T_b V S^-1 with V = T^T U S^-1
     poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=scale)
     return PoleSweep("ssi_cov", o, poles, s, len(G_blocks))

@@ -2,7 +2,8 @@
 
 Usage: ``python _bench_peers.py TASK RECORD.npz '{"json": "options"}'``; prints one JSON
 line ``{"seconds": ..., "f_hz": [...], "zeta": [...]}`` (or ``{"error": ...}``). Only the
-identification call is timed; imports, setup and the pole picking are not.
+identification call is timed; imports, setup and the pole picking are not. With
+``"repeat": n`` in the options the task runs n times and the fastest time is reported.
 
 Pole picking (generous to the peers, an oracle): for every true frequency the pole
 nearest to it is taken at each model order, those within 2 % of the truth are kept, and
@@ -106,7 +107,11 @@ def main() -> None:
     task, path, opt = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
     d = dict(np.load(path))
     try:
-        sec, fn, xi = TASKS[task](d, opt)
+        best = float("inf")
+        for _ in range(int(opt.get("repeat", 1))):  # best of n, as for ours
+            sec, fn, xi = TASKS[task](d, opt)
+            best = min(best, sec)
+        sec = best
         fo, zo = _pick(fn, xi, d["f_true"])
         print(json.dumps({"seconds": sec, "f_hz": fo, "zeta": zo}))
     except Exception as err:  # report, never hide: the benchmark prints it

@@ -146,3 +146,28 @@ def test_bad_input(chain_data: tuple) -> None:
     with pytest.warns(RuntimeWarning, match="n_blocks_std: 8 blocks"):
         sw = n4sid(u[:, :600], y[:, :600], fs, orders=[4], block_rows=6)
     assert 1 < sw.n_blocks_std < 8
+
+
+def test_f_min_sets_the_horizon(chain_data: tuple) -> None:
+    u, y, _, _, fs, f, *_ = chain_data
+    # ceil(fs / (8 f_min)) block rows: the same sweep as passing that value explicitly
+    i = int(np.ceil(fs / (8 * 0.5 * f[0])))
+    a = n4sid(u, y, fs, orders=[10], f_min_hz=0.5 * f[0], n_blocks_std=0)
+    b = n4sid(u, y, fs, orders=[10], block_rows=i, n_blocks_std=0)
+    np.testing.assert_allclose(a.poles[0].f_hz, b.poles[0].f_hz, rtol=1e-12)
+    np.testing.assert_allclose(a.poles[0].f_hz, f, rtol=3e-3)
+    with pytest.raises(OptionError, match="f_min_hz: expected a frequency in"):
+        n4sid(u, y, fs, orders=[10], f_min_hz=-1.0)
+
+
+def test_thin_block_product_matches_the_factor() -> None:
+    from modal_twin.identification.n4sid import _l32, _l32_times
+
+    rng = np.random.default_rng(7)
+    H = rng.standard_normal((60, 500))
+    Phi = H @ H.T
+    G = np.linalg.qr(rng.standard_normal((24, 5)))[0]
+    W = _l32(Phi, 12, 24)  # L32 L32^T = W^T W, the full-data route
+    ref = W.T @ (W @ G)
+    got = _l32_times(Phi, 12, 24, G)  # the std-block route, products with G only
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())

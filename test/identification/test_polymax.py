@@ -88,3 +88,41 @@ def test_bad_input() -> None:
         polymax(H, fl, orders=[200])
     with pytest.raises(SignalError, match="non-zero FRF"):
         polymax(np.zeros_like(H), fl, orders=[4])
+
+
+def test_numerator_shapes_then_lsfd_for_selected_modes() -> None:
+    from modal_twin.identification.lsfd import lsfd, lsfd_modes
+
+    M, C, K, f, z, Phi = _chain()
+    fl = np.linspace(0.5, 10.0, 800)
+    H = _analytic_frf(M, C, K, fl, [0, 4])
+    full = select_modes(stabilization_diagram(polymax(H, fl, orders=range(4, 21))))
+    fast = select_modes(
+        stabilization_diagram(polymax(H, fl, orders=range(4, 21), shapes="numerator"))
+    )
+    # same poles either way (shapes only enter the MAC criterion), exact shapes from B(z_r) v_r
+    np.testing.assert_allclose(fast.f_hz, f, rtol=1e-4)
+    np.testing.assert_allclose(fast.zeta, z, rtol=1e-2)
+    assert np.diag(mac(fast.shapes, Phi)).min() > 0.9999
+    ref = lsfd_modes(fast, H, fl)
+    assert np.diag(mac(ref.shapes, Phi)).min() > 0.9999
+    lam = 2 * np.pi * fast.f_hz * (-fast.zeta + 1j * np.sqrt(1 - fast.zeta**2))
+    np.testing.assert_allclose(ref.shapes, lsfd(H, fl, lam).shapes, rtol=1e-12)
+    assert np.diag(mac(full.shapes, ref.shapes)).min() > 0.9999
+    with pytest.raises(OptionError, match=r"shapes: expected one of \['lsfd', 'numerator'\]"):
+        polymax(H, fl, orders=[4], shapes="svd")  # type: ignore[arg-type]
+
+
+def test_poles_without_participation_are_the_same() -> None:
+    from modal_twin.identification.polymax import polymax_poles
+
+    M, C, K, *_ = _chain()
+    fl = np.linspace(0.5, 10.0, 400)
+    H = _analytic_frf(M, C, K, fl, [0, 4])
+    a = polymax_poles(H, fl, [6, 9], 1 / 20.0)
+    b = polymax_poles(H, fl, [6, 9], 1 / 20.0, participation=False)
+    for (pa, la, La), (pb, lb, Lb) in zip(a, b, strict=True):
+        assert pa == pb
+        assert La.shape == (2, la.size)
+        assert Lb.shape == (2, 0)
+        np.testing.assert_allclose(np.sort_complex(la), np.sort_complex(lb), rtol=1e-9)
