@@ -24,7 +24,7 @@ from modal_twin.models.versions import (
 from modal_twin.updating.problem import ModeTargets
 from modal_twin.updating.stages import StagedResult, building_stages, staged_update
 
-__all__ = ["ModelUpdate", "pairs_table", "update_model"]
+__all__ = ["ModelUpdate", "accepted_theta", "pairs_table", "update_model"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,14 +72,38 @@ def update_model(
                                global_stage=False)
     stages = [replace(sup, use_std=use_std), replace(iso, use_std=use_std)]
     out = staged_update(par, bld.S[rows], targets, stages, theta=theta0)
+    theta, rejected = accepted_theta(out)
     if latest_version(versions_dir) is None:
         write_version(versions_dir, replace(mv, note="start of updating"))
-    last = out.stages[-1]
-    new = replace(mv, theta={**mv.theta, **out.theta_dict()},
-                  note=(f"updated from {modes.f_hz.size} {modes.method} modes: max |df| "
-                        f"{last.max_abs_df_pct:.2f} %, min MAC {last.min_mac:.3f}"))
+    kept = [s for s, n in zip(out.stages, out.stage_names, strict=True) if n not in rejected]
+    if not kept:
+        msg = f"every stage was rejected ({', '.join(rejected)}); the model stays as it was"
+        raise OptionError(msg)
+    df = max(s.max_abs_df_pct for s in kept)
+    note = (f"updated from {modes.f_hz.size} {modes.method} modes: max |df| {df:.2f} % "
+            f"over the accepted stages")
+    if rejected:
+        note += f"; rejected (fewer matches or higher cost): {', '.join(rejected)}"
+    new = replace(mv, theta={**mv.theta, **theta}, note=note)
     used = tuple(channel_names[i] for i in cols)
     return ModelUpdate(out, write_version(versions_dir, new), used)
+
+
+def accepted_theta(out: StagedResult) -> tuple[dict[str, float], list[str]]:
+    """Parameter changes of the stages that improved the fit; a stage that matched fewer
+    modes or ended at a higher cost than it started is rejected (its parameters stay)."""
+    theta = dict(zip(out.names, out.theta_start, strict=True))
+    rejected = []
+    for name, st in zip(out.stage_names, out.stages, strict=True):
+        worse = (st.pairing_after.n_matched < st.pairing_before.n_matched
+                 or st.pairing_after.n_matched == 0 or st.cost_after > st.cost_before)
+        if worse:
+            rejected.append(name)
+            continue
+        theta.update(zip(st.names, (float(v) for v in st.theta), strict=True))
+    changed = {n for st, nm in zip(out.stages, out.stage_names, strict=True)
+               if nm not in rejected for n in st.names}
+    return {n: v for n, v in theta.items() if n in changed}, rejected
 
 
 def pairs_table(upd: ModelUpdate) -> list[tuple[int, int, float, float, float, float, float]]:
