@@ -87,7 +87,9 @@ def test_a_truth_parameters_from_identified_modes(bld, truth_run):
 
 def test_b_004_like_nominal_far_off(bld):
     par = bld.assembly.parametric
-    truth = {"E_Fc36": 3.278e10 * 0.70, "E_Fc27": 2.915e10 * 0.62, "E_Fc21": 2.585e10 * 0.72}
+    # lateral and torsional modes 20-30 % off (Table 7 of [004]: 18-29 %); the vertical
+    # mode only 12 %, as the bearings' vertical stiffness (not a modulus) governs it
+    truth = {"E_Fc36": 3.278e10 * 0.62, "E_Fc27": 2.915e10 * 0.58, "E_Fc21": 2.585e10 * 0.62}
     th = par.theta_vector(truth)
     s = solve_modes(par.K(th), par.M(th), 12)
     s0 = solve_modes(par.K(), par.M(), 12)
@@ -95,7 +97,7 @@ def test_b_004_like_nominal_far_off(bld):
     # nominal superstructure modes 16-24 % too high (Table 7 of [004]: 18-29 %), the
     # vertical mode (bearing-dominated) 10 %
     assert off.max() > 0.24
-    assert np.sort(off)[1] > 0.16
+    assert np.sort(off)[1] > 0.19  # all but the vertical mode >= 19.7 %
     rng = np.random.default_rng(3)
     f = s.f_hz * (1 + 0.003 * rng.standard_normal(12))  # identification scatter 0.3 %
     phi = bld.S @ s.Phi
