@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
+from modal_twin.diagnosis.modal_view import ModalView, modal_view
 from modal_twin.diagnosis.record import Record
 from modal_twin.diagnosis.screening import ScreenedCandidate, screen_components
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
@@ -40,6 +41,7 @@ class Diagnosis:
     screened: tuple[ScreenedCandidate, ...]
     fitted: tuple[FittedEffect, ...]  # best first (held-out error)
     skipped: tuple[str, ...]
+    modal: ModalView | None = None  # identified vs model modes, held-out record
 
     @property
     def best(self) -> FittedEffect | None:
@@ -48,8 +50,11 @@ class Diagnosis:
 
     def format(self) -> str:
         """Report text: where, candidates, decision."""
-        out = ["WHERE THE MODEL FAILS (held-out record)", self.where.format(), "",
-               "CANDIDATES (screening on force-state maps, training record)"]
+        out = ["WHERE THE MODEL FAILS (held-out record)", self.where.format(), ""]
+        if self.modal is not None:
+            out += ["MODAL VIEW (N4SID of the held-out record vs the model's modes)",
+                    self.modal.format(), ""]
+        out.append("CANDIDATES (screening on force-state maps, training record)")
         for c in self.screened[:8]:
             out.append(f"  {c.component:<6}{c.law:<20} explains {100 * c.score:6.2f} % "
                        f"(+{100 * c.gain:5.2f} % over linear)")
@@ -115,6 +120,11 @@ def diagnose(
                            tuple(specs[c] for c in test.channel_names), test.fs_hz,
                            inputs=test.inputs[:, test.skip:])
     nominal_nmse = float(np.nanmean(where.nmse_pct))
+    modal: ModalView | None = None
+    try:
+        modal = modal_view(nominal, test)
+    except (ModalTwinError, ValueError, np.linalg.LinAlgError) as err:
+        skipped.append(f"modal view: {err}")
     worst = where.worst("location", 1)[0]
     say("screening candidate effects on the force-state maps")
     drifts, forces = _device_data(train, list(factory.sites))
@@ -160,4 +170,4 @@ def diagnose(
         summary = (f"the model fails (nominal error {nominal_nmse:.2f} % NMSE) but no "
                    "candidate could be fitted")
     return Diagnosis(significant, summary, where, tuple(screened), tuple(fitted),
-                     tuple(skipped))
+                     tuple(skipped), modal)

@@ -4,8 +4,16 @@ One call of :func:`run_block` advances a run of samples with everything in one c
 loop: the first-order-hold propagation of the diagonal modal state, the implicit solve for
 the device forces and the state commit. All work arrays are allocated once per call; the
 loop itself allocates nothing. Complex modal quantities are carried as [real; imaginary]
-float vectors. Small matrix products are written as fixed loops (axpy form where the
-inner dimension is short) so that the compiler vectorises them without BLAS call overhead.
+float vectors. Small matrix products are written as fixed loops (dot form four rows at a
+time over the 2 ns modal coordinates, :func:`gemv_t` axpy form four rows per pass over
+the short dimensions) so that the compiler vectorises them without BLAS call overhead,
+in an order that depends only on the shapes (the state does not depend on how a record
+is split into blocks). The device laws are called directly (an if-chain on the kind code
+instead of a call through ``evaluate_law``: that extra call level cost ~45 ns per device
+and sample), and the Bouc-Wen devices advance their hysteretic variables together
+(:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`). The law functions are
+compiled on their own, without the loop's fast-math flags, so every law returns exactly
+what :meth:`Device.evaluate` returns (test/twin/test_simulator.py checks it bitwise).
 """
 
 from __future__ import annotations
@@ -13,7 +21,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from modal_twin.models.devices._dispatch import evaluate_law
+from modal_twin.models.devices.bilinear import law_bilinear_elastic, law_bilinear_hysteretic
+from modal_twin.models.devices.bouc_wen import bw_advance_many, bw_esb_force, bw_sdp_force
+from modal_twin.models.devices.coulomb import law_coulomb
+from modal_twin.models.devices.cubic import law_cubic
+from modal_twin.models.devices.gap import law_gap
+from modal_twin.models.devices.linear import law_linear
+from modal_twin.models.devices.prandtl import law_prandtl
 
 __all__ = [
     "FLAG_JINV",
@@ -21,6 +35,7 @@ __all__ = [
     "STATUS_DIVERGED",
     "STATUS_NONFINITE",
     "STATUS_OK",
+    "gemv_t",
     "invert_inplace",
     "run_block",
 ]
@@ -73,32 +88,71 @@ def invert_inplace(J, Jinv):  # pragma: no cover - jitted
                         Jinv[i, j] -= m * Jinv[k, j]
 
 
+@njit(cache=True, fastmath={"reassoc", "contract"}, inline="always")
+def gemv_t(y, AT, x):  # pragma: no cover - jitted
+    """y += AT^T x in axpy form, four rows of AT per pass over y (AT is (m, n), y (n,)).
+
+    The order of the operations depends only on the shapes, so the result of a sample
+    never depends on how a record was split into blocks.
+    """
+    m = x.shape[0]
+    n = y.shape[0]
+    m4 = m - m % 4
+    for j in range(0, m4, 4):
+        x0 = x[j]
+        x1 = x[j + 1]
+        x2 = x[j + 2]
+        x3 = x[j + 3]
+        for i in range(n):
+            y[i] += AT[j, i] * x0 + AT[j + 1, i] * x1 + AT[j + 2, i] * x2 + AT[j + 3, i] * x3
+    for j in range(m4, m):
+        xj = x[j]
+        for i in range(n):
+            y[i] += AT[j, i] * xj
+
+
 @njit(cache=True, fastmath={"reassoc", "contract"})
 def run_block(
-    ag, k_begin, k_end, lr, li, e0r, e0i, e1r, e1i, GaT, GfT, P, HT,
-    kinds, params, Kr, Cr, kjump, cjump, X, w_prev, ft, ft_old, Jinv, flags, states,
+    ag, k_begin, k_end, coef, GaT, GfT, Q, Ua0T, Ua1T, HfT, HT,
+    kinds, bw_idx, params, consts, Kr, Cr, kjump, cjump, Xh, base, ft, ft_old, Jinv, flags,
+    states,
     Z, out_u, out_f, out_it, rtol, max_iter,
 ):  # pragma: no cover - jitted
-    """Advance the modal state over samples ``k_begin <= k < k_end`` of ``ag``.
+    """Advance the modal state over samples ``k_begin <= k < k_end`` of a block.
 
     Parameters (all float64 C-contiguous unless said otherwise; ns complex modes, nf = 2
     n_dev device rows, n_in inputs):
 
-    - ``ag`` (n_in, nb) input; ``lr, li, e0r, e0i, e1r, e1i`` (ns,) exp(lambda dt) and the
+    - ``ag`` (n_in, nb) input; ``coef`` (6, ns) rows Re / Im of exp(lambda dt) and of the
       first-order-hold weights E0, E1; ``GaT`` (n_in, 2 ns) and ``GfT`` (nf, 2 ns) the
-      transposed input projections [Re; Im] V^-1 B_w; ``P`` (2 nf, 2 ns) modal state ->
-      [u; v]; ``HT`` (nf, 2 nf) the transposed map ft -> [u; v] of the implicit step.
-    - ``kinds`` (n_dev,) int64, ``params``, ``states`` (n_dev, N_PARAM / N_STATE), ``Kr``,
+      transposed input projections [Re; Im] V^-1 B_w; ``Q`` (2 nf, 2 ns) = P exp(Lambda
+      dt) with P the map modal state -> [u; v]; ``Ua0T``, ``Ua1T`` (n_in, 2 nf) and ``HfT``
+      (nf, 2 nf) the transposed maps P E0 Ga, P E1 Ga, P (exp(Lambda dt) E1 + E0) Gf;
+      ``HT`` (nf, 2 nf) the transposed map P E1 Gf: ft -> [u; v] of the implicit step.
+    - ``kinds`` (n_dev,) int64, ``bw_idx`` (m,) int64 the Bouc-Wen devices (kinds 3, 4:
+      their hysteretic variables are advanced together, see
+      :func:`modal_twin.models.devices.bouc_wen.bw_advance_many`), ``params``,
+      ``states`` (n_dev, N_PARAM / N_STATE), ``consts`` (n_dev,) per-device constant of a
+      law (ESB: its pressure factor), ``Kr``,
       ``Cr`` (n_dev, 2, 2) reference stiffness and damping moved into the linear part;
       ``kjump``, ``cjump`` (n_dev,) stiffness and damping a law may switch to that neither
       its tangent nor Kr shows (contact, sticking), for the error bound below.
-    - State, updated in place: ``X``, ``w_prev`` (2 ns) modal state and carried projected
-      input; ``ft``, ``ft_old`` (nf) residual device force ``f - Kr u - Cr v`` of the last
-      two samples; ``Jinv`` (nf, nf) inverse device Jacobian kept between samples;
+    - State, updated in place: ``Xh`` (2 ns) the part ``exp(Lambda dt) xi_k + E0 w_k`` of
+      the next predicted modal state known after sample k (w_k: projected input and
+      force); ``base`` (2 nf) the part ``Q xi_p + Ua0 a`` of the next drift prediction;
+      ``ft``, ``ft_old`` (nf) residual device force ``f - Kr u - Cr v`` of the last two
+      samples; ``Jinv`` (nf, nf) inverse device Jacobian kept between samples;
       ``flags`` int64 (see FLAG_*).
     - Outputs: ``Z`` (k_end - k_begin, 2 ns + n_in + nf) rows [X; a_g; f] for the output
       products; ``out_u``, ``out_f`` (nf, nb) drift and force; ``out_it`` (nb,) int64
       device evaluations per sample.
+
+    Drift prediction: the drift [u; v] = P xi_p,k+1 of the next sample with its device force
+    set to zero is ``Q xi_p,k + Ua0 a_k + Ua1 a_k+1 + Hf ft_k`` (expand xi_p,k+1 = Lambda
+    xi_k + E0 w_k + E1 g_k+1 with xi_k = xi_p,k + E1 Gf ft_k and w_k = g_k + Gf ft_k). The
+    big product ``Q xi_p,k`` does not depend on the device forces of sample k, so it is
+    computed before them, off the path from one Newton solve to the next, on which only
+    the (2 nf, nf) product ``Hf ft_k`` remains.
 
     Device forces: Newton on R(ft) = ft - [f(u, v) - Kr u - Cr v] with u, v = uvp + H ft,
     from the linear extrapolation ``2 ft_k - ft_{k-1}``, with the inverse Jacobian
@@ -118,15 +172,16 @@ def run_block(
 
     Returns (status, k) with k the failing sample (k_end when all went well).
     """
-    ns = lr.shape[0]
+    ns = coef.shape[1]
     n2 = 2 * ns
-    n_in = ag.shape[0]
     nf = ft.shape[0]
     nf2 = 2 * nf
     nd = kinds.shape[0]
     S = states.shape[1]
+    n_in = ag.shape[0]
     col_f = n2 + n_in
     g = np.empty(n2)
+    ak = np.empty(n_in)
     fg = np.empty(n2)
     Xp = np.empty(n2)
     uvp = np.empty(nf2)
@@ -144,21 +199,35 @@ def run_block(
     Kt = np.empty((2, 2))
     Ct = np.empty((2, 2))
     s_trial = np.empty((nd, S))
+    n_bw = bw_idx.shape[0]
+    bw_tan = np.zeros((nd, 4))
+    bw_work = np.empty((11, n_bw))
+    bw_nsub = np.empty(n_bw, dtype=np.int64)
+    lr = coef[0]
+    li = coef[1]
+    e0r = coef[2]
+    e0i = coef[3]
+    e1r = coef[4]
+    e1i = coef[5]
     for k in range(k_begin, k_end):
         row = k - k_begin
-        # input projection of this sample, g = Ga a_k (axpy over the n_in inputs)
-        for r in range(n2):
-            g[r] = 0.0
+        # input projection of this sample, g = Ga a_k
         for c in range(n_in):
             a = ag[c, k]
+            ak[c] = a
             Z[row, n2 + c] = a
-            for r in range(n2):
-                g[r] += GaT[c, r] * a
+        for r in range(n2):
+            g[r] = 0.0
+        gemv_t(g, GaT, ak)
         if flags[FLAG_STARTED] == 0:  # rest state at the first sample of a run
+            for r in range(ns):  # xi = 0, w = g: Xh = E0 g
+                Xh[r] = e0r[r] * g[r] - e0i[r] * g[ns + r]
+                Xh[ns + r] = e0r[r] * g[ns + r] + e0i[r] * g[r]
             for r in range(n2):
-                w_prev[r] = g[r]
-                X[r] = 0.0
                 Z[row, r] = 0.0
+            for i in range(nf2):  # xi_p = xi = 0: base = Ua0 a_k
+                base[i] = 0.0
+            gemv_t(base, Ua0T, ak)
             for i in range(nf):
                 ft[i] = 0.0
                 ft_old[i] = 0.0
@@ -168,26 +237,42 @@ def run_block(
             out_it[k] = 0
             flags[FLAG_STARTED] = 1
             continue
-        # linear part with the new residual force set to zero (complex products, split)
+        # linear part with the new residual force set to zero (complex products, split):
+        # xi_p,k = exp(Lambda dt) xi_k-1 + E0 w_k-1 (carried in Xh) + E1 g_k
         for r in range(ns):
-            xr = X[r]
-            xi = X[ns + r]
-            wr = w_prev[r]
-            wi = w_prev[ns + r]
-            Xp[r] = (lr[r] * xr - li[r] * xi + e0r[r] * wr - e0i[r] * wi
-                     + e1r[r] * g[r] - e1i[r] * g[ns + r])
-            Xp[ns + r] = (lr[r] * xi + li[r] * xr + e0r[r] * wi + e0i[r] * wr
-                          + e1r[r] * g[ns + r] + e1i[r] * g[r])
-        bad = False
+            gr = g[r]
+            gi = g[ns + r]
+            Xp[r] = Xh[r] + e1r[r] * gr - e1i[r] * gi
+            Xp[ns + r] = Xh[ns + r] + e1r[r] * gi + e1i[r] * gr
+        # drift of this sample with its device force set to zero (see docstring):
+        # uvp = Q xi_p,k-1 + Ua0 a_k-1 (carried in base) + Ua1 a_k + Hf ft_k-1
         for i in range(nf2):
-            acc = 0.0
-            for r in range(n2):
-                acc += P[i, r] * Xp[r]
-            uvp[i] = acc
-            if not np.isfinite(acc):
-                bad = True
-        if bad:
+            uvp[i] = base[i]
+        gemv_t(uvp, Ua1T, ak)
+        gemv_t(uvp, HfT, ft)
+        bad = 0.0
+        for i in range(nf2):
+            bad += uvp[i]
+        if not np.isfinite(bad):  # a non-finite entry makes the sum non-finite
             return STATUS_NONFINITE, k
+        # base of the next sample, Q xi_p,k + Ua0 a_k: independent of this sample's device
+        # forces (overlaps with the laws below); dot form four rows at a time (nf2 = 4 n_dev)
+        for i in range(0, nf2, 4):
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            a3 = 0.0
+            for r in range(n2):
+                x = Xp[r]
+                a0 += Q[i, r] * x
+                a1 += Q[i + 1, r] * x
+                a2 += Q[i + 2, r] * x
+                a3 += Q[i + 3, r] * x
+            base[i] = a0
+            base[i + 1] = a1
+            base[i + 2] = a2
+            base[i + 3] = a3
+        gemv_t(base, Ua0T, ak)
         # force predictor (linear extrapolation) and its drifts u, v = uvp + H ft
         for i in range(nf):
             f0 = ft[i]
@@ -195,23 +280,46 @@ def run_block(
             ft_old[i] = f0
         for i in range(nf2):
             uv[i] = uvp[i]
-        for j in range(nf):
-            fj = ft[j]
-            for i in range(nf2):
-                uv[i] += HT[j, i] * fj
+        gemv_t(uv, HT, ft)
         converged = False
         corrected = False
         fresh = False
         it = 0
         while True:
             scale = 0.0
+            if n_bw > 0:
+                bw_advance_many(bw_idx, params, states, uv, s_trial, bw_tan, bw_work, bw_nsub)
             for d in range(nd):
                 i0 = 2 * d
                 ud[0] = uv[i0]
                 ud[1] = uv[i0 + 1]
                 vd[0] = uv[nf + i0]
                 vd[1] = uv[nf + i0 + 1]
-                evaluate_law(kinds[d], params[d], states[d], ud, vd, fd, Kt, Ct, s_trial[d])
+                kind = kinds[d]
+                pd = params[d]
+                sd = states[d]
+                sn = s_trial[d]
+                # direct calls (see module docstring); kinds as in devices.base.KIND_*
+                if kind == 3:
+                    bw_esb_force(pd, vd, fd, Kt, Ct, sn, bw_tan[d, 0], bw_tan[d, 1],
+                                 bw_tan[d, 2], bw_tan[d, 3], consts[d])
+                elif kind == 4:
+                    bw_sdp_force(pd, ud, vd, fd, Kt, Ct, sn, bw_tan[d, 0], bw_tan[d, 1],
+                                 bw_tan[d, 2], bw_tan[d, 3])
+                elif kind == 1:
+                    law_bilinear_elastic(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                elif kind == 0:
+                    law_linear(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                elif kind == 2:
+                    law_bilinear_hysteretic(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                elif kind == 5:
+                    law_prandtl(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                elif kind == 6:
+                    law_cubic(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                elif kind == 7:
+                    law_coulomb(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                else:  # kind 8 (the Simulator accepts only known kinds)
+                    law_gap(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 for a in range(2):
                     lin = (Kr[d, a, 0] * ud[0] + Kr[d, a, 1] * ud[1]
                            + Cr[d, a, 0] * vd[0] + Cr[d, a, 1] * vd[1])
@@ -260,10 +368,7 @@ def run_block(
                     dft[i] = -acc
                 for i in range(nf2):
                     duv[i] = 0.0
-                for j in range(nf):
-                    dj = dft[j]
-                    for i in range(nf2):
-                        duv[i] += HT[j, i] * dj
+                gemv_t(duv, HT, dft)
                 # bound of the residual after the correction (see docstring)
                 emax = 0.0
                 lmax = 0.0
@@ -306,21 +411,21 @@ def run_block(
         for d in range(nd):
             for c in range(S):
                 states[d, c] = s_trial[d, c]
-        for r in range(n2):
+        for r in range(n2):  # fg = Gf ft
             fg[r] = 0.0
-        for j in range(nf):
-            fj = ft[j]
-            for r in range(n2):
-                fg[r] += GfT[j, r] * fj
+        gemv_t(fg, GfT, ft)
+        # xi_k = xi_p,k + E1 Gf ft_k, w_k = g_k + Gf ft_k and the next Xh in one pass
         for r in range(ns):
-            xr = Xp[r] + e1r[r] * fg[r] - e1i[r] * fg[ns + r]
-            xi = Xp[ns + r] + e1r[r] * fg[ns + r] + e1i[r] * fg[r]
-            X[r] = xr
-            X[ns + r] = xi
+            fr = fg[r]
+            fi = fg[ns + r]
+            xr = Xp[r] + e1r[r] * fr - e1i[r] * fi
+            xi = Xp[ns + r] + e1r[r] * fi + e1i[r] * fr
+            wr = g[r] + fr
+            wi = g[ns + r] + fi
             Z[row, r] = xr
             Z[row, ns + r] = xi
-        for r in range(n2):
-            w_prev[r] = g[r] + fg[r]
+            Xh[r] = lr[r] * xr - li[r] * xi + e0r[r] * wr - e0i[r] * wi
+            Xh[ns + r] = lr[r] * xi + li[r] * xr + e0r[r] * wi + e0i[r] * wr
         for i in range(nf):
             out_u[i, k] = uv[i]
             out_f[i, k] = fful[i]

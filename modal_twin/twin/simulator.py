@@ -37,6 +37,17 @@ Integration scheme ("modal-foh")
    y = C_out [q; q'; q''] + D_out a_g (q'' from Eq. (12) of [004]) is one BLAS product
    per chunk, y = W z.
 
+Cost of a step (benchmark building: 36 modes, 6 bidirectional devices, 42 outputs; CPU
+time on a shared 2-core AMD EPYC, ~1.1-1.2 us in the kernel plus ~0.2 us for the output
+product): the four Bouc-Wen laws ~0.17 us (their RK4 chains advanced together, see
+:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`), the other laws, force
+finishing and the Newton correction ~0.3 us, the drift prediction ``Q xi_p`` (24 x 72)
+~0.15-0.25 us, the device-force projection Gf ft (72 x 12) ~0.1 us, the input projection
+~0.1 us. The drift of the next sample is predicted as ``Q xi_p,k + Ua0 a_k + Ua1 a_k+1 +
+Hf ft_k`` (the same number as P xi_p,k+1 to rounding; see
+:func:`modal_twin.twin.kernels.run_block`), so that only a (24 x 12) product lies between
+two Newton solves.
+
 Tolerance: ``rtol`` = 1e-6 of the largest device force. On the benchmark building
 (test/benchmarks/bench_twin.py, 20 s) the drifts then differ from a solve with rtol = 1e-12
 by 4.5e-9 (relative RMS) while the time discretisation itself (dt against dt / 4) accounts
@@ -63,6 +74,8 @@ import scipy.linalg
 from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError, SignalError
 from modal_twin.models.devices.base import (
+    KIND_BW_ESB,
+    KIND_BW_SDP,
     KIND_COULOMB,
     KIND_GAP,
     KIND_PRANDTL,
@@ -70,6 +83,7 @@ from modal_twin.models.devices.base import (
     N_STATE,
     Device,
 )
+from modal_twin.models.devices.bouc_wen import esb_pressure_factor
 from modal_twin.twin.kernels import (
     STATUS_DIVERGED,
     STATUS_NONFINITE,
@@ -85,6 +99,7 @@ _CHUNK = 1024  # samples per kernel call: the output buffer Z stays in the L2 ca
 # stiffness / damping a law can switch to that neither its tangent nor K_ref shows
 # (parameter index, -1 for none): Coulomb sticking (kt), gap contact (k, c), Prandtl Kb
 _JUMPS = {KIND_COULOMB: (2, -1), KIND_GAP: (0, 2), KIND_PRANDTL: (5, -1)}
+_N_KINDS = 9  # law kinds 0..8 the kernel dispatches (modal_twin.models.devices.base.KIND_*)
 
 
 @dataclass(frozen=True, slots=True)
@@ -295,14 +310,23 @@ class Simulator:
         self.Cr = np.zeros((nd, 2, 2))
         self._kjump = np.zeros(nd)
         self._cjump = np.zeros(nd)
+        self._consts = np.zeros(nd)  # per-device law constant (ESB pressure factor)
         rows: list[str] = []
         self._row_index: list[int] = []
         for d, att in enumerate(system.devices):
             dev = att.device
             nd_ = dev.n_dir
+            if not 0 <= dev.kind < _N_KINDS:
+                msg = (
+                    f"devices[{d}] ({dev.name}): expected a law kind in 0..{_N_KINDS - 1}, "
+                    f"got {dev.kind}"
+                )
+                raise ModelError(msg)
             Bs[2 * d : 2 * d + nd_] = att.B
             self.kinds[d] = dev.kind
             self.params[d] = dev.params
+            if dev.kind == KIND_BW_ESB:
+                self._consts[d] = esb_pressure_factor(self.params[d])
             self.Kr[d, :nd_, :nd_] = dev.reference_stiffness()[:nd_, :nd_]
             self.Cr[d, :nd_, :nd_] = dev.reference_damping()[:nd_, :nd_]
             ik, ic = _JUMPS.get(dev.kind, (-1, -1))
@@ -312,6 +336,9 @@ class Simulator:
                 rows.append(f"{dev.name}.{'xy'[a]}")
                 self._row_index.append(2 * d + a)
         self.rows = tuple(rows)
+        self._bw_idx = np.flatnonzero(np.isin(self.kinds, (KIND_BW_ESB, KIND_BW_SDP))).astype(
+            np.int64
+        )
         self._Bs = Bs
         Kl = system.K + sum(
             (Bs[2 * d : 2 * d + 2].T @ self.Kr[d] @ Bs[2 * d : 2 * d + 2] for d in range(nd)),
@@ -347,8 +374,8 @@ class Simulator:
         lam_d, e0, e1 = _discretise(lam[keep], self.dt)
         self._ns = lam_d.size
         c = np.ascontiguousarray
-        self._lr, self._li = c(lam_d.real), c(lam_d.imag)
-        self._e0r, self._e0i, self._e1r, self._e1i = c(e0.real), c(e0.imag), c(e1.real), c(e1.imag)
+        # rows Re / Im of exp(lambda dt), E0, E1 (one array: few pointers for the compiler)
+        self._coef = c(np.vstack([lam_d.real, lam_d.imag, e0.real, e0.imag, e1.real, e1.imag]))
         Ga, Gf = G[:, :n_in], G[:, n_in:]
         self._GaT = c(np.vstack([Ga.real, Ga.imag]).T)  # (n_in, 2 ns)
         self._GfT = c(np.vstack([Gf.real, Gf.imag]).T)  # (nf, 2 ns)
@@ -361,6 +388,14 @@ class Simulator:
         self._P = c(np.vstack([split(Pu), split(Pv)]))
         e1G = e1[:, None] * Gf
         self._HT = c(np.vstack([(Pu @ e1G).real, (Pv @ e1G).real]).T)  # (nf, 2 nf)
+        # the drift prediction of the next sample split into a part known before this
+        # sample's device forces and a short product of them (see the kernel):
+        # P xi_p,k+1 = Q xi_p,k + Ua0 a_k + Ua1 a_k+1 + Hf ft_k
+        Pc = np.vstack([Pu, Pv])
+        self._Q = c(split(Pc * lam_d[None, :]))  # (2 nf, 2 ns)
+        self._Ua0T = c((Pc @ (e0[:, None] * Ga)).real.T)  # (n_in, 2 nf)
+        self._Ua1T = c((Pc @ (e1[:, None] * Ga)).real.T)  # (n_in, 2 nf)
+        self._HfT = c((Pc @ ((lam_d * e1 + e0)[:, None] * Gf)).real.T)  # (nf, 2 nf)
         # outputs from the kernel rows z = [xi; a_g; f]: q, q' from the modal state, q''
         # from Eq. (12) of [004]; y = C_out [q; q'; q''] + D_out a_g
         Lq, Lv = split(Vw[:n]), split(Vw[n:])
@@ -379,8 +414,8 @@ class Simulator:
         """Return to rest (virgin device states, zero motion, time 0)."""
         ns = self._ns
         nd = len(self.system.devices)
-        self._X = np.zeros(2 * ns)
-        self._w_prev = np.zeros(2 * ns)
+        self._Xh = np.zeros(2 * ns)  # exp(Lambda dt) xi_k + E0 w_k of the last sample
+        self._base = np.zeros(4 * nd)  # Q xi_p,k + Ua0 a_k of the last sample
         self._ft = np.zeros(2 * nd)
         self._ft_old = np.zeros(2 * nd)
         self._Jinv = np.zeros((2 * nd, 2 * nd))
@@ -441,12 +476,13 @@ class Simulator:
         Y = np.empty((W.shape[0], nb))  # rows: y, then q, q', q'' if requested
         for k0 in range(0, nb, _CHUNK):
             k1 = min(nb, k0 + _CHUNK)
+            m = k1 - k0
             status, idx = run_block(
-                ag, k0, k1, self._lr, self._li, self._e0r, self._e0i, self._e1r, self._e1i,
-                self._GaT, self._GfT, self._P, self._HT, self.kinds, self.params, self.Kr,
-                self.Cr, self._kjump, self._cjump, self._X, self._w_prev, self._ft,
-                self._ft_old, self._Jinv, self._flags, self._states, Z, out_u, out_f, out_it,
-                self.rtol, self.max_iter,
+                ag, k0, k1, self._coef, self._GaT, self._GfT, self._Q, self._Ua0T,
+                self._Ua1T, self._HfT, self._HT, self.kinds, self._bw_idx, self.params,
+                self._consts, self.Kr, self.Cr, self._kjump, self._cjump, self._Xh,
+                self._base, self._ft, self._ft_old, self._Jinv, self._flags, self._states,
+                Z, out_u, out_f, out_it, self.rtol, self.max_iter,
             )  # fmt: skip
             if status == STATUS_NONFINITE:
                 msg = (
@@ -460,7 +496,6 @@ class Simulator:
                     f"sample {self._k0 + idx} (rtol = {self.rtol:g})"
                 )
                 raise ConvergenceError(msg)
-            m = k1 - k0
             np.matmul(W, Z[:m].T, out=Y[:, k0:k1])  # one BLAS product per chunk
         y = Y[:n_out]
         q = qd = qdd = None

@@ -276,3 +276,84 @@ def test_invert_inplace_matches_numpy() -> None:
     Ainv = np.empty_like(A)
     invert_inplace(A.copy(), Ainv)
     np.testing.assert_allclose(Ainv @ A, np.eye(7), atol=1e-12 * np.linalg.cond(A))
+
+
+def test_batched_bouc_wen_is_bitwise_the_law() -> None:
+    # the kernel advances the Bouc-Wen devices together (bw_advance_many) and finishes
+    # each with bw_esb_force / bw_sdp_force and the cached ESB pressure factor: the same
+    # numbers, to the last bit, as the public laws (Device.evaluate), sub-steps included
+    from modal_twin.models.devices import BoucWenESB, BoucWenSDP
+    from modal_twin.models.devices.base import N_STATE
+    from modal_twin.models.devices.bouc_wen import (
+        bw_advance_many,
+        bw_esb_force,
+        bw_sdp_force,
+        esb_pressure_factor,
+    )
+
+    devs = [table10_esb("ESB1", W=1.1e6), table10_sdp(),
+            BoucWenESB(30.0, 5.0, 40.0, [1e3, 2e3], W=2e6, mu0=0.05, mu1=-0.3, mu2=0.2, S=0.2),
+            BoucWenSDP(1.0, 300.0, 900.0, np.array([[2e6, 3e5], [3e5, 1e6]]), 0.2, [1e3, 1e3])]
+    nd = len(devs)
+    params = np.array([d.params for d in devs])
+    idx = np.arange(nd, dtype=np.int64)
+    rng = np.random.default_rng(11)
+    states = np.zeros((nd, N_STATE))
+    n_multi = 0
+    for k in range(400):
+        step = 1e-4 if k % 50 else 3e-2  # every 50th increment needs several RK4 sub-steps
+        uv = np.zeros(4 * nd)
+        uv[: 2 * nd] = states[:, :2].ravel() + step * rng.standard_normal(2 * nd)
+        uv[2 * nd :] = 0.2 * rng.standard_normal(2 * nd) * (k % 7 != 0)  # some V = 0
+        s_new = np.zeros_like(states)
+        tan = np.zeros((nd, 4))
+        nsub = np.zeros(nd, dtype=np.int64)
+        bw_advance_many(idx, params, states, uv, s_new, tan, np.empty((11, nd)), nsub)
+        n_multi += int(nsub.max() > 1)
+        for d, dev in enumerate(devs):
+            u = uv[2 * d : 2 * d + 2]
+            v = uv[2 * nd + 2 * d : 2 * nd + 2 * d + 2]
+            f_ref, Kt_ref, Ct_ref, s_ref = dev.evaluate(u, v, states[d])
+            f, Kt, Ct = np.zeros(2), np.zeros((2, 2)), np.zeros((2, 2))
+            if isinstance(dev, BoucWenESB):
+                bw_esb_force(params[d], v.copy(), f, Kt, Ct, s_new[d], *tan[d],
+                             esb_pressure_factor(params[d]))
+            else:
+                bw_sdp_force(params[d], u.copy(), v.copy(), f, Kt, Ct, s_new[d], *tan[d])
+            for ref, got in ((f_ref, f), (Kt_ref, Kt), (Ct_ref, Ct), (s_ref, s_new[d])):
+                np.testing.assert_array_equal(got, ref)
+        states = s_new
+    assert n_multi >= 7  # the sub-stepped branch was exercised
+
+
+def test_split_drift_prediction_equals_projection() -> None:
+    # the kernel predicts the drift of the next sample as Q xi_p,k + Ua0 a_k + Ua1 a_k+1
+    # + Hf ft_k; it must equal P xi_p,k+1 with xi_p,k+1 = Lambda xi_k + E0 w_k + E1 g_k+1
+    s, *_ = _isolated_building()
+    sim = Simulator(s, 1e-3)
+    rng = np.random.default_rng(4)
+    ns, nf = sim._ns, sim._ft.size
+    lam = sim._coef[0] + 1j * sim._coef[1]
+    e0 = sim._coef[2] + 1j * sim._coef[3]
+    e1 = sim._coef[4] + 1j * sim._coef[5]
+    Ga = sim._GaT.T[:ns] + 1j * sim._GaT.T[ns:]
+    Gf = sim._GfT.T[:ns] + 1j * sim._GfT.T[ns:]
+    xi_p = rng.standard_normal(ns) + 1j * rng.standard_normal(ns)
+    a0, a1 = rng.standard_normal((2, s.n_in))
+    ft = rng.standard_normal(nf) * 1e5
+    xi = xi_p + e1 * (Gf @ ft)
+    w = Ga @ a0 + Gf @ ft
+    xi_next = lam * xi + e0 * w + e1 * (Ga @ a1)
+    ref = sim._P @ np.concatenate([xi_next.real, xi_next.imag])
+    got = (sim._Q @ np.concatenate([xi_p.real, xi_p.imag]) + sim._Ua0T.T @ a0
+           + sim._Ua1T.T @ a1 + sim._HfT.T @ ft)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+def test_unknown_device_kind_refused() -> None:
+    dev = LinearDevice([1.0], [0.0])
+    dev.kind = 42
+    s = ReducedSystem(np.eye(1), np.zeros((1, 1)), np.eye(1), np.eye(1),
+                      (DeviceAttachment(dev, np.eye(1)),), np.zeros((1, 3)), np.zeros((1, 1)))
+    with pytest.raises(ModelError, match=r"devices\[0\] \(linear\): expected a law kind .* 42"):
+        Simulator(s, 1e-3)

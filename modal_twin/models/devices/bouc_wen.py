@@ -33,7 +33,11 @@ from modal_twin.models.devices.base import KIND_BW_ESB, KIND_BW_SDP, Device
 __all__ = [
     "BoucWenESB",
     "BoucWenSDP",
+    "bw_advance_many",
+    "bw_esb_force",
     "bw_rate",
+    "bw_sdp_force",
+    "esb_pressure_factor",
     "law_bw_esb",
     "law_bw_sdp",
     "table10_esb",
@@ -62,36 +66,30 @@ def bw_rate(A, beta, gamma, zx, zy, dx, dy):  # pragma: no cover - jitted
 
 
 @njit(cache=True)
-def _bw_advance(p, s, u, s_new):  # pragma: no cover - jitted
-    """Integrate Z along u_prev -> u (RK4), store Z in s_new[2:4]; return dZ/du entries."""
-    A = p[0]
-    beta = p[1]
-    gamma = p[2]
-    dx = u[0] - s[0]
-    dy = u[1] - s[1]
-    zx = s[2]
-    zy = s[3]
+def _bw_nsub(A, beta, gamma, dx, dy):  # pragma: no cover - jitted
+    """Return the RK4 sub-steps of an increment (each changes Z by <= ~5 % of its bound)."""
     bg = beta + gamma
     zult = math.sqrt(A / bg) if bg > 0.0 else 1.0
     dmax = max(abs(dx), abs(dy))
     nsub = 1 + int(A * dmax / (0.05 * zult))
-    nsub = min(nsub, 10000)
-    hx = dx / nsub
-    hy = dy / nsub
-    for _ in range(nsub):
-        k1x, k1y = bw_rate(A, beta, gamma, zx, zy, hx, hy)
-        k2x, k2y = bw_rate(A, beta, gamma, zx + 0.5 * k1x, zy + 0.5 * k1y, hx, hy)
-        k3x, k3y = bw_rate(A, beta, gamma, zx + 0.5 * k2x, zy + 0.5 * k2y, hx, hy)
-        k4x, k4y = bw_rate(A, beta, gamma, zx + k3x, zy + k3y, hx, hy)
-        zx += (k1x + 2.0 * k2x + 2.0 * k3x + k4x) / 6.0
-        zy += (k1y + 2.0 * k2y + 2.0 * k3y + k4y) / 6.0
-    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
-        s_new[ic] = s[ic]
-    s_new[0] = u[0]
-    s_new[1] = u[1]
-    s_new[2] = zx
-    s_new[3] = zy
-    # instantaneous tangent d(Z')/d(u') at the end state, Eqs. (10a)-(10b) differentiated
+    return min(nsub, 10000)
+
+
+@njit(cache=True)
+def _bw_rk4(A, beta, gamma, zx, zy, hx, hy):  # pragma: no cover - jitted
+    """One classical RK4 step of Eqs. (10a)-(10b) of [004] along the increment (hx, hy)."""
+    k1x, k1y = bw_rate(A, beta, gamma, zx, zy, hx, hy)
+    k2x, k2y = bw_rate(A, beta, gamma, zx + 0.5 * k1x, zy + 0.5 * k1y, hx, hy)
+    k3x, k3y = bw_rate(A, beta, gamma, zx + 0.5 * k2x, zy + 0.5 * k2y, hx, hy)
+    k4x, k4y = bw_rate(A, beta, gamma, zx + k3x, zy + k3y, hx, hy)
+    zx += (k1x + 2.0 * k2x + 2.0 * k3x + k4x) / 6.0
+    zy += (k1y + 2.0 * k2y + 2.0 * k3y + k4y) / 6.0
+    return zx, zy
+
+
+@njit(cache=True)
+def _bw_tangent(A, beta, gamma, dx, dy, zx, zy):  # pragma: no cover - jitted
+    """Instantaneous tangent d(Z')/d(u') at the end state, Eqs. (10a)-(10b) differentiated."""
     sx = 1.0 if dx > 0.0 else (-1.0 if dx < 0.0 else 0.0)
     sy = 1.0 if dy > 0.0 else (-1.0 if dy < 0.0 else 0.0)
     d00 = A - beta * sx * abs(zx) * zx - gamma * zx * zx
@@ -102,17 +100,160 @@ def _bw_advance(p, s, u, s_new):  # pragma: no cover - jitted
 
 
 @njit(cache=True)
+def _bw_advance(p, s, u, s_new):  # pragma: no cover - jitted
+    """Integrate Z along u_prev -> u (RK4), store Z in s_new[2:4]; return dZ/du entries."""
+    A = p[0]
+    beta = p[1]
+    gamma = p[2]
+    dx = u[0] - s[0]
+    dy = u[1] - s[1]
+    zx = s[2]
+    zy = s[3]
+    nsub = _bw_nsub(A, beta, gamma, dx, dy)
+    if nsub == 1:  # x / 1 == x exactly (IEEE 754): skips two divisions on the common path
+        hx = dx
+        hy = dy
+    else:
+        hx = dx / nsub
+        hy = dy / nsub
+    for _ in range(nsub):
+        zx, zy = _bw_rk4(A, beta, gamma, zx, zy, hx, hy)
+    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
+        s_new[ic] = s[ic]
+    s_new[0] = u[0]
+    s_new[1] = u[1]
+    s_new[2] = zx
+    s_new[3] = zy
+    return _bw_tangent(A, beta, gamma, dx, dy, zx, zy)
+
+
+@njit(cache=True)
+def bw_advance_many(idx, params, states, uv, s_new, tan, work, nsub):  # pragma: no cover
+    """:func:`_bw_advance` of several Bouc-Wen devices at once, bitwise the same numbers.
+
+    The RK4 stages of the devices are interleaved (stage 1 of every device, then stage 2
+    ...), so that their independent dependency chains overlap in the processor instead of
+    running one after the other; each device sees exactly the operations of
+    :func:`_bw_advance` in the same order.
+
+    Parameters
+    ----------
+    idx : (m,) int64
+        Rows of ``params`` / ``states`` / ``s_new`` / ``tan`` to advance.
+    params, states : (n_dev, N_PARAM), (n_dev, N_STATE)
+        Law parameters and committed states.
+    uv : (>= 2 n_dev,)
+        Trial displacements, ``uv[2 d + a]`` of device d in direction a.
+    s_new : (n_dev, N_STATE)
+        Trial states (rows ``idx`` written).
+    tan : (n_dev, 4)
+        dZ/du entries d00, d01, d10, d11 (rows ``idx`` written).
+    work : (11, m), nsub : (m,) int64
+        Scratch.
+    """
+    m = idx.shape[0]
+    nmax = 0
+    for j in range(m):
+        d = idx[j]
+        A = params[d, 0]
+        beta = params[d, 1]
+        gamma = params[d, 2]
+        dx = uv[2 * d] - states[d, 0]
+        dy = uv[2 * d + 1] - states[d, 1]
+        ns_j = _bw_nsub(A, beta, gamma, dx, dy)
+        if ns_j == 1:
+            work[0, j] = dx
+            work[1, j] = dy
+        else:
+            work[0, j] = dx / ns_j
+            work[1, j] = dy / ns_j
+        work[2, j] = states[d, 2]
+        work[3, j] = states[d, 3]
+        nsub[j] = ns_j
+        nmax = max(nmax, ns_j)
+    for it in range(nmax):  # _bw_rk4 written stage by stage over the devices
+        for j in range(m):
+            if it < nsub[j]:
+                d = idx[j]
+                k1x, k1y = bw_rate(params[d, 0], params[d, 1], params[d, 2], work[2, j],
+                                   work[3, j], work[0, j], work[1, j])
+                work[4, j] = k1x
+                work[5, j] = k1y
+        for j in range(m):
+            if it < nsub[j]:
+                d = idx[j]
+                k2x, k2y = bw_rate(params[d, 0], params[d, 1], params[d, 2],
+                                   work[2, j] + 0.5 * work[4, j], work[3, j] + 0.5 * work[5, j],
+                                   work[0, j], work[1, j])
+                work[6, j] = k2x
+                work[7, j] = k2y
+        for j in range(m):
+            if it < nsub[j]:
+                d = idx[j]
+                k3x, k3y = bw_rate(params[d, 0], params[d, 1], params[d, 2],
+                                   work[2, j] + 0.5 * work[6, j], work[3, j] + 0.5 * work[7, j],
+                                   work[0, j], work[1, j])
+                work[8, j] = k3x
+                work[9, j] = k3y
+        for j in range(m):
+            if it < nsub[j]:
+                d = idx[j]
+                k3x = work[8, j]
+                k3y = work[9, j]
+                k4x, k4y = bw_rate(params[d, 0], params[d, 1], params[d, 2], work[2, j] + k3x,
+                                   work[3, j] + k3y, work[0, j], work[1, j])
+                work[2, j] += (work[4, j] + 2.0 * work[6, j] + 2.0 * k3x + k4x) / 6.0
+                work[3, j] += (work[5, j] + 2.0 * work[7, j] + 2.0 * k3y + k4y) / 6.0
+    for j in range(m):
+        d = idx[j]
+        zx = work[2, j]
+        zy = work[3, j]
+        for ic in range(states.shape[1]):
+            s_new[d, ic] = states[d, ic]
+        s_new[d, 0] = uv[2 * d]
+        s_new[d, 1] = uv[2 * d + 1]
+        s_new[d, 2] = zx
+        s_new[d, 3] = zy
+        d00, d01, d10, d11 = _bw_tangent(params[d, 0], params[d, 1], params[d, 2],
+                                         uv[2 * d] - states[d, 0], uv[2 * d + 1] - states[d, 1],
+                                         zx, zy)
+        tan[d, 0] = d00
+        tan[d, 1] = d01
+        tan[d, 2] = d10
+        tan[d, 3] = d11
+
+
+@njit(cache=True)
+def esb_pressure_factor(p):  # pragma: no cover - jitted
+    """Return mu0 [W / S (N/mm^2)]^mu1, the constant factor of the ESB friction law.
+
+    ``p`` as in :func:`law_bw_esb`. The law evaluates ``mu0 * (W / S * 1e-6) ** mu1 * V ...``
+    left to right, so ``esb_pressure_factor(p) * (V * 1e3) ** mu2`` is the same number to
+    the last bit; the twin caches it per bearing (one ``pow`` less per evaluation).
+    """
+    return p[5] * (p[9] / p[8] * 1e-6) ** p[6]
+
+
+@njit(cache=True)
 def law_bw_esb(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
     """ESB, Eq. (11a) of [004]; p = [A, beta, gamma, cx, cy, mu0, mu1, mu2, S, W]."""
     d00, d01, d10, d11 = _bw_advance(p, s, u, s_new)
-    mu0 = p[5]
-    mu1 = p[6]
+    bw_esb_force(p, v, f, Kt, Ct, s_new, d00, d01, d10, d11, esb_pressure_factor(p))
+
+
+@njit(cache=True)
+def bw_esb_force(p, v, f, Kt, Ct, s_new, d00, d01, d10, d11, c_press):  # pragma: no cover
+    """Force and tangents of the ESB, Eq. (11a) of [004], once Z is in ``s_new[2:4]``.
+
+    ``d00 .. d11`` are dZ/du (from :func:`_bw_advance`), ``c_press`` is
+    :func:`esb_pressure_factor` of ``p`` (the twin caches it per bearing).
+    """
     mu2 = p[7]
-    S = p[8]
     W = p[9]
     V = math.sqrt(v[0] * v[0] + v[1] * v[1])
-    # friction coefficient: pressure in N/mm^2, velocity in mm/s (text below Eq. (11) of [004])
-    mu = mu0 * (W / S * 1e-6) ** mu1 * (V * 1e3) ** mu2 if V > 0.0 else 0.0
+    # friction coefficient: pressure in N/mm^2, velocity in mm/s (text below Eq. (11) of [004]),
+    # mu = mu0 (W / S)^mu1 V^mu2 with the pressure factor c_press = mu0 (W / S)^mu1 cached
+    mu = c_press * (V * 1e3) ** mu2 if V > 0.0 else 0.0
     Vr = max(V, 1e-6)
     dmu = mu * mu2 / (Vr * Vr)  # d mu / d v_j = dmu * v_j
     for i in range(2):
@@ -130,6 +271,12 @@ def law_bw_esb(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
 def law_bw_sdp(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
     """SDP, Eq. (11b) of [004]; p = [A, beta, gamma, cx, cy, alpha, kxx, kxy, kyy]."""
     d00, d01, d10, d11 = _bw_advance(p, s, u, s_new)
+    bw_sdp_force(p, u, v, f, Kt, Ct, s_new, d00, d01, d10, d11)
+
+
+@njit(cache=True)
+def bw_sdp_force(p, u, v, f, Kt, Ct, s_new, d00, d01, d10, d11):  # pragma: no cover
+    """Force and tangents of the SDP, Eq. (11b) of [004], once Z is in ``s_new[2:4]``."""
     a = p[5]
     Kxx = p[6]
     Kxy = p[7]
