@@ -39,12 +39,12 @@ class Record:
         if self.data.shape[0] != len(self.channel_names):
             msg = f"data: expected {len(self.channel_names)} rows, got {self.data.shape[0]}"
             raise ShapeError(msg)
-        if not 0 <= self.skip < self.data.shape[-1] - 1:
-            msg = f"skip: expected 0 <= skip < {self.data.shape[-1] - 1}, got {self.skip}"
-            raise ShapeError(msg)
         if self.data.shape[-1] < 2:
             msg = f"record {self.source!r}: too short ({self.data.shape[-1]} samples)"
             raise SignalError(msg)
+        if not 0 <= self.skip < self.data.shape[-1] - 1:
+            msg = f"skip: expected 0 <= skip < {self.data.shape[-1] - 1}, got {self.skip}"
+            raise ShapeError(msg)
         for name, arr in (("inputs", self.inputs), ("data", self.data)):
             if not np.all(np.isfinite(arr)):
                 msg = f"record {self.source!r}: non-finite samples in {name}"
