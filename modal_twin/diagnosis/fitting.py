@@ -79,25 +79,33 @@ Transform = tuple[list[str], Callable[[FloatArray], dict[str, float]],
 
 
 def _transform(law: str, start: dict[str, float], k: float) -> Transform:
+    """Fitted parameters of a law in a bounded space. Each law is refitted together with
+    the component's own stiffness, the parameter that interacts with it (``kt_factor`` of
+    friction, ``k`` of the others): adding friction or softening at a bearing changes what
+    its linear stiffness should be."""
     if law == "stick_slip":
-        return (["Fk", "Fs"],
-                lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1])},
-                lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"]]),
-                np.array([np.log(start["Fk"]) - 3, 1.0]),
-                np.array([np.log(start["Fk"]) + 3, 3.0]))
+        lf = np.log(start["Fk"])
+        return (["Fk", "Fs", "kt_factor"],
+                lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1]),
+                           "kt_factor": float(x[2])},
+                lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"],
+                                    p.get("kt_factor", 1.0)]),
+                np.array([lf - 3, 1.0, 0.5]), np.array([lf + 3, 3.0, 2.0]))
     if law in ("bilinear", "bilinear_hysteretic"):
-        return (["ub", "ratio"],
-                lambda x: {"ub": float(np.exp(x[0])), "ratio": float(x[1])},
-                lambda p: np.array([np.log(p["ub"]), p["ratio"]]),
-                np.array([np.log(start["ub"]) - 3, 0.02]),
-                np.array([np.log(start["ub"]) + 3, 3.0]))
+        lu = np.log(start["ub"])
+        return (["ub", "ratio", "k"],
+                lambda x: {"ub": float(np.exp(x[0])), "ratio": float(x[1]), "k": k * float(x[2])},
+                lambda p: np.array([np.log(p["ub"]), p["ratio"], p.get("k", k) / k]),
+                np.array([lu - 3, 0.02, 0.7]), np.array([lu + 3, 3.0, 1.3]))
     if law == "cubic":
         s = abs(start["k3"]) or 1.0
-        return (["k3"], lambda x: {"k3": float(x[0] * s)}, lambda p: np.array([p["k3"] / s]),
-                np.array([-50.0]), np.array([50.0]))
+        return (["k3", "k"], lambda x: {"k3": float(x[0] * s), "k": k * float(x[1])},
+                lambda p: np.array([p["k3"] / s, p.get("k", k) / k]),
+                np.array([-50.0, 0.7]), np.array([50.0, 1.3]))
     if law == "gap":
+        lg = np.log(start["g"])
         return (["g"], lambda x: {"g": float(np.exp(x[0]))}, lambda p: np.array([np.log(p["g"])]),
-                np.array([np.log(start["g"]) - 3]), np.array([np.log(start["g"]) + 3]))
+                np.array([lg - 3]), np.array([lg + 3]))
     if law == "linear":
         return (["k", "ky", "c", "cy"],
                 lambda x: {"k": k * float(x[0]), "ky": k * float(x[1]),
