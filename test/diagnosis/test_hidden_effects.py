@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from modal_twin.diagnosis.fitting import simulate_record
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
 from modal_twin.diagnosis.record import Record, record_from_blocks

@@ -3,6 +3,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
 from modal_twin.diagnosis.modal_view import modal_view, model_modes
 from modal_twin.diagnosis.record import record_from_blocks
 from modal_twin.excitation import signals

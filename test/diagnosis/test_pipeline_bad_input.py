@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from modal_twin.diagnosis.fitting import fit_effect
 from modal_twin.diagnosis.pipeline import diagnose
 from modal_twin.diagnosis.record import Record

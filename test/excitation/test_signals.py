@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from modal_twin.errors import ConfigError, OptionError, SignalError
 from modal_twin.excitation import signals
 from modal_twin.excitation.drive import ExcitationConfig, make_drive
@@ -49,7 +50,7 @@ def test_impact_and_record_playback(tmp_path: Path) -> None:
     csv = tmp_path / "r.csv"
     csv.write_text("t,ax,ay\n" + "\n".join(f"{ti},{a},{b}" for ti, a, b in zip(t, *rec,
                                                                               strict=True)))
-    data2, fs2, names2 = signals.load_record(csv)
+    _, fs2, names2 = signals.load_record(csv)
     assert fs2 == pytest.approx(50.0) and names2 == ["ax", "ay"]
     cfg = ExcitationConfig(kind="record", channels=("ax", "ay"), fs_hz=200.0,
                            record_path=str(tmp_path / "r.npz"), record_scale=2.0)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from modal_twin.errors import BagError
 from modal_twin.io.bag import BagWriter, bag_info, read_blocks, read_messages, salvage
 from modal_twin.io.convert import block_to_rosbags

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
+
 from modal_twin.errors import ConfigError
 from modal_twin.scenario import load_scenario
 

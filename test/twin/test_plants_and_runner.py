@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from modal_twin.errors import ConfigError, OptionError, SignalError
 from modal_twin.excitation import signals
 from modal_twin.rig.config import EffectSpec, load_rig

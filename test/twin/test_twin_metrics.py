@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from modal_twin.errors import ShapeError
 from modal_twin.twin.metrics import SlidingMetrics, channel_metrics, rms
 

@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from modal_twin.errors import OptionError
 from modal_twin.updating.screening import cluster_parameters, lhs_spearman
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy.signal as sig
+
 from modal_twin.identification import n4sid, select_modes, stabilization_diagram
 from modal_twin.models.building import DEFAULT_BUILDING_YAML
 from modal_twin.signal_block import SignalBlock
