@@ -75,16 +75,22 @@ def modal_view(plant: Plant, rec: Record, *, fs_target_hz: float = 50.0,
         msg = "modal view: the record has no acceleration channel of the model"
         raise SignalError(msg)
     factor = max(1, round(rec.fs_hz / fs_target_hz))
-    y = decimate(rec.channels(acc)[:, rec.skip:], rec.fs_hz, factor).x
     active = [i for i, u in enumerate(rec.inputs) if np.std(u) > 0]
     u = decimate(rec.inputs[active][:, rec.skip:], rec.fs_hz, factor).x
     fs = rec.fs_hz / factor
-    try:
-        sw = n4sid(u, y, fs, orders=np.arange(20, 62, 4), f_min_hz=0.5)
-        mm = select_modes(stabilization_diagram(sw), f_range_hz=(0.2, f_max_hz))
-    except ModalTwinError as err:
-        msg = f"modal view: identification failed ({err})"
-        raise SignalError(msg) from err
+    for channels in (acc, [c for c in acc if not c.endswith("_z")]):  # short record: fewer
+        y = decimate(rec.channels(channels)[:, rec.skip:], rec.fs_hz, factor).x
+        try:
+            sw = n4sid(u, y, fs, orders=np.arange(20, 62, 4), f_min_hz=0.5)
+            mm = select_modes(stabilization_diagram(sw), f_range_hz=(0.2, f_max_hz))
+        except ModalTwinError as err:
+            error = err
+            continue
+        acc = channels
+        break
+    else:
+        msg = f"identification failed ({error})"
+        raise SignalError(msg)
     rows = [plant.channel_names.index(c) for c in acc]
     f_m, z_m, sh_m = model_modes(plant, rows)
     band = f_m <= 1.2 * f_max_hz

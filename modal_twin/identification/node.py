@@ -25,6 +25,7 @@ from modal_twin_msgs.msg import StabilizationDiagram as DiagramMsg
 from modal_twin_msgs.srv import RunIdentification
 from rclpy.node import Node
 
+from modal_twin.acquisition.decimation import decimate
 from modal_twin.errors import ConfigError, ModalTwinError, SignalError
 from modal_twin.identification.modal_model import ModalModel, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
@@ -52,6 +53,11 @@ class IdentificationConfig:
     order_step: int = field(default=2, metadata={"doc": "step between model orders"})
     block_rows: int = field(default=0, metadata={"doc": "Hankel block rows (0 = auto)"})
     inputs: str = field(default="table_*", metadata={"doc": "glob of input channels (n4sid)"})
+    outputs: str = field(default="*", metadata={"doc": "glob of output channels"})
+    fs_target_hz: float = field(default=0.0,
+                                metadata={"doc": "decimate to about this rate (0: keep)"})
+    f_min_hz: float = field(default=0.0,
+                            metadata={"doc": "lowest mode of interest (sets block rows; 0: auto)"})
     rel_tol_f: float = field(default=0.01, metadata={"doc": "stability: frequency"})
     rel_tol_zeta: float = field(default=0.05, metadata={"doc": "stability: damping"})
     mac_min: float = field(default=0.95, metadata={"doc": "stability: MAC"})
@@ -66,6 +72,10 @@ class IdentificationConfig:
             msg = (f"window_s > 0, period_s >= 0, max_order >= 2, order_step >= 1, "
                    f"block_rows >= 0 expected, got {self.window_s}, {self.period_s}, "
                    f"{self.max_order}, {self.order_step}, {self.block_rows}")
+            raise ConfigError(msg)
+        if self.fs_target_hz < 0 or self.f_min_hz < 0:
+            msg = (f"fs_target_hz, f_min_hz: expected >= 0, got {self.fs_target_hz}, "
+                   f"{self.f_min_hz}")
             raise ConfigError(msg)
 
 
@@ -83,22 +93,30 @@ def identify_window(
     """
     names = block.channel_names
     is_in = np.array([fnmatch.fnmatch(n, cfg.inputs) for n in names])
-    outs = tuple(n for n, i in zip(names, is_in, strict=True) if not i)
+    is_out = ~is_in & np.array([fnmatch.fnmatch(n, cfg.outputs) for n in names])
+    outs = tuple(n for n, o in zip(names, is_out, strict=True) if o)
     if not outs:
         msg = f"frames: expected output channels besides the inputs {cfg.inputs!r}, got {names}"
         raise SignalError(msg)
     orders = range(cfg.order_step, cfg.max_order + 1, cfg.order_step)
     br = cfg.block_rows or None
-    y = block.data[~is_in]
+    data, fs = block.data, block.fs_hz
+    if cfg.fs_target_hz > 0 and fs > 1.5 * cfg.fs_target_hz:  # zero-phase, Sec. 3 of [004]
+        d = decimate(data, fs, round(fs / cfg.fs_target_hz))
+        data, fs = d.x, d.fs_hz
+    active = is_in & (np.std(data, axis=1) > 0)  # a table axis that is not driven
+    y = data[is_out]
+    f_min = cfg.f_min_hz or None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # fewer std blocks: still a result
         if cfg.method == "n4sid":
-            if not is_in.any():
-                msg = f"frames: n4sid needs input channels matching {cfg.inputs!r}, got {names}"
+            if not active.any():
+                msg = (f"frames: n4sid needs driven input channels matching {cfg.inputs!r}, "
+                       f"got {names}")
                 raise SignalError(msg)
-            sweep = n4sid(block.data[is_in], y, block.fs_hz, orders=orders, block_rows=br)
+            sweep = n4sid(data[active], y, fs, orders=orders, block_rows=br, f_min_hz=f_min)
         else:
-            sweep = ssi_cov(y, block.fs_hz, orders=orders, block_rows=br)
+            sweep = ssi_cov(y, fs, orders=orders, block_rows=br, f_min_hz=f_min)
     diagram = stabilization_diagram(sweep, rel_tol_f=cfg.rel_tol_f,
                                     rel_tol_zeta=cfg.rel_tol_zeta, mac_min=cfg.mac_min)
     return select_modes(diagram, zeta_max=cfg.zeta_max), diagram, outs

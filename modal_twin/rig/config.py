@@ -6,6 +6,7 @@
     noise_rms: {acceleration: 0.002, displacement: 1.0e-5, force: 200.0}   # SI
     sensitivity: {acceleration: 0.10197}     # raw units per SI unit (1 V/g)
     seed: 7
+    theta: {E_Fc27: 2.4e10}                   # parameter values of the truth (optional)
     effects:                                  # what the nominal model is not told
       - {component: ESB1, law: coulomb, params: {mu_s: 0.06, mu_k: 0.04}}
 """
@@ -41,6 +42,7 @@ class RigFile:
     sensitivity: dict[str, float]
     effects: tuple[EffectSpec, ...]
     seed: int
+    theta: dict[str, float] = field(default_factory=dict)  # parameter values of the truth
 
 
 def _num_map(path: Path, doc: dict[str, Any], key: str) -> dict[str, float]:
@@ -91,5 +93,11 @@ def load_rig(path: str | Path) -> RigFile:
     if not isinstance(seed, int):
         msg = f"{p}: key 'seed': expected an integer, got {seed!r}"
         raise ConfigError(msg)
+    theta = doc.get("theta") or {}
+    if not isinstance(theta, dict) or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) for v in theta.values()):
+        msg = f"{p}: key 'theta': expected a mapping parameter -> number"
+        raise ConfigError(msg)
     return RigFile(p, structure, _num_map(p, doc, "noise_rms"),
-                   _num_map(p, doc, "sensitivity"), tuple(effects), seed)
+                   _num_map(p, doc, "sensitivity"), tuple(effects), seed,
+                   {str(k): float(v) for k, v in theta.items()})

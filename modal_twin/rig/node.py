@@ -36,7 +36,7 @@ class RigNode(Node):
         super().__init__("rig")
         self.cfg = declare_config(self, RigConfig)
         rig = load_rig(resolve_config(self.cfg.rig_file))
-        plant = load_plant(rig.structure, effects=rig.effects)
+        plant = load_plant(rig.structure, theta=rig.theta or None, effects=rig.effects)
         self.truth = TruthRig(plant, 1.0 / self.cfg.fs_hz, noise_rms=rig.noise_rms,
                               sensitivity=rig.sensitivity, seed=rig.seed)
         self.monitor = StreamMonitor()

@@ -1,0 +1,130 @@
+"""The loop over ROS on a replayed bag: identification -> updating -> twin, error falls."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+ROOT = Path(__file__).resolve().parents[2]
+BUILDING = ROOT / "config" / "structures" / "building.yaml"
+TRUTH = {"E_Fc36": 3.278e10 * 0.85, "E_Fc27": 2.915e10 * 1.12, "E_Fc21": 2.585e10 * 0.88}
+SCENARIO = f"""
+launch:
+  name: chain
+  ready_timeout_s: 40
+  nodes:
+    - {{name: identification, executable: identification_node}}
+    - {{name: updating, executable: updating_node}}
+    - {{name: twin, executable: twin_node}}
+identification:
+  ros__parameters: {{window_s: 200.0, fs_target_hz: 50.0, f_min_hz: 4.0, max_order: 60,
+                    order_step: 4, outputs: "*_[xyz]"}}
+updating:
+  ros__parameters: {{model_file: {BUILDING}, versions_dir: VERSIONS, auto: true}}
+twin:
+  ros__parameters: {{model_file: {BUILDING}, fs_hz: 1000.0, window_s: 200.0,
+                    metrics_period_s: 0.5}}
+"""
+
+
+def _bag(path: Path, seconds: float = 100.0) -> None:
+    from modal_twin.excitation import signals
+    from modal_twin.io.bag import BagWriter
+    from modal_twin.io.convert import block_to_rosbags
+    from modal_twin.io.typestore import typestore
+    from modal_twin.rig.truth import TruthRig
+    from modal_twin.signal_block import SignalBlock
+    from modal_twin.twin.plants import INPUTS_6DOF, load_plant
+
+    rig = TruthRig(load_plant(BUILDING, theta=TRUTH), 1e-3,
+                   noise_rms={"acceleration": 0.002, "displacement": 1e-5, "force": 100.0})
+    rng = np.random.default_rng(5)
+    scale = np.array([0.4, 0.4, 0.2, 0, 0, 0])[:, None]
+    ag = signals.band_limited_random(6, seconds, 1000.0, f_min_hz=0.2, f_max_hz=20.0,
+                                     rms=1.0, rng=rng) * scale
+    st = typestore()
+    sb = "modal_twin_msgs/msg/SignalBlock"
+    with BagWriter(path, {"/measurement/frames": sb}) as w:
+        for k in range(0, ag.shape[1], 250):
+            raw = rig.process(SignalBlock(INPUTS_6DOF, 1000.0, k, ag[:, k:k + 250],
+                                          stamp_ns=10**18 + k * 10**6))
+            w.write("/measurement/frames", raw.stamp_ns,
+                    st.serialize_cdr(block_to_rosbags(raw, st), sb))
+
+
+def test_replayed_bag_identify_update_twin(domain_id: int, tmp_path: Path) -> None:
+    import rclpy
+    from modal_twin_msgs.msg import ComparisonMetrics, ModelParameters
+    from modal_twin_msgs.srv import RunIdentification
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+
+    from modal_twin.io.ros import qos_for
+    from modal_twin.launch import Launcher
+    from modal_twin.scenario import load_scenario
+
+    _bag(tmp_path / "bag")
+    scen = tmp_path / "s.yaml"
+    scen.write_text(SCENARIO.replace("VERSIONS", str(tmp_path / "models")))
+    launcher = Launcher(load_scenario(scen), run_dir=tmp_path / "run", say=lambda s: None)
+    launcher.start()
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=domain_id)
+    node = rclpy.create_node("probe", context=ctx)
+    metrics: list[ComparisonMetrics] = []
+    params: list[ModelParameters] = []
+    node.create_subscription(ComparisonMetrics, "/twin/metrics", metrics.append,
+                             qos_for("/twin/metrics"))
+    node.create_subscription(ModelParameters, "/model/parameters", params.append,
+                             qos_for("/model/parameters"))
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+
+    def spin(seconds: float, until=lambda: False) -> None:  # type: ignore[no-untyped-def]
+        end = time.monotonic() + seconds
+        while time.monotonic() < end and not until():
+            ex.spin_once(timeout_sec=0.05)
+
+    def replay() -> float:
+        rep = subprocess.Popen([sys.executable, "-m", "modal_twin.cli", "replay",
+                                str(tmp_path / "bag"), "--rate", "10"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        while rep.poll() is None:
+            spin(0.2)
+        n0 = len(metrics)
+        spin(5.0, lambda: len(metrics) > n0 + 2 and metrics[-1].samples >= 100_000)
+        m = metrics[-1]
+        acc = [i for i, c in enumerate(m.channel_names) if c[-2:] in ("_x", "_y", "_z")]
+        return float(np.mean(np.asarray(m.residual_rms)[acc]))
+
+    try:
+        assert launcher.wait_ready(40.0) == ""
+        before = replay()
+        cli = node.create_client(RunIdentification, "/identification/run")
+        assert cli.wait_for_service(timeout_sec=10)
+        fut = cli.call_async(RunIdentification.Request())
+        spin(120.0, fut.done)
+        assert fut.result() is not None
+        assert fut.result().success, fut.result().message
+        spin(60.0, lambda: bool(params))
+        assert params, "the updating node published no parameters"
+        spin(3.0)  # the twin reloads
+        after = replay()
+        assert launcher.dead() == []
+    finally:
+        launcher.stop()
+        ex.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+    got = dict(zip(params[-1].names, params[-1].values, strict=True))
+    for k, v in TRUTH.items():
+        assert got[k] == pytest.approx(v, rel=0.03), k
+    print(f"twin residual of the accelerations: {before:.2f} % -> {after:.2f} %")
+    assert after < 0.3 * before
