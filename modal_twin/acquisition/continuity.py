@@ -25,6 +25,7 @@ class Verdict(Enum):
     LAYOUT = "layout"  # channels or rate differ from the stream (dropped)
     NONFINITE = "nonfinite"  # NaN or Inf samples (dropped)
     EMPTY = "empty"  # no samples (dropped)
+    RESTART = "restart"  # the stream jumps back (a new run or a replay)
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +108,10 @@ class StreamMonitor:
         self.layout = layout
         if self.next_index is None or block.first_index == self.next_index:
             return BlockVerdict(Verdict.OK, block)
+        if block.first_index < self.next_index // 2:  # far back: a new run or a replay
+            return BlockVerdict(Verdict.RESTART, block,
+                                f"stream restarted at sample {block.first_index} "
+                                f"(was at {self.next_index})")
         if block.first_index > self.next_index:
             n = block.first_index - self.next_index
             self.missing_samples += n

@@ -74,7 +74,7 @@ class DiagnosisNode(Node):
             report(self.get_logger(), v)
         if v.block is None:
             return
-        if v.verdict is Verdict.GAP:  # a record must be contiguous: start again
+        if v.verdict in (Verdict.GAP, Verdict.RESTART):  # a record must be contiguous
             self.blocks = []
         self.blocks.append(v.block)
         n = sum(b.n_samples for b in self.blocks)

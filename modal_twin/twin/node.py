@@ -67,6 +67,8 @@ class TwinNode(Node):
                 report(self.get_logger(), v)
             if v.block is None:
                 return
+            if v.verdict is Verdict.RESTART:  # a new run: the structure starts from rest
+                self.runner = TwinRunner(self.plant, self.cfg.fs_hz, window_s=self.cfg.window_s)
             step = self.runner.step(v.block)
         except ModalTwinError as err:
             self.get_logger().error(f"frame refused: {err}", throttle_duration_sec=2.0)

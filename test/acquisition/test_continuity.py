@@ -64,3 +64,14 @@ def test_stray_first_block_does_not_poison_the_stream() -> None:
     v = m.check(blk(20))  # third block of the new layout in a row: follow it
     assert v.block is not None and "layout changed" in v.message
     assert m.check(blk(30)).verdict is Verdict.OK
+
+
+def test_a_stream_that_starts_again_at_zero_is_a_restart() -> None:
+    m = StreamMonitor()
+    for k in range(5):
+        m.check(blk(10 * k))
+    v = m.check(blk(0))
+    assert v.verdict is Verdict.RESTART
+    assert v.block is not None
+    assert "restarted at sample 0 (was at 50)" in v.message
+    assert m.check(blk(10)).verdict is Verdict.OK
