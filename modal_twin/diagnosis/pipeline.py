@@ -20,6 +20,7 @@ import numpy as np
 
 from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
+from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter, screen_parameters
 from modal_twin.diagnosis.record import Record
 from modal_twin.diagnosis.screening import ScreenedCandidate, screen_components
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
@@ -39,6 +40,7 @@ class Diagnosis:
     summary: str
     where: WhereReport
     screened: tuple[ScreenedCandidate, ...]
+    parameters: tuple[ParameterCandidate, ...]
     fitted: tuple[FittedEffect, ...]  # best first (held-out error)
     skipped: tuple[str, ...]
     modal: ModalView | None = None  # identified vs model modes, held-out record
@@ -58,6 +60,9 @@ class Diagnosis:
         for c in self.screened[:8]:
             out.append(f"  {c.component:<6}{c.law:<20} explains {100 * c.score:6.2f} % "
                        f"(+{100 * c.gain:5.2f} % over linear)")
+        for pc in self.parameters[:4]:
+            out.append(f"  {pc.name:<6}{pc.kind:<20} removes {100 * pc.gain:6.2f} % of the "
+                       f"residual (start {pc.start:.4g}, nominal {pc.nominal:.4g})")
         out.append("")
         out.append("FITTED BY SIMULATION (ranked by held-out error)")
         out.append(f"  {'component':<10}{'law':<20}{'train %':>9}{'held-out %':>11}"
@@ -145,6 +150,16 @@ def diagnose(
     if lin and lin[0].score > gain_threshold:
         picks.append(lin[0])
     fitted: list[FittedEffect] = []
+    say("screening parameter changes (added mass, moduli) by simulated sensitivities")
+    params = screen_parameters(factory, train)
+    for pc in params[:n_fit]:
+        if pc.gain < gain_threshold:
+            continue
+        say(f"fitting {pc.kind} {pc.name} by simulation")
+        try:
+            fitted.append(fit_parameter(factory, pc, train, test))
+        except (ModalTwinError, ValueError) as err:
+            skipped.append(f"{pc.kind} {pc.name}: {err}")
     for c in picks:
         say(f"fitting {c.law} at {c.component} by simulation")
         try:
@@ -169,5 +184,5 @@ def diagnose(
     else:
         summary = (f"the model fails (nominal error {nominal_nmse:.2f} % NMSE) but no "
                    "candidate could be fitted")
-    return Diagnosis(significant, summary, where, tuple(screened), tuple(fitted),
-                     tuple(skipped), modal)
+    return Diagnosis(significant, summary, where, tuple(screened), tuple(params),
+                     tuple(fitted), tuple(skipped), modal)

@@ -11,6 +11,11 @@ from modal_twin.diagnosis.fitting import (
     record_nmse,
     simulate_record,
 )
+from modal_twin.diagnosis.parameters import (
+    PARAMETER_LAWS,
+    ParameterCandidate,
+    fit_parameter,
+)
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
 from modal_twin.diagnosis.record import Record, record_from_blocks
 from modal_twin.errors import OptionError
@@ -71,7 +76,20 @@ def add_effect(
     base = read_version(model_file)
     if latest_version(folder) is None:
         write_version(folder, replace(base, note="nominal", errors=channel_errors(base, test)))
-    fitted = fit_effect(_factory(base), component, law, start, train, test)
+    factory = _factory(base)
+    if law in PARAMETER_LAWS:  # a parameter value, not a device law
+        par = factory.bld.assembly.parametric
+        nominal = float(par.theta_vector(factory.theta or None)[par.index(component)])
+        cand = ParameterCandidate(component, law, nominal, float(start.get(component, nominal)),
+                                  0.0)
+        fitted = fit_parameter(factory, cand, train, test)
+        new = replace(base, theta={**base.theta, **fitted.effect.params},
+                      note=(f"{law}: {component} = {fitted.effect.params[component]:.6g} "
+                            f"(held-out NMSE {fitted.test_nmse_nominal_pct:.3f} % -> "
+                            f"{fitted.test_nmse_pct:.3f} %)"))
+        new = replace(new, errors=channel_errors(new, test))
+        return write_version(folder, new), fitted
+    fitted = fit_effect(factory, component, law, start, train, test)
     new = replace(base, effects=(*base.effects, fitted.effect),
                   note=(f"added {law} at {component} (held-out NMSE "
                         f"{fitted.test_nmse_nominal_pct:.3f} % -> {fitted.test_nmse_pct:.3f} %)"))

@@ -406,9 +406,13 @@ def _masses(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> float:
             if np.any(inertia < 0.0):
                 raise cx.model(at=f"{where}.inertia",
                                what=f"expected values >= 0, got {list(inertia)}")
+        param = entry.get("param")  # a mass parameter (e.g. added mass on a floor)
+        if param is not None and (not isinstance(param, str) or len(targets) != 1):
+            raise cx.config(at=f"{where}.param",
+                            what="expected a name, on an entry with one node")
         for nid in targets:
             _guard(cx, f"{where} (node {nid!r})",
-                   lambda n=nid, m=m, j=inertia: fem.add_mass(n, m, inertia=j))
+                   lambda n=nid, m=m, j=inertia: fem.add_mass(n, m, inertia=j, m_param=param))
             total += m
     return total
 

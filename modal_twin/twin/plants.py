@@ -39,10 +39,16 @@ class PlantFactory:
 
     def __init__(self, structure_file: str | Path, *, theta: Mapping[str, float] | None = None,
                  n_modes: int | None = None) -> None:
+        self.structure_file = Path(structure_file)
+        self.theta = dict(theta or {})
         self.bld = build_building(structure_file)
         self.mb = modal_reduction(self.bld, n_modes, theta=dict(theta) if theta else None)
         self.weights = self.bld.gravity_loads()
         self.sites = {d.name: d for d in self.bld.spec.devices}
+
+    def with_theta(self, changes: Mapping[str, float]) -> PlantFactory:
+        """A factory of the same structure with some parameter values changed."""
+        return PlantFactory(self.structure_file, theta={**self.theta, **changes})
 
     def weight(self, component: str) -> float:
         """Weight carried by a component, N."""

@@ -125,3 +125,27 @@ def test_own_stick_slip_at_esb2_with_noisy_sensors(factory: PlantFactory) -> Non
     # 10x the sensor noise: the base accelerations' residual floor is the noise itself,
     # so the fall is judged on the device forces (slip forces >> 2 kN noise)
     assert error_fall(factory, d, test, ["ESB2_fx", "ESB2_fy"]) >= 3.0
+
+
+def test_own_added_mass_on_floor_2(factory: PlantFactory) -> None:
+    truth = factory.with_theta({"m_F2": 19520.0 + 15000.0}).plant()  # 15 t of equipment
+
+    def rec(kind: str, level: float, seed: int) -> Record:
+        rig = TruthRig(truth, 1 / FS, noise_rms=NOISE, seed=seed)
+        rng = np.random.default_rng(seed)
+        w = np.array([1.0, 1.0, 0.3, 0.0, 0.0, 0.0]) * level
+        if kind == "random":
+            ag = signals.band_limited_random(6, 12.0, FS, f_min_hz=0.2, f_max_hz=20.0,
+                                             rms=1.0, rng=rng) * w[:, None]
+        else:
+            ag = np.vstack([signals.earthquake_like(12.0, FS, pga=1.0, rng=rng)[0] * x
+                            for x in w])
+        return record_from_blocks([rig.process(SignalBlock(INPUTS_6DOF, FS, 0, ag))])
+
+    train, test = rec("random", 1.0, 13), rec("earthquake", 3.5, 14)
+    d = diagnose(factory, train, test, n_fit=3)
+    assert d.significant
+    assert d.best is not None
+    assert (d.best.effect.component, d.best.effect.law) == ("m_F2", "added_mass")
+    assert d.best.effect.params["m_F2"] == pytest.approx(34520.0, rel=0.02)
+    assert d.best.error_ratio >= 3.0
