@@ -97,6 +97,12 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
                 lambda x: {"ub": float(np.exp(x[0])), "ratio": float(x[1]), "k": k * float(x[2])},
                 lambda p: np.array([np.log(p["ub"]), p["ratio"], p.get("k", k) / k]),
                 np.array([lu - 3, 0.02, 0.7]), np.array([lu + 3, 3.0, 1.3]))
+    if law == "bouc_wen":
+        lu = np.log(start["uy"])
+        return (["uy", "alpha", "k"],
+                lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2])},
+                lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k]),
+                np.array([lu - 3, 0.0, 0.7]), np.array([lu + 3, 1.0, 1.3]))
     if law == "cubic":
         s = abs(start["k3"]) or 1.0
         return (["k3", "k"], lambda x: {"k3": float(x[0] * s), "k": k * float(x[1])},

@@ -56,6 +56,8 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
         return [{"Fs": r * a, "Fk": a} for a in fk for r in (1.0, 1.5)]
     if law in ("bilinear", "bilinear_hysteretic"):
         return [{"ub": g * u_max, "ratio": r} for g in (0.2, 0.4, 0.6) for r in (0.5, 0.75)]
+    if law == "bouc_wen":
+        return [{"uy": g * u_max, "alpha": a} for g in (0.2, 0.4, 0.6) for a in (0.05, 0.5)]
     if law == "cubic":
         return [{"k3": s * 0.3 * k / max(u_max, 1e-9) ** 2} for s in (-1.0, 1.0)]
     if law == "gap":
@@ -63,7 +65,7 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
     return [{}]
 
 
-SCREEN_LAWS = ("stick_slip", "bilinear", "bilinear_hysteretic", "cubic", "gap")
+SCREEN_LAWS = ("stick_slip", "bilinear", "bilinear_hysteretic", "bouc_wen", "cubic", "gap")
 
 
 def _velocity(u: FloatArray, fs_hz: float, cutoff_hz: float) -> FloatArray:

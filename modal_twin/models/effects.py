@@ -16,6 +16,9 @@ law                       device and parameters (defaults)                      
 ``bilinear``              elastic bilinear (Eq. (9) of [004]): post-yield         Eq. (9) [004]
                           ``ratio`` = kb / k (0.75) above ``ub`` (0.03 m)
 ``bilinear_hysteretic``   the same with kinematic hardening (dissipative)         [004]
+``bouc_wen``              bidirectional Bouc-Wen hysteresis (Eqs. 10, 11b):       Eqs. 10-11 [004]
+                          initial stiffness ``k`` (nominal), post-yield ratio
+                          ``alpha`` (0.3), yield drift ``uy`` (0.03 m)
 ``cubic``                 k u + ``k3`` u^3 (N/m^3; < 0 softening)                 Eq. (2) [003]
 ``gap``                   spring ``k`` (nominal) acting beyond a gap ``g`` (m)
 others                    any type of :data:`~modal_twin.models.structure_yaml.DEVICE_TYPES`
@@ -34,6 +37,7 @@ from modal_twin.errors import OptionError
 from modal_twin.models.devices import (
     BilinearElastic,
     BilinearHysteretic,
+    BoucWenSDP,
     CoulombFriction,
     CubicSpring,
     Device,
@@ -44,7 +48,8 @@ from modal_twin.models.structure_yaml import DEVICE_TYPES, DeviceSpec, make_devi
 
 __all__ = ["EFFECT_LAWS", "effect_device"]
 
-EFFECT_LAWS = ("linear", "stick_slip", "bilinear", "bilinear_hysteretic", "cubic", "gap")
+EFFECT_LAWS = ("linear", "stick_slip", "bilinear", "bilinear_hysteretic", "bouc_wen", "cubic",
+               "gap")
 
 
 def _take(p: dict[str, Any], key: str, default: float) -> float:
@@ -82,6 +87,12 @@ def effect_device(spec: DeviceSpec, law: str, params: dict[str, float], *,
         cls = BilinearElastic if law == "bilinear" else BilinearHysteretic
         k1 = _take(p, "k", k)
         dev = cls(k1, _take(p, "ratio", 0.75) * k1, _take(p, "ub", 0.03), c, name=name)
+    elif law == "bouc_wen":  # z saturates at sqrt(A / (beta + gamma)) = uy with A = 1
+        scale = _take(p, "k", k) / k
+        uy = _take(p, "uy", 0.03)
+        b = 0.5 / uy**2
+        dev = BoucWenSDP(1.0, b, b, np.diag(scale * np.asarray(spec.k, float)),
+                         _take(p, "alpha", 0.3), c, name=name)
     elif law == "cubic":
         dev = CubicSpring(_take(p, "k", k), _take(p, "k3", 0.0), c, name=name)
     elif law == "gap":

@@ -149,3 +149,14 @@ def test_own_added_mass_on_floor_2(factory: PlantFactory) -> None:
     assert (d.best.effect.component, d.best.effect.law) == ("m_F2", "added_mass")
     assert d.best.effect.params["m_F2"] == pytest.approx(34520.0, rel=0.02)
     assert d.best.error_ratio >= 3.0
+
+
+def test_own_bouc_wen_hysteresis_at_rb1(factory: PlantFactory) -> None:
+    eff = [EffectSpec("RB1", "bouc_wen", {"uy": 0.02, "alpha": 0.3})]
+    train = make_record(eff, kind="random", level=1.0, seed=15)
+    test = make_record(eff, kind="earthquake", level=3.5, seed=16)
+    d = diagnose(factory, train, test, n_fit=2)
+    assert d.best is not None
+    assert d.best.effect.component == "RB1"
+    assert d.best.effect.law in ("bouc_wen", "bilinear_hysteretic")  # a missing internal state
+    assert error_fall(factory, d, test, ["RB1_fx", "RB1_fy", *BASE_H]) >= 3.0
