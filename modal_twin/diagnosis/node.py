@@ -17,6 +17,7 @@ from modal_twin_msgs.srv import AddEffect, RunDiagnosis
 from rclpy.node import Node
 
 from modal_twin.acquisition.continuity import StreamMonitor, Verdict
+from modal_twin.diagnosis.live import live_diagnosis
 from modal_twin.diagnosis.pipeline import Diagnosis
 from modal_twin.diagnosis.record import Record, record_from_blocks
 from modal_twin.diagnosis.workflow import add_effect, diagnose_model
@@ -27,6 +28,7 @@ from modal_twin.io.report_convert import diagnosis_to_msg, version_to_parameters
 from modal_twin.io.ros import qos_for, report, run_node
 from modal_twin.paths import resolve_config
 from modal_twin.signal_block import SignalBlock
+from modal_twin.twin.plants import load_model
 
 __all__ = ["DiagnosisConfig", "DiagnosisNode", "main"]
 
@@ -40,7 +42,9 @@ class DiagnosisConfig:
     versions_dir: str = field(default="runs/models", metadata={"doc": "model version folder"})
     buffer_s: float = field(default=120.0, metadata={"doc": "frames kept, s"})
     train_fraction: float = field(default=0.6, metadata={"doc": "share used for fitting"})
-    period_s: float = field(default=0.0, metadata={"doc": "diagnose every N s (0: on request)"})
+    period_s: float = field(default=0.0,
+                            metadata={"doc": "live where-it-fails every N s from /twin/residual "
+                                             "(0: off); the full diagnosis runs on ~/run"})
     n_fit: int = field(default=3, metadata={"doc": "candidates fitted by simulation"})
 
 
@@ -59,6 +63,11 @@ class DiagnosisNode(Node):
                                                qos_for("/model/parameters"))
         self.create_subscription(SignalBlockMsg, "/measurement/frames", self._on_frame,
                                  qos_for("/measurement/frames"))
+        self.residuals: list[SignalBlock] = []
+        self.create_subscription(SignalBlockMsg, "/twin/residual", self._on_residual,
+                                 qos_for("/twin/residual"))
+        self.channels = {c.name: c for c in
+                         load_model(resolve_config(self.cfg.model_file)).channels}
         self.create_service(RunDiagnosis, "~/run", self._on_run)
         self.create_service(AddEffect, "~/add_effect", self._on_add)
         if self.cfg.period_s > 0:
@@ -80,6 +89,17 @@ class DiagnosisNode(Node):
         n = sum(b.n_samples for b in self.blocks)
         while self.blocks and n - self.blocks[0].n_samples >= self.cfg.buffer_s * v.block.fs_hz:
             n -= self.blocks.pop(0).n_samples
+
+    def _on_residual(self, msg: SignalBlockMsg) -> None:
+        try:
+            blk = block_from_msg(msg)
+        except ModalTwinError as err:
+            self.get_logger().error(f"residual refused: {err}")
+            return
+        self.residuals.append(blk)
+        n = sum(b.n_samples for b in self.residuals)
+        while n - self.residuals[0].n_samples >= self.cfg.buffer_s * blk.fs_hz:
+            n -= self.residuals.pop(0).n_samples
 
     def _records(self, window_s: float) -> tuple[Record, Record]:
         if not self.blocks:
@@ -104,9 +124,13 @@ class DiagnosisNode(Node):
 
     def _scheduled(self) -> None:
         try:
-            self._diagnose(0.0)
+            d = live_diagnosis(self.blocks, self.residuals, self.channels)
         except (ModalTwinError, ValueError) as err:
-            self.get_logger().warning(f"scheduled diagnosis skipped: {err}")
+            self.get_logger().warning(f"live where-it-fails skipped: {err}",
+                                      throttle_duration_sec=10.0)
+            return
+        self.report_pub.publish(diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
+                                                 FailingPlace, CandidateEffect))
 
     def _on_run(self, req: RunDiagnosis.Request, res: RunDiagnosis.Response):  # type: ignore[no-untyped-def]
         try:
