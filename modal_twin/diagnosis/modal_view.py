@@ -75,10 +75,14 @@ def modal_view(plant: Plant, rec: Record, *, fs_target_hz: float = 50.0,
         msg = "modal view: the record has no acceleration channel of the model"
         raise SignalError(msg)
     factor = max(1, round(rec.fs_hz / fs_target_hz))
-    active = [i for i, u in enumerate(rec.inputs) if np.std(u) > 0]
+    sd = np.std(rec.inputs, axis=1)
+    active = [i for i, v in enumerate(sd) if v > 1e-2 * sd.max()]  # driven axes, not noise
     u = decimate(rec.inputs[active][:, rec.skip:], rec.fs_hz, factor).x
     fs = rec.fs_hz / factor
-    for channels in (acc, [c for c in acc if not c.endswith("_z")]):  # short record: fewer
+    horizontal = [c for c in acc if not c.endswith("_z")]
+    ends = [c for c in horizontal if c.startswith((horizontal[0][:2], horizontal[-1][:2]))] \
+        if horizontal else []
+    for channels in (acc, horizontal, ends):  # a short record: fewer outputs
         y = decimate(rec.channels(channels)[:, rec.skip:], rec.fs_hz, factor).x
         try:
             sw = n4sid(u, y, fs, orders=np.arange(20, 62, 4), f_min_hz=0.5)
