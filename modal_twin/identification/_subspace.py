@@ -25,7 +25,7 @@ from modal_twin._types import ComplexArray, FloatArray, IntArray
 from modal_twin.errors import OptionError
 from modal_twin.identification.modal_model import PoleSet, normalize_shapes
 
-__all__ = ["check_orders", "default_block_rows", "poles_over_orders"]
+__all__ = ["check_orders", "default_block_rows", "leading_eigh", "poles_over_orders"]
 
 
 def check_orders(orders: object, max_allowed: int, what: str) -> IntArray:
@@ -176,3 +176,18 @@ def poles_over_orders(
             )
         )
     return tuple(out)
+
+
+def leading_eigh(P: FloatArray, n_max: int) -> tuple[FloatArray, FloatArray]:
+    """Eigenpairs of the symmetric ``P`` in descending order -- the one factorisation a
+    subspace method shares over all orders (``P = U S^2 U^T``). Above 500 rows only the
+    leading ``max(2 n_max, 100)`` pairs are computed (LAPACK syevr: same vectors, cheaper).
+    """
+    n = P.shape[0]
+    n_sv = min(n, max(2 * n_max, 100)) if n > 500 else n
+    if n_sv < n:
+        s2, U = sla.eigh(P, subset_by_index=[n - n_sv, n - 1], driver="evr",
+                         check_finite=False)
+    else:
+        s2, U = np.linalg.eigh(P)
+    return s2[::-1], U[:, ::-1]

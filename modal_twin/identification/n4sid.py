@@ -45,6 +45,7 @@ from modal_twin.identification._lagsums import hankel_gram
 from modal_twin.identification._subspace import (
     check_orders,
     default_block_rows,
+    leading_eigh,
     poles_over_orders,
 )
 from modal_twin.identification.modal_model import PoleSweep
@@ -231,14 +232,7 @@ def n4sid(
     W2 = _l32(Phi, mf, p)
     P = W2.T @ W2  # the one factorisation: L32 L32^T = U S^2 U^T
     nm = int(o[-1])
-    il = P.shape[0]
-    n_sv = min(il, max(2 * nm, 100)) if il > 500 else il
-    if n_sv < il:  # leading part of the spectrum only (LAPACK syevr): same vectors, cheaper
-        s2, Uo = sla.eigh(P, subset_by_index=[il - n_sv, il - 1], driver="evr",
-                          check_finite=False)
-    else:
-        s2, Uo = np.linalg.eigh(P)
-    s2, Uo = s2[::-1], Uo[:, ::-1]
+    s2, Uo = leading_eigh(P, nm)
     s = np.sqrt(np.clip(s2, 0.0, None))
     G = Uo[:, :nm]
     s2_inv = 1.0 / np.where(s2[:nm] > 0, s2[:nm], np.inf)

@@ -25,7 +25,6 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
@@ -35,6 +34,7 @@ from modal_twin.identification._lagsums import lag_sums
 from modal_twin.identification._subspace import (
     check_orders,
     default_block_rows,
+    leading_eigh,
     poles_over_orders,
 )
 from modal_twin.identification.modal_model import PoleSweep
@@ -167,15 +167,7 @@ def ssi_cov(
     # the one factorisation for every order: T T^T = U S^2 U^T (symmetric eigen-solve,
     # about half the cost of the SVD of T; the leading singular vectors are the same)
     nm = int(o[-1])
-    TT = T @ T.T
-    nr = TT.shape[0]
-    n_sv = min(nr, max(2 * nm, 100)) if nr > 500 else nr
-    if n_sv < nr:  # leading part of the spectrum only (LAPACK syevr): same vectors, cheaper
-        s2, U = sla.eigh(TT, subset_by_index=[nr - n_sv, nr - 1], driver="evr",
-                         check_finite=False)
-    else:
-        s2, U = np.linalg.eigh(TT)
-    s2, U = s2[::-1], U[:, ::-1]
+    s2, U = leading_eigh(T @ T.T, nm)
     s = np.sqrt(np.clip(s2, 0.0, None))
     G = U[:, :nm]
     s2_inv = 1.0 / np.where(s2[:nm] > 0, s2[:nm], np.inf)
