@@ -50,3 +50,31 @@ def shared_dir() -> Path:
     if not SHARED.is_dir():
         pytest.skip("../shared is not beside the checkout")
     return SHARED
+
+
+def write_frames_bag(path: Path, plant: object, *, seconds: float, scale: tuple[float, ...],
+                     seed: int, block: int, noise_rms: dict[str, float] | None = None) -> None:
+    """A bag of /measurement/frames: band-limited 6-DOF random table motion (RMS ``scale``
+    per axis) through a truth rig of ``plant``, in blocks of ``block`` samples at 1 kHz."""
+    import numpy as np
+
+    from modal_twin.excitation import signals
+    from modal_twin.io.bag import BagWriter
+    from modal_twin.io.convert import block_to_rosbags
+    from modal_twin.io.typestore import typestore
+    from modal_twin.rig.truth import TruthRig
+    from modal_twin.signal_block import SignalBlock
+    from modal_twin.twin.plants import INPUTS_6DOF
+
+    rig = TruthRig(plant, 1e-3, noise_rms=noise_rms, seed=seed)  # type: ignore[arg-type]
+    rng = np.random.default_rng(seed)
+    ag = signals.band_limited_random(6, seconds, 1000.0, f_min_hz=0.2, f_max_hz=20.0,
+                                     rms=1.0, rng=rng) * np.asarray(scale)[:, None]
+    st = typestore()
+    sb = "modal_twin_msgs/msg/SignalBlock"
+    with BagWriter(path, {"/measurement/frames": sb}) as w:
+        for k in range(0, ag.shape[1], block):
+            raw = rig.process(SignalBlock(INPUTS_6DOF, 1000.0, k, ag[:, k:k + block],
+                                          stamp_ns=10**18 + k * 10**6))
+            w.write("/measurement/frames", raw.stamp_ns,
+                    st.serialize_cdr(block_to_rosbags(raw, st), sb))

@@ -7,7 +7,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 pytestmark = pytest.mark.ros
@@ -16,29 +15,14 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _bag(path: Path) -> None:
-    from modal_twin.excitation import signals
-    from modal_twin.io.bag import BagWriter
-    from modal_twin.io.convert import block_to_rosbags
-    from modal_twin.io.typestore import typestore
+    from conftest import write_frames_bag
+
     from modal_twin.rig.config import load_rig
-    from modal_twin.rig.truth import TruthRig
-    from modal_twin.signal_block import SignalBlock
-    from modal_twin.twin.plants import INPUTS_6DOF, load_plant
+    from modal_twin.twin.plants import load_plant
 
     rig = load_rig(ROOT / "config" / "rigs" / "s1_stick_slip.yaml")
-    truth = TruthRig(load_plant(rig.structure, effects=rig.effects), 1e-3,
-                     noise_rms=rig.noise_rms, seed=3)
-    rng = np.random.default_rng(3)
-    ag = signals.band_limited_random(6, 16.0, 1000.0, f_min_hz=0.2, f_max_hz=20.0, rms=1.0,
-                                     rng=rng) * np.array([1.2, 1.2, 0.3, 0, 0, 0])[:, None]
-    st = typestore()
-    sb = "modal_twin_msgs/msg/SignalBlock"
-    with BagWriter(path, {"/measurement/frames": sb}) as w:
-        for k in range(0, ag.shape[1], 200):
-            raw = truth.process(SignalBlock(INPUTS_6DOF, 1000.0, k, ag[:, k:k + 200],
-                                            stamp_ns=10**18 + k * 10**6))
-            w.write("/measurement/frames", raw.stamp_ns,
-                    st.serialize_cdr(block_to_rosbags(raw, st), sb))
+    write_frames_bag(path, load_plant(rig.structure, effects=rig.effects), seconds=16.0,
+                     scale=(1.2, 1.2, 0.3, 0, 0, 0), seed=3, block=200, noise_rms=rig.noise_rms)
 
 
 def test_diagnosis_node_finds_and_adds_the_effect(domain_id: int, tmp_path: Path) -> None:

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from modal_twin.diagnosis.live import live_diagnosis
 from modal_twin.errors import SignalError
 from modal_twin.excitation import signals

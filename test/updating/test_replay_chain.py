@@ -34,29 +34,14 @@ twin:
 """
 
 
-def _bag(path: Path, seconds: float = 100.0) -> None:
-    from modal_twin.excitation import signals
-    from modal_twin.io.bag import BagWriter
-    from modal_twin.io.convert import block_to_rosbags
-    from modal_twin.io.typestore import typestore
-    from modal_twin.rig.truth import TruthRig
-    from modal_twin.signal_block import SignalBlock
-    from modal_twin.twin.plants import INPUTS_6DOF, load_plant
+def _bag(path: Path) -> None:
+    from conftest import write_frames_bag
 
-    rig = TruthRig(load_plant(BUILDING, theta=TRUTH), 1e-3,
-                   noise_rms={"acceleration": 0.002, "displacement": 1e-5, "force": 100.0})
-    rng = np.random.default_rng(5)
-    scale = np.array([0.4, 0.4, 0.2, 0, 0, 0])[:, None]
-    ag = signals.band_limited_random(6, seconds, 1000.0, f_min_hz=0.2, f_max_hz=20.0,
-                                     rms=1.0, rng=rng) * scale
-    st = typestore()
-    sb = "modal_twin_msgs/msg/SignalBlock"
-    with BagWriter(path, {"/measurement/frames": sb}) as w:
-        for k in range(0, ag.shape[1], 250):
-            raw = rig.process(SignalBlock(INPUTS_6DOF, 1000.0, k, ag[:, k:k + 250],
-                                          stamp_ns=10**18 + k * 10**6))
-            w.write("/measurement/frames", raw.stamp_ns,
-                    st.serialize_cdr(block_to_rosbags(raw, st), sb))
+    from modal_twin.twin.plants import load_plant
+
+    write_frames_bag(path, load_plant(BUILDING, theta=TRUTH), seconds=100.0,
+                     scale=(0.4, 0.4, 0.2, 0, 0, 0), seed=5, block=250,
+                     noise_rms={"acceleration": 0.002, "displacement": 1e-5, "force": 100.0})
 
 
 def test_replayed_bag_identify_update_twin(domain_id: int, tmp_path: Path) -> None:
