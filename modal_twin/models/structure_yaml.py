@@ -412,7 +412,8 @@ def _masses(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> float:
                             what="expected a name, on an entry with one node")
         for nid in targets:
             _guard(cx, f"{where} (node {nid!r})",
-                   lambda n=nid, m=m, j=inertia: fem.add_mass(n, m, inertia=j, m_param=param))
+                   lambda n=nid, m=m, j=inertia, q=param: fem.add_mass(n, m, inertia=j,
+                                                                       m_param=q))
             total += m
     return total
 
