@@ -209,3 +209,15 @@ def test_make_device_builds_every_law():
     with pytest.raises(ConfigError, match=r"unknown type 'spring'; valid: \["):
         make_device(DeviceSpec(**base, type="spring"))
     assert "bouc_wen_sdp" in DEVICE_TYPES
+
+
+def test_mass_parameter_needs_one_node_and_a_name():
+    doc = _block()
+    doc["masses"][0]["param"] = "m_all"  # several nodes share the entry
+    with pytest.raises(ConfigError, match=r"masses\[0\]\.param.*one node"):
+        parse_structure(doc)
+    doc = _block()
+    node = doc["masses"][0]["nodes"][0]
+    doc["masses"].append({"node": node, "m": 500.0, "param": "m_extra"})
+    par = parse_structure(doc).model.assemble().parametric
+    assert "m_extra" in par.names
