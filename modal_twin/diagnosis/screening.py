@@ -24,12 +24,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from modal_twin._types import FloatArray
-from modal_twin.acquisition.decimation import lowpass_zero_phase
+from modal_twin.diagnosis.restoring_force import state_derivatives
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.effects import effect_device
 from modal_twin.models.structure_yaml import DeviceSpec
 
-__all__ = ["ScreenedCandidate", "parameter_grid", "screen_components"]
+__all__ = ["ScreenedCandidate", "drift_velocity", "parameter_grid", "screen_components"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,9 +68,12 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
 SCREEN_LAWS = ("stick_slip", "bilinear", "bilinear_hysteretic", "bouc_wen", "cubic", "gap")
 
 
-def _velocity(u: FloatArray, fs_hz: float, cutoff_hz: float) -> FloatArray:
-    smooth = lowpass_zero_phase(u, fs_hz, cutoff_hz) if cutoff_hz < 0.45 * fs_hz else u
-    return np.gradient(smooth, 1.0 / fs_hz, axis=-1)
+def drift_velocity(u: FloatArray, fs_hz: float, cutoff_hz: float) -> FloatArray:
+    """Velocity of each row of ``u`` below ``cutoff_hz`` (spectral, even-extended:
+    :func:`~modal_twin.diagnosis.restoring_force.state_derivatives`)."""
+    f_max = min(cutoff_hz, 0.45 * fs_hz)
+    return np.vstack([state_derivatives(row, fs_hz, f_max_hz=f_max)[1]
+                      for row in np.atleast_2d(u)])
 
 
 def screen_components(
@@ -108,7 +111,7 @@ def screen_components(
             continue
         u = np.asarray(drifts[name], dtype=float)
         f = np.asarray(forces[name], dtype=float)
-        v = _velocity(u, fs_hz, cutoff_hz)
+        v = drift_velocity(u, fs_hz, cutoff_hz)
         k, c = np.asarray(spec.k, float)[:, None], np.asarray(spec.c, float)[:, None]
         r = (f - (k * u + c * v)).ravel()  # residual restoring force, Eq. (20) of [003]
         f_var = float(np.sum((f - f.mean(axis=1, keepdims=True)) ** 2))

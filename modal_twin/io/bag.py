@@ -161,8 +161,7 @@ class BagWriter:
         self._writer.write(conn, int(t_ns), raw)
         self.counts[topic] += 1
         now = time.monotonic()
-        if now - self._last_flush >= self.flush_period_s:
-            self.flush()
+        self.flush_if_due(now)
         if self._rotating and self._rotation_due(now):
             self._writer.close()
             self._open_part()
@@ -175,6 +174,12 @@ class BagWriter:
             bio = getattr(storage, "bio", None)
             return bio is not None and bio.tell() >= self.rotate_bytes
         return False
+
+    def flush_if_due(self, now: float | None = None) -> None:
+        """Flush when ``flush_period_s`` has passed since the last flush."""
+        now = time.monotonic() if now is None else now
+        if now - self._last_flush >= self.flush_period_s:
+            self.flush()
 
     def flush(self) -> None:
         """Close the pending chunk and push it to the disk (bounded loss on a crash)."""

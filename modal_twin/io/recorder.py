@@ -72,7 +72,7 @@ class RecorderNode(Node):
             )
             for topic, mt in topics.items()
         ]
-        self.create_timer(0.25, self.writer_flush_if_idle)
+        self.create_timer(0.25, self.writer.flush_if_due)  # a quiet stream's tail too
         self.get_logger().info(f"recording {sorted(topics)} to {path}")
 
     def _callback(self, topic: str):  # type: ignore[no-untyped-def]
@@ -80,11 +80,6 @@ class RecorderNode(Node):
             self.writer.write(topic, time.time_ns(), raw)
 
         return cb
-
-    def writer_flush_if_idle(self) -> None:
-        """Flush on a timer too, so a quiet stream's last messages reach the disk."""
-        if time.monotonic() - self.writer._last_flush >= self.writer.flush_period_s:
-            self.writer.flush()
 
     def close(self) -> None:
         """Finish the bag (summary and metadata.yaml)."""

@@ -11,11 +11,10 @@ from modal_twin.errors import OptionError
 from modal_twin.models.building import build_building, modal_reduction
 from modal_twin.models.devices import Device
 from modal_twin.models.effects import effect_device
-from modal_twin.models.structure_yaml import DeviceSpec
 from modal_twin.rig.config import EffectSpec
 from modal_twin.twin.plant import Plant, Source
 
-__all__ = ["INPUTS_6DOF", "PlantFactory", "load_model", "load_plant", "plant_sites"]
+__all__ = ["INPUTS_6DOF", "PlantFactory", "load_model", "load_plant"]
 
 INPUTS_6DOF = ("ax", "ay", "az", "arx", "ary", "arz")
 
@@ -98,12 +97,6 @@ def load_plant(
 ) -> Plant:
     """Build the plant of a structure file (see :class:`PlantFactory`)."""
     return PlantFactory(structure_file, theta=theta, n_modes=n_modes).plant(effects)
-
-
-def plant_sites(structure_file: str | Path) -> tuple[dict[str, DeviceSpec], dict[str, float]]:
-    """Components where effects can be placed (the devices) and their carried weights."""
-    f = PlantFactory(structure_file)
-    return f.sites, {n: f.weight(n) for n in f.sites}
 
 
 def load_model(model_file: str | Path, *, theta: Mapping[str, float] | None = None) -> Plant:

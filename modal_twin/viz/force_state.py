@@ -31,9 +31,9 @@ def plot_force_state(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from modal_twin.diagnosis.screening import _velocity
+    from modal_twin.diagnosis.screening import drift_velocity
 
-    v = _velocity(drift, fs_hz, min(25.0, 0.4 * fs_hz))
+    v = drift_velocity(drift, fs_hz, 25.0)
     rows = 2 if fitted_force is not None else 1
     fig, axes = plt.subplots(rows, drift.shape[0], figsize=(9, 3.8 * rows), squeeze=False)
     step = max(1, drift.shape[1] // 8000)
