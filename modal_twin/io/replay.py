@@ -24,12 +24,13 @@ def replay(
     rate: float = 1.0,
     topics: list[str] | None = None,
     wait_subscribers_s: float = 10.0,
+    subscribers: int = 1,
 ) -> int:
     """Publish every message of ``path`` (raw CDR) at ``rate`` x the recorded timing.
 
-    Waits up to ``wait_subscribers_s`` for each topic to have a reader first (DDS
-    discovery takes seconds; a volatile stream would otherwise lose its head). Returns
-    the number of messages published.
+    Waits up to ``wait_subscribers_s`` for each topic to have ``subscribers`` matched
+    readers first (DDS discovery takes seconds and matches readers one by one; a reader
+    matched late loses the head of the stream). Returns the number of messages published.
     """
     if rate <= 0:
         msg = f"rate: expected > 0, got {rate}"
@@ -39,8 +40,10 @@ def replay(
     pubs = {t.name: node.create_publisher(message_class(t.msgtype), t.name, qos_for(t.name))
             for t in wanted}
     for name, pub in pubs.items():
-        if wait_subscribers_s > 0 and not wait_for_subscribers(node, pub, 1, wait_subscribers_s):
-            node.get_logger().warning(f"no subscriber on {name}; publishing anyway")
+        if wait_subscribers_s > 0 and not wait_for_subscribers(node, pub, subscribers,
+                                                                wait_subscribers_s):
+            node.get_logger().warning(f"{pub.get_subscription_count()} of {subscribers} "
+                                      f"subscribers on {name}; publishing anyway")
     n = 0
     t0_bag: int | None = None
     t0_wall = 0.0
@@ -63,6 +66,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rate", type=float, default=1.0, help="speed factor (2 = twice as fast)")
     p.add_argument("--topics", nargs="*", default=None)
     p.add_argument("--wait", type=float, default=10.0, help="s to wait for subscribers")
+    p.add_argument("--subscribers", type=int, default=1,
+                   help="readers each topic must have before publishing starts")
     argv = sys.argv[1:] if argv is None else argv
     ros_args: list[str] = []
     if "--ros-args" in argv:  # as the launcher starts it
@@ -77,7 +82,8 @@ def main(argv: list[str] | None = None) -> int:
     rclpy.init(args=["replay", *ros_args])
     node = rclpy.create_node("replay")
     try:
-        n = replay(node, a.bag, rate=a.rate, topics=a.topics, wait_subscribers_s=a.wait)
+        n = replay(node, a.bag, rate=a.rate, topics=a.topics, wait_subscribers_s=a.wait,
+                   subscribers=a.subscribers)
         # give reliable readers time to take the tail before the publishers go away
         end = time.monotonic() + 1.0
         while time.monotonic() < end:

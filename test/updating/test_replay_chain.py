@@ -79,13 +79,15 @@ def test_replayed_bag_identify_update_twin(domain_id: int, tmp_path: Path) -> No
 
     def replay() -> float:
         rep = subprocess.Popen([sys.executable, "-m", "modal_twin.cli", "replay",
-                                str(tmp_path / "bag"), "--rate", "10"],
+                                str(tmp_path / "bag"), "--rate", "10",
+                                "--subscribers", "2"],  # identification and twin
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         while rep.poll() is None:
             spin(0.2)
         n0 = len(metrics)
-        spin(5.0, lambda: len(metrics) > n0 + 2 and metrics[-1].samples >= 100_000)
+        spin(30.0, lambda: len(metrics) > n0 + 2 and metrics[-1].samples >= 100_000)
         m = metrics[-1]
+        assert m.samples >= 100_000, f"the twin compared {m.samples} of 100000 samples"
         acc = [i for i, c in enumerate(m.channel_names) if c[-2:] in ("_x", "_y", "_z")]
         return float(np.mean(np.asarray(m.residual_rms)[acc]))
 
@@ -100,7 +102,9 @@ def test_replayed_bag_identify_update_twin(domain_id: int, tmp_path: Path) -> No
         assert fut.result().success, fut.result().message
         spin(60.0, lambda: bool(params))
         assert params, "the updating node published no parameters"
-        spin(3.0)  # the twin reloads
+        twin_log = tmp_path / "run" / "logs" / "twin.log"
+        spin(30.0, lambda: "now runs model version" in twin_log.read_text())
+        assert "now runs model version" in twin_log.read_text(), "the twin did not reload"
         after = replay()
         assert launcher.dead() == []
     finally:
