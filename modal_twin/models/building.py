@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from modal_twin._types import FloatArray
@@ -58,6 +58,7 @@ __all__ = [
     "build_building",
     "check_stability",
     "modal_reduction",
+    "positive_definite",
 ]
 
 _log = logging.getLogger(__name__)
@@ -228,16 +229,53 @@ def check_stability(spec: StructureSpec, asm: FEAssembly) -> None:
                            f"rigid-body {_RIGID_NAMES[j]} (R'KR = {d[j]:.3g}, scale "
                            f"{scale:.3g}); give the devices stiffness in that direction")
                     raise ModelError(msg)
-    Kd = asm.K.toarray()
-    try:
-        sla.cholesky(Kd, lower=True)
-    except np.linalg.LinAlgError:
-        lam, V = np.linalg.eigh(Kd)
+    ok, pivot = positive_definite(asm.K)
+    if ok:
+        return
+    labels = asm.dof_labels()
+    if asm.K.shape[0] <= _DENSE_NAMING_MAX:  # name the DOF of the softest eigenvector
+        lam, V = np.linalg.eigh(asm.K.toarray())
         j = int(np.argmax(np.abs(V[:, 0])))
-        node, dof = asm.dof_labels()[j]
+        node, dof = labels[j]
         msg = (f"{spec.source}: K is singular or indefinite: softest eigenvalue "
                f"{lam[0]:.3g} (largest {lam[-1]:.3g}), mechanism dominated by {node!r}:{dof}")
-        raise ModelError(msg) from None
+    else:
+        node, dof = labels[pivot]
+        msg = (f"{spec.source}: K is singular or indefinite: non-positive pivot of its "
+               f"LDL' factorisation at {node!r}:{dof}")
+    raise ModelError(msg)
+
+
+_DENSE_NAMING_MAX = 3000  # DOFs up to which a failed check names the softest eigenvector
+
+
+def positive_definite(K: sp.spmatrix | sp.sparray, rtol: float = 1e-13) -> tuple[bool, int]:
+    """Sparse positive-definiteness test of a symmetric K: (ok, index of the first bad pivot).
+
+    LU with a symmetric fill-reducing ordering and no pivoting off the diagonal
+    (SuperLU ``SymmetricMode``, ``diag_pivot_thresh = 0``) is the LDL' factorisation of
+    P K P'; K is positive definite iff every pivot D_jj = U_jj is positive (Sylvester's
+    criterion on the leading minors of P K P'). Pivots below ``rtol`` times the largest
+    diagonal entry count as zero (a mechanism). ``index`` is the original DOF of the
+    first such pivot (-1 when ok). No dense copy: a 10k-DOF model takes a fraction of a
+    second instead of the tens of seconds of a dense Cholesky.
+    """
+    Kc = sp.csc_matrix(K)
+    n = Kc.shape[0]
+    scale = float(np.abs(Kc.diagonal()).max()) if n else 0.0
+    if n == 0 or scale == 0.0:
+        return n == 0, 0 if n else -1
+    try:
+        lu = spla.splu(Kc, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
+    except RuntimeError:  # exactly singular: SuperLU stops at the zero pivot
+        d = Kc.diagonal()
+        return False, int(np.argmin(d))
+    piv = lu.U.diagonal()
+    bad = np.flatnonzero(~(piv > rtol * scale))
+    if bad.size == 0:
+        return True, -1
+    return False, int(lu.perm_c[bad[0]])
 
 
 def build_building(path: str | Path | None = None, *, spec: StructureSpec | None = None
@@ -466,12 +504,9 @@ def modal_reduction(building: BuildingModel, n_modes: int | None = None, *,
         raise OptionError(msg)
     th = par.theta_vector(theta)
     K, M, C = par.K(th), par.M(th), par.C(th)
-    if theta is not None:
-        try:
-            sla.cholesky(K.toarray(), lower=True)
-        except np.linalg.LinAlgError:
-            msg = "theta: K(theta) is not positive definite (a modulus or stiffness <= 0?)"
-            raise ModelError(msg) from None
+    if theta is not None and not positive_definite(K)[0]:
+        msg = "theta: K(theta) is not positive definite (a modulus or stiffness <= 0?)"
+        raise ModelError(msg)
     sol = solve_modes(K, M, int(r))
     Phi, omega = sol.Phi, sol.omega
     Cdev = Phi.T @ (C @ Phi)
