@@ -65,13 +65,12 @@ device stiffness).
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 import scipy.linalg
 
-from modal_twin._types import FloatArray, IntArray
+from modal_twin._types import FloatArray
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError, SignalError
 from modal_twin.models.devices.base import (
     KIND_BW_ESB,
@@ -81,7 +80,6 @@ from modal_twin.models.devices.base import (
     KIND_PRANDTL,
     N_PARAM,
     N_STATE,
-    Device,
 )
 from modal_twin.models.devices.bouc_wen import esb_pressure_factor
 from modal_twin.twin.kernels import (
@@ -89,6 +87,7 @@ from modal_twin.twin.kernels import (
     STATUS_NONFINITE,
     run_block,
 )
+from modal_twin.twin.system import DeviceAttachment, ReducedSystem, SimResult
 
 __all__ = ["DeviceAttachment", "ReducedSystem", "SimResult", "Simulator", "simulate"]
 
@@ -100,139 +99,6 @@ _CHUNK = 1024  # samples per kernel call: the output buffer Z stays in the L2 ca
 # (parameter index, -1 for none): Coulomb sticking (kt), gap contact (k, c), Prandtl Kb
 _JUMPS = {KIND_COULOMB: (2, -1), KIND_GAP: (0, 2), KIND_PRANDTL: (5, -1)}
 _N_KINDS = 9  # law kinds 0..8 the kernel dispatches (modal_twin.models.devices.base.KIND_*)
-
-
-@dataclass(frozen=True, slots=True)
-class DeviceAttachment:
-    """A device and the matrix that extracts its local drift from q.
-
-    Attributes
-    ----------
-    device : Device
-        The law (1 or 2 directions).
-    B : FloatArray
-        Shape (n_dir, n): u_d = B q (m per unit of q).
-    """
-
-    device: Device
-    B: FloatArray
-
-
-@dataclass(frozen=True, slots=True)
-class ReducedSystem:
-    """Reduced linear structure with nonlinear devices, Eq. (12) of [004].
-
-    Attributes
-    ----------
-    M, C, K : FloatArray
-        (n, n) mass (identity if mass-normalised), damping and stiffness of the linear part.
-    Gamma : FloatArray
-        (n, n_in) participation of the base acceleration a_g (e.g. Phi^T M P), SI.
-    devices : tuple of DeviceAttachment
-        Nonlinear devices.
-    C_out : FloatArray
-        (n_out, 3 n) output matrix acting on [q; q'; q''].
-    D_out : FloatArray
-        (n_out, n_in) direct feed-through of a_g (absolute accelerations).
-    output_names : tuple of str
-        Optional channel names (length n_out or empty).
-    """
-
-    M: FloatArray
-    C: FloatArray
-    K: FloatArray
-    Gamma: FloatArray
-    devices: tuple[DeviceAttachment, ...]
-    C_out: FloatArray
-    D_out: FloatArray
-    output_names: tuple[str, ...] = field(default=())
-
-    def __post_init__(self) -> None:
-        """Validate shapes and finiteness."""
-        n = np.shape(self.M)[0] if np.ndim(self.M) == 2 else -1
-        for name, A, shape in (
-            ("M", self.M, (n, n)),
-            ("C", self.C, (n, n)),
-            ("K", self.K, (n, n)),
-        ):
-            if np.shape(A) != shape or n < 1:
-                msg = f"{name}: expected (n, n) with n = {n}, got {np.shape(A)}"
-                raise ShapeError(msg)
-        n_in = np.shape(self.Gamma)[1] if np.ndim(self.Gamma) == 2 else -1
-        if np.shape(self.Gamma) != (n, n_in):
-            msg = f"Gamma: expected (n, n_in) with n = {n}, got {np.shape(self.Gamma)}"
-            raise ShapeError(msg)
-        n_out = np.shape(self.C_out)[0] if np.ndim(self.C_out) == 2 else -1
-        if np.shape(self.C_out) != (n_out, 3 * n):
-            msg = f"C_out: expected (n_out, 3 n) = (n_out, {3 * n}), got {np.shape(self.C_out)}"
-            raise ShapeError(msg)
-        if np.shape(self.D_out) != (n_out, n_in):
-            msg = f"D_out: expected ({n_out}, {n_in}), got {np.shape(self.D_out)}"
-            raise ShapeError(msg)
-        if self.output_names and len(self.output_names) != n_out:
-            msg = f"output_names: expected {n_out} names, got {len(self.output_names)}"
-            raise ShapeError(msg)
-        for i, att in enumerate(self.devices):
-            if np.shape(att.B) != (att.device.n_dir, n):
-                msg = (
-                    f"devices[{i}].B ({att.device.name}): expected ({att.device.n_dir}, {n}), "
-                    f"got {np.shape(att.B)}"
-                )
-                raise ShapeError(msg)
-        for name in ("M", "C", "K", "Gamma", "C_out", "D_out"):
-            if not np.all(np.isfinite(getattr(self, name))):
-                msg = f"{name}: expected finite entries, found NaN or inf"
-                raise ModelError(msg)
-
-    @property
-    def n(self) -> int:
-        """Number of reduced coordinates."""
-        return int(np.shape(self.M)[0])
-
-    @property
-    def n_in(self) -> int:
-        """Number of base-acceleration inputs."""
-        return int(np.shape(self.Gamma)[1])
-
-
-@dataclass(frozen=True, slots=True)
-class SimResult:
-    """Time histories of a (block of a) simulation.
-
-    Attributes
-    ----------
-    t : FloatArray
-        (nt,) time of each sample, s.
-    y : FloatArray
-        (n_out, nt) outputs (C_out [q; q'; q''] + D_out a_g), SI.
-    q, qd, qdd : FloatArray or None
-        (n, nt) reduced coordinates and their first two derivatives (None when the
-        simulator was built with ``modal_histories=False``).
-    drift : FloatArray
-        (n_rows, nt) device drifts, one row per device direction (order of ``rows``), m.
-    force : FloatArray
-        (n_rows, nt) device forces, N.
-    rows : tuple of str
-        "name.x" / "name.y" label of each drift / force row.
-    newton_iterations : IntArray
-        (nt,) device-law evaluations per sample (0 for the rest sample; 1 is the rule).
-    cond_V : float
-        Condition number of the modal eigenvector matrix.
-    method : str
-        Integration method.
-    """
-
-    t: FloatArray
-    y: FloatArray
-    q: FloatArray | None
-    qd: FloatArray | None
-    qdd: FloatArray | None
-    drift: FloatArray
-    force: FloatArray
-    rows: tuple[str, ...]
-    newton_iterations: IntArray
-    cond_V: float  # noqa: N815 - matrix symbol V
-    method: str
 
 
 def _discretise(lam: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
