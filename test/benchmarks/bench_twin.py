@@ -10,6 +10,10 @@ less) of
 ``Simulator.step_block`` on the whole record (outputs y, drifts and forces), with q, q', q''
 too, and streamed in 100-sample blocks.
 
+Where the time goes: the same run with every device replaced by a linear k-c of its
+reference stiffness and damping (``rtf_linear_devices_cpu``: the laws cost nothing and the
+Newton converges at once, so this is the floor of the linear part, outputs included) and
+with one output instead of 42 (``rtf_one_output_cpu``).
 The numpy reference (:func:`numpy_reference`) is the same scheme written as a per-step
 numpy loop: input projection, diagonal first-order-hold propagation, drift projection
 P xi_p (the kernel predicts the same drift as Q xi_p,k + Ua0 a_k + Ua1 a_k+1 + Hf ft_k, so
@@ -34,6 +38,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -50,6 +55,7 @@ from modal_twin.models.devices import (
     table10_sdp,
 )
 from modal_twin.models.devices._dispatch import evaluate_law
+from modal_twin.models.devices.linear import LinearDevice
 from modal_twin.twin.simulator import (
     DeviceAttachment,
     ReducedSystem,
@@ -96,6 +102,16 @@ def building(n: int = 36, seed: int = 1) -> ReducedSystem:
     C_out = np.hstack([np.zeros((n_out, 2 * n)), rng.standard_normal((n_out, n)) * 1e-3])
     D_out = rng.standard_normal((n_out, 6)) * 0.1
     return ReducedSystem(np.eye(n), C, K, Gamma, tuple(att), C_out, D_out)
+
+
+def with_linear_devices(system: ReducedSystem) -> ReducedSystem:
+    """The same system with every device replaced by a linear k-c of its initial tangent."""
+    att = []
+    for a in system.devices:
+        k = np.diag(a.device.reference_stiffness())[: a.device.n_dir]
+        c = np.diag(a.device.reference_damping())[: a.device.n_dir]
+        att.append(DeviceAttachment(LinearDevice(list(k), list(c), name=a.device.name), a.B))
+    return replace(system, devices=tuple(att))
 
 
 def numpy_reference(sim: Simulator, ag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -222,6 +238,15 @@ def main() -> None:
     t_stream, c_stream = best_of(
         sim, lambda: [sim.step_block(ag[:, i : i + 100]) for i in starts]
     )
+    # where the time goes: the same kernel with linear devices (the laws cost nothing, the
+    # Newton converges at once) and with one output instead of 42 (no output product)
+    floor = {}
+    for key, variant in (("linear_devices", with_linear_devices(system)),
+                         ("one_output", replace(system, C_out=system.C_out[:1],
+                                                D_out=system.D_out[:1]))):
+        sv = Simulator(variant, dt, modal_histories=False)
+        sv.step_block(ag[:, :50])
+        floor[key] = T / best_of(sv, lambda sv=sv: sv.step_block(ag))[1]
     n_ref = int(args.ref_seconds / dt) + 1
     t0 = time.perf_counter()
     ref_u, ref_y = numpy_reference(sim, ag[:, :n_ref])
@@ -244,6 +269,8 @@ def main() -> None:
     print(f"numpy reference: {(n_ref - 1) * dt:.1f} s in {t_ref:.2f} s -> RTF {rtf_ref:.2f} "
           f"(max rel. difference drift {err:.1e}, y {err_y:.1e})")
     print(f"speed-up vs numpy: {rtf / rtf_ref:.0f}")
+    print(f"where the time goes (CPU RTF): all devices linear {floor['linear_devices']:.0f}, "
+          f"one output instead of {system.C_out.shape[0]}: {floor['one_output']:.0f}")
     print(json.dumps({
         "rtf_building": round(rtf, 1),
         "rtf_building_cpu": round(T / c_run, 1),
@@ -253,6 +280,8 @@ def main() -> None:
         "rtf_with_modal_histories_cpu": round(T / c_q, 1),
         "rtf_numpy_reference": round(rtf_ref, 3),
         "speedup_vs_numpy": round(rtf / rtf_ref, 1),
+        "rtf_linear_devices_cpu": round(floor["linear_devices"], 1),
+        "rtf_one_output_cpu": round(floor["one_output"], 1),
         "evals_per_step": round(float(it.mean()), 4),
         "rtol": sim.rtol,
         "compile_s": round(t_compile, 2),
