@@ -27,7 +27,7 @@ from modal_twin.twin.plant import Plant
 from modal_twin.twin.plants import PlantFactory
 from modal_twin.twin.simulator import Simulator
 
-__all__ = ["FittedEffect", "fit_effect", "record_nmse", "simulate_record"]
+__all__ = ["FittedEffect", "fit_effect", "normalised_residual", "record_nmse", "simulate_record"]
 
 log = logging.getLogger(__name__)
 
@@ -76,6 +76,15 @@ def record_nmse(pred: FloatArray, rec: Record) -> FloatArray:
 # law -> (parameter names, x -> params, params -> x0, lower, upper)
 Transform = tuple[list[str], Callable[[FloatArray], dict[str, float]],
                   Callable[[dict[str, float]], FloatArray], FloatArray, FloatArray]
+
+
+def normalised_residual(plant: Plant, rec: Record, decimate: int, scale: FloatArray
+                        ) -> FloatArray:
+    """Residual of ``plant`` on ``rec``, each channel divided by ``scale`` (its measured RMS,
+    so that accelerations, drifts and forces weigh alike), every ``decimate``-th sample,
+    flattened: the vector the fits minimise."""
+    pred = simulate_record(plant, rec)
+    return ((pred[:, rec.skip:] - rec.scored) / scale)[:, ::decimate].ravel()
 
 
 def _transform(law: str, start: dict[str, float], k: float) -> Transform:
@@ -158,12 +167,12 @@ def fit_effect(
         nonlocal n_sim
         n_sim += 1
         try:
-            plant = factory.plant([EffectSpec(component, law, to_params(x))])
-            pred = simulate_record(plant, train)
+            return normalised_residual(factory.plant([EffectSpec(component, law,
+                                                                 to_params(x))]),
+                                       train, decimate, scale_tr)
         except ModalTwinError as err:  # the trial made the model fail: a large penalty
             log.debug("trial %s refused: %s", to_params(x), err)
             return np.full(train.scored[:, ::decimate].size, 1e3)
-        return ((pred[:, train.skip:] - train.scored) / scale_tr)[:, ::decimate].ravel()
 
     sol = least_squares(residual, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
                         x_scale="jac")

@@ -18,7 +18,12 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from modal_twin._types import FloatArray
-from modal_twin.diagnosis.fitting import FittedEffect, record_nmse, simulate_record
+from modal_twin.diagnosis.fitting import (
+    FittedEffect,
+    normalised_residual,
+    record_nmse,
+    simulate_record,
+)
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.rig.config import EffectSpec
@@ -27,7 +32,7 @@ from modal_twin.twin.plants import PlantFactory
 __all__ = ["KINDS", "PARAMETER_LAWS", "ParameterCandidate", "fit_parameter",
            "screen_parameters"]
 
-KINDS = {"m_": "added_mass", "E_": "stiffness"}
+KINDS = {"m_": "added_mass", "E_": "stiffness", "EI_": "stiffness"}
 PARAMETER_LAWS = tuple(KINDS.values())  # effects that change a parameter value
 
 
@@ -45,21 +50,19 @@ class ParameterCandidate:
 def _residual(factory: PlantFactory, theta: dict[str, float], rec: Record, decimate: int,
               scale: FloatArray) -> FloatArray:
     plant = (factory.with_theta(theta) if theta else factory).plant()
-    pred = simulate_record(plant, rec)
-    return ((pred[:, rec.skip:] - rec.scored) / scale)[:, ::decimate].ravel()
+    return normalised_residual(plant, rec, decimate, scale)
 
 
 def screen_parameters(factory: PlantFactory, train: Record, *,
                       prefixes: Sequence[str] = tuple(KINDS), rel_step: float = 0.05,
                       decimate: int = 5) -> list[ParameterCandidate]:
     """Score every parameter whose name starts with one of ``prefixes`` (best first)."""
-    par = factory.bld.assembly.parametric
-    theta0 = par.theta_vector(factory.theta or None)
+    values = factory.parameters()
     scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
     r0 = _residual(factory, {}, train, decimate, scale)
     e0 = float(r0 @ r0)
     out = []
-    for name, nominal in zip(par.names, theta0, strict=True):
+    for name, nominal in values.items():
         kind = next((KINDS[p] for p in prefixes if name.startswith(p)), None)
         if kind is None or e0 <= 0:
             continue

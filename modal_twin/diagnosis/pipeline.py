@@ -15,9 +15,15 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from modal_twin.diagnosis.attachments import (
+    AttachmentCandidate,
+    fit_attachment,
+    screen_attachments,
+)
 from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
 from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter, screen_parameters
@@ -44,6 +50,7 @@ class Diagnosis:
     fitted: tuple[FittedEffect, ...]  # best first (held-out error)
     skipped: tuple[str, ...]
     modal: ModalView | None = None  # identified vs model modes, held-out record
+    attachments: tuple[AttachmentCandidate, ...] = ()  # rigid masses hung elastically
 
     @property
     def best(self) -> FittedEffect | None:
@@ -63,6 +70,9 @@ class Diagnosis:
         for pc in self.parameters[:4]:
             out.append(f"  {pc.name:<6}{pc.kind:<20} removes {100 * pc.gain:6.2f} % of the "
                        f"residual (start {pc.start:.4g}, nominal {pc.nominal:.4g})")
+        for ac in self.attachments[:4]:
+            out.append(f"  {ac.component:<6}{'elastic_mount':<20} removes {100 * ac.gain:6.2f} "
+                       f"% of the residual (best mount frequency {ac.f_hz:.3g} Hz)")
         out.append("")
         out.append("FITTED BY SIMULATION (ranked by held-out error)")
         out.append(f"  {'component':<10}{'law':<20}{'train %':>9}{'held-out %':>11}"
@@ -89,7 +99,7 @@ def _device_data(rec: Record, names: list[str]) -> tuple[dict, dict]:  # type: i
 
 
 def diagnose(
-    factory: PlantFactory,
+    factory: PlantFactory | Any,
     train: Record,
     test: Record,
     *,
@@ -160,6 +170,19 @@ def diagnose(
             fitted.append(fit_parameter(factory, pc, train, test))
         except (ModalTwinError, ValueError) as err:
             skipped.append(f"{pc.kind} {pc.name}: {err}")
+    attachments: list[AttachmentCandidate] = []
+    if tuple(factory.attachments()):
+        say("screening elastic mounts of the rigidly attached masses by simulation")
+        attachments = screen_attachments(factory, train)
+    for ac in attachments[:n_fit]:
+        if ac.gain < gain_threshold:
+            continue
+        say(f"fitting an elastic mount of {ac.component} by simulation")
+        try:
+            fitted.append(fit_attachment(factory, ac.component, {"f_hz": ac.f_hz}, train,
+                                         test))
+        except (ModalTwinError, ValueError) as err:
+            skipped.append(f"elastic_mount at {ac.component}: {err}")
     for c in picks:
         say(f"fitting {c.law} at {c.component} by simulation")
         try:
@@ -185,4 +208,4 @@ def diagnose(
         summary = (f"the model fails (nominal error {nominal_nmse:.2f} % NMSE) but no "
                    "candidate could be fitted")
     return Diagnosis(significant, summary, where, tuple(screened), tuple(params),
-                     tuple(fitted), tuple(skipped), modal)
+                     tuple(fitted), tuple(skipped), modal, tuple(attachments))

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+from modal_twin.diagnosis.attachments import MOUNT_LAW, fit_attachment
 from modal_twin.diagnosis.fitting import (
     FittedEffect,
     fit_effect,
@@ -78,8 +79,11 @@ def add_effect(
         write_version(folder, replace(base, note="nominal", errors=channel_errors(base, test)))
     factory = _factory(base)
     if law in PARAMETER_LAWS:  # a parameter value, not a device law
-        par = factory.bld.assembly.parametric
-        nominal = float(par.theta_vector(factory.theta or None)[par.index(component)])
+        values = factory.parameters()
+        if component not in values:
+            msg = f"{law}: unknown parameter {component!r}; parameters: {sorted(values)}"
+            raise OptionError(msg)
+        nominal = values[component]
         cand = ParameterCandidate(component, law, nominal, float(start.get(component, nominal)),
                                   0.0)
         fitted = fit_parameter(factory, cand, train, test)
@@ -89,7 +93,10 @@ def add_effect(
                             f"{fitted.test_nmse_pct:.3f} %)"))
         new = replace(new, errors=channel_errors(new, test))
         return write_version(folder, new), fitted
-    fitted = fit_effect(factory, component, law, start, train, test)
+    if law == MOUNT_LAW:
+        fitted = fit_attachment(factory, component, start, train, test)
+    else:
+        fitted = fit_effect(factory, component, law, start, train, test)
     new = replace(base, effects=(*base.effects, fitted.effect),
                   note=(f"added {law} at {component} (held-out NMSE "
                         f"{fitted.test_nmse_nominal_pct:.3f} % -> {fitted.test_nmse_pct:.3f} %)"))

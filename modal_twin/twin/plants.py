@@ -49,6 +49,17 @@ class PlantFactory:
         """A factory of the same structure with some parameter values changed."""
         return PlantFactory(self.structure_file, theta={**self.theta, **changes})
 
+    def parameters(self) -> dict[str, float]:
+        """Current value of every model parameter (the structure's ``theta``)."""
+        par = self.bld.assembly.parametric
+        return dict(zip(par.names, (float(v) for v in par.theta_vector(self.theta or None)),
+                        strict=True))
+
+    def attachments(self) -> tuple[str, ...]:
+        """Rigidly attached masses that an ``elastic_mount`` effect could hang on springs
+        (none in a building structure file)."""
+        return ()
+
     def weight(self, component: str) -> float:
         """Weight carried by a component, N."""
         return float(max(self.weights[self.bld.device_names.index(component)], 0.0))
