@@ -160,35 +160,30 @@ def diagnose(
     if lin and lin[0].score > gain_threshold:
         picks.append(lin[0])
     fitted: list[FittedEffect] = []
+
+    def fit(label: str, run: Callable[[], FittedEffect]) -> None:
+        say(f"fitting {label} by simulation")
+        try:
+            fitted.append(run())
+        except (ModalTwinError, ValueError) as err:
+            skipped.append(f"{label}: {err}")
+
     say("screening parameter changes (added mass, moduli) by simulated sensitivities")
     params = screen_parameters(factory, train)
     for pc in params[:n_fit]:
-        if pc.gain < gain_threshold:
-            continue
-        say(f"fitting {pc.kind} {pc.name} by simulation")
-        try:
-            fitted.append(fit_parameter(factory, pc, train, test))
-        except (ModalTwinError, ValueError) as err:
-            skipped.append(f"{pc.kind} {pc.name}: {err}")
+        if pc.gain >= gain_threshold:
+            fit(f"{pc.kind} {pc.name}", lambda pc=pc: fit_parameter(factory, pc, train, test))
     attachments: list[AttachmentCandidate] = []
     if tuple(factory.attachments()):
         say("screening elastic mounts of the rigidly attached masses by simulation")
         attachments = screen_attachments(factory, train)
     for ac in attachments[:n_fit]:
-        if ac.gain < gain_threshold:
-            continue
-        say(f"fitting an elastic mount of {ac.component} by simulation")
-        try:
-            fitted.append(fit_attachment(factory, ac.component, {"f_hz": ac.f_hz}, train,
-                                         test))
-        except (ModalTwinError, ValueError) as err:
-            skipped.append(f"elastic_mount at {ac.component}: {err}")
+        if ac.gain >= gain_threshold:
+            fit(f"elastic_mount at {ac.component}", lambda ac=ac: fit_attachment(
+                factory, ac.component, {"f_hz": ac.f_hz}, train, test))
     for c in picks:
-        say(f"fitting {c.law} at {c.component} by simulation")
-        try:
-            fitted.append(fit_effect(factory, c.component, c.law, c.params, train, test))
-        except (ModalTwinError, ValueError) as err:
-            skipped.append(f"{c.law} at {c.component}: {err}")
+        fit(f"{c.law} at {c.component}", lambda c=c: fit_effect(
+            factory, c.component, c.law, c.params, train, test))
     fitted.sort(key=lambda f: (f.test_nmse_pct, f.bic))
     top_gain = max((c.gain for c in screened if c.law != "linear"), default=0.0)
     significant = worst.nmse_pct > nmse_threshold_pct or top_gain > gain_threshold
