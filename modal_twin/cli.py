@@ -4,7 +4,7 @@
     modal-twin record -o BAG /topic [/topic:pkg/msg/Type ...]
     modal-twin replay BAG [--rate R]
     modal-twin bag info BAG | modal-twin bag salvage BAG [--out DIR]
-    modal-twin model info config/structures/building.yaml [--json]
+    modal-twin model info config/structures/building.yaml [--json]   (or config/vehicles/...)
     modal-twin diagnose MODEL --train BAG --test BAG
     modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
     modal-twin effects history DIR [--png FILE]
@@ -86,12 +86,33 @@ def _cmd_model(a: argparse.Namespace) -> int:
 
     from modal_twin.models.building import build_building, modal_reduction
     from modal_twin.models.model_info import model_info
+    from modal_twin.yaml_files import read_yaml
 
+    if "carbody" in read_yaml(a.file, "model file"):  # a vehicle file (config/vehicles)
+        return _vehicle_info(a)
     bld = build_building(a.file)
     red = modal_reduction(bld, a.modes)
     info = model_info(bld.assembly, red.f_hz, red.Phi, red.zeta, name=bld.spec.name,
                       groups=[f.nodes for f in bld.spec.floors], n_show=a.show)
     print(json.dumps(info.to_dict(), indent=1) if a.json else info.table())
+    return 0
+
+
+def _vehicle_info(a: argparse.Namespace) -> int:
+    import json
+
+    from modal_twin.models.vehicle import assemble_vehicle, load_vehicle, vehicle_info
+
+    info = vehicle_info(assemble_vehicle(load_vehicle(a.file)), n_show=a.show)
+    if a.json:
+        print(json.dumps(info, indent=1))
+        return 0
+    print(f"{info['name']}: {info['n_dof']} DOFs ({info['n_cb_modes']} CB modes), total "
+          f"mass {info['total_mass_kg'] / 1e3:.2f} t, free-free carbody "
+          + ", ".join(f"{f:.2f}" for f in info["carbody_f_free_hz"]) + " Hz")
+    print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>8}  part")
+    for m in info["modes"]:
+        print(f"{m['number']:>4d} {m['f_hz']:9.4f} {100 * m['zeta']:8.2f}  {m['part']}")
     return 0
 
 
@@ -195,7 +216,8 @@ def _parser() -> argparse.ArgumentParser:
     mo = sub.add_parser("model", help="structural model tools")
     msub = mo.add_subparsers(dest="model_cmd", required=True)
     mi = msub.add_parser("info", help="DOF count, total mass, lowest modes")
-    mi.add_argument("file", type=Path, help="structure YAML (config/structures/...)")
+    mi.add_argument("file", type=Path,
+                    help="structure or vehicle YAML (config/structures/..., config/vehicles/...)")
     mi.add_argument("--json", action="store_true")
     mi.add_argument("--modes", type=int, default=None, help="modes to compute")
     mi.add_argument("--show", type=int, default=12, help="modes to list")

@@ -1,0 +1,471 @@
+"""Rigid-flexible high-speed trailer car in the vertical plane (Sec. 5.1 of [002]).
+
+[002] couples a Craig-Bampton flexible carbody with rigid bogies, suspensions, underframe
+equipment and wheelsets (Fig. 13 of [002]). Here, in the vertical plane:
+
+* carbody: free-free Euler-Bernoulli beam (FE frames of :mod:`modal_twin.models.fe`, only
+  ``uz`` and ``ry`` free), uniform line mass ``shell + fittings``, bending stiffness
+  ``EI``; rigidly bolted equipment is a lumped mass on its node. Craig-Bampton reduction
+  (:func:`~modal_twin.models.craig_bampton.craig_bampton`) with the two pivot ``uz`` and
+  every equipment attachment ``uz`` as boundary DOFs and the fixed-interface modes below
+  ``cutoff_hz``; coordinates ``[u_b; eta]``;
+* bogie b (front, rear): bounce ``z_b`` and pitch ``beta_b``; a point at ``x`` on it moves
+  ``z_b + (x - x_b) beta_b``;
+* secondary suspension (per bogie): spring-dashpot ``(k_s, c_s)`` on the drift
+  ``d_s = u_pivot - z_b``; primary (per wheelset i): ``(k_p, c_p)`` on
+  ``z_b + a_i beta_b - z_i`` with ``a_i = +-wheelbase / 2`` and ``z_i`` the track
+  irregularity under wheelset i (the wheelsets follow the track);
+* elastic equipment e: own DOF ``z_e`` on ``k_e = m_e (2 pi f_e)^2``,
+  ``c_e = 2 zeta_e m_e 2 pi f_e`` to its attachment node.
+
+Equation of motion in the coupled coordinates ``x`` (absolute displacements)::
+
+    M x'' + C x' + K x = sum_i g_i (k_p z_i + c_p z_i') = -Gamma u,
+    u = [z_1..z_4, z_1'..z_4'],  Gamma = -[k_p g_1 .. k_p g_4, c_p g_1 .. c_p g_4]
+
+(``g_i`` puts a unit force at wheel point i of its bogie), the sign convention of
+:mod:`modal_twin.twin.simulator` (``M q'' + C q' + K q = -Gamma u - sum B' f``). A
+constant lift ``z`` of all wheelsets lifts the whole vehicle by ``z`` (``K x_rigid =
+sum k_p g_i``). Carbody damping: modal damping ``zeta`` on every flexible free-free mode
+of the full beam, ``C_full = M Phi_e diag(2 zeta omega) Phi_e' M``, projected on the CB
+basis (``T' C_full T``); suspensions and mounts add their dashpots (non-classical).
+
+Reduction: the real undamped modes of the coupled model, ``x = Phi q`` with
+``Phi' M Phi = I``, give ``M_r = I``, ``K_r = diag(omega^2)``, ``C_r = Phi' C Phi`` (full),
+``Gamma_r = Phi' Gamma``. Outputs: floor vertical absolute accelerations
+``y = S Phi q''`` (no feed-through: ``x`` is absolute).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from modal_twin._types import ComplexArray, FloatArray
+from modal_twin.channels import ChannelSpec
+from modal_twin.errors import ModelError, OptionError
+from modal_twin.models.craig_bampton import CBReduction, craig_bampton
+from modal_twin.models.devices import LinearDevice
+from modal_twin.models.fe import FEAssembly, FEModel
+from modal_twin.models.vehicle_spec import (
+    DEFAULT_VEHICLE_YAML,
+    EquipmentSpec,
+    SensorSpec,
+    VehicleSpec,
+    apply_theta,
+    equipment_mounted,
+    load_vehicle,
+    theta_names,
+)
+from modal_twin.twin.plant import Plant, Source
+from modal_twin.twin.simulator import DeviceAttachment, ReducedSystem
+
+__all__ = [
+    "DEFAULT_VEHICLE_YAML",
+    "INPUT_NAMES",
+    "Carbody",
+    "EquipmentSpec",
+    "SensorSpec",
+    "VehicleModel",
+    "VehicleSpec",
+    "assemble_vehicle",
+    "build_carbody",
+    "build_vehicle",
+    "equipment_mounted",
+    "load_vehicle",
+    "theta_names",
+    "vehicle_info",
+]
+
+INPUT_NAMES: tuple[str, ...] = ("zt1", "zt2", "zt3", "zt4", "vt1", "vt2", "vt3", "vt4")
+"""Track irregularity under wheelsets 1 (leading) .. 4 (m) and its rate (m/s)."""
+
+_E_ALU = 70e9  # Pa, aluminium: only E * Iz = EI matters in the vertical plane
+_FIXED = ("ux", "uy", "rx", "rz")  # out-of-plane and axial DOFs are not modelled
+
+
+@dataclass(frozen=True, slots=True)
+class Carbody:
+    """The FE carbody beam and its Craig-Bampton reduction.
+
+    Attributes
+    ----------
+    assembly : FEAssembly
+        Free DOFs ``uz``, ``ry`` of every node (rigid equipment lumped on its node).
+    node_x : (n_nodes,) float array
+        Node positions, m (node ids ``0 .. n_nodes - 1``).
+    cb : CBReduction
+        Boundary DOFs: front pivot, rear pivot, then each equipment node (unique).
+    boundary_nodes : tuple of int
+        Node of each boundary DOF.
+    C_cb : (n_cb, n_cb) float array
+        Carbody damping in CB coordinates (module docstring).
+    f_free_hz : (n,) float array
+        All free-free frequencies of the full beam (two rigid-body zeros first).
+    """
+
+    assembly: FEAssembly
+    node_x: FloatArray
+    cb: CBReduction
+    boundary_nodes: tuple[int, ...]
+    C_cb: FloatArray
+    f_free_hz: FloatArray
+
+    def node_at(self, x: float) -> int:
+        """Node id at position ``x`` (nodes are placed at every named point)."""
+        return int(np.argmin(np.abs(self.node_x - x)))
+
+    def cb_index(self, x: float) -> int:
+        """CB coordinate of the boundary ``uz`` at ``x`` (a pivot or an equipment point)."""
+        return self.boundary_nodes.index(self.node_at(x))
+
+    def uz_row(self, x: float) -> FloatArray:
+        """Row of ``cb.T`` giving ``uz`` at node ``x`` from the CB coordinates."""
+        return np.asarray(self.cb.T[self.assembly.dof_index(self.node_at(x), "uz")])
+
+
+def _node_positions(spec: VehicleSpec) -> FloatArray:
+    """Uniform grid, with the nearest free interior node moved onto each named point."""
+    half = 0.5 * spec.length
+    grid = np.linspace(-half, half, spec.n_elements + 1)
+    h = spec.length / spec.n_elements
+    named = sorted({*spec.pivot_x, *(e.x for e in spec.equipment),
+                    *(s.x for s in spec.sensors)})
+    claimed: set[int] = set()
+    extra: list[float] = []
+    for x in named:
+        j = int(np.argmin(np.abs(grid - x)))
+        if abs(grid[j] - x) <= 1e-9 * spec.length:
+            claimed.add(j)
+        elif 0 < j < grid.size - 1 and j not in claimed and abs(grid[j] - x) < 0.5 * h:
+            grid[j] = x
+            claimed.add(j)
+        else:
+            extra.append(x)
+    return np.unique(np.concatenate([grid, extra]))
+
+
+def build_carbody(spec: VehicleSpec, *, cutoff_hz: float | None = None) -> Carbody:
+    """Assemble the FE carbody beam and reduce it by Craig-Bampton (module docstring).
+
+    Parameters
+    ----------
+    spec : VehicleSpec
+    cutoff_hz : float, optional
+        Fixed-interface cutoff (default ``spec.cutoff_hz``).
+
+    Returns
+    -------
+    Carbody
+    """
+    xs = _node_positions(spec)
+    fem = FEModel()
+    for i, x in enumerate(xs):
+        fem.add_node(i, (float(x), 0.0, 0.0))
+        fem.fix(i, _FIXED)
+    mu = spec.shell_line_mass + spec.fittings_line_mass
+    Iz = spec.EI / _E_ALU  # horizontal frame: local y = global Z, E Iz = vertical EI
+    for i in range(xs.size - 1):
+        fem.add_frame(i, i + 1, E=_E_ALU, G=_E_ALU / 2.6, A=1.0, Iy=Iz, Iz=Iz, J=Iz,
+                      rho=mu)  # A = 1 m^2: rho A = line mass (kg/m)
+    for e in spec.equipment:
+        if e.mount == "rigid":  # bolted: lumped on the attachment node (Fig. 3b of [002])
+            fem.add_mass(int(np.argmin(np.abs(xs - e.x))), e.mass)
+    asm = fem.assemble()
+    bnodes: list[int] = []
+    for x in (*spec.pivot_x, *(e.x for e in spec.equipment)):
+        j = int(np.argmin(np.abs(xs - x)))
+        if j not in bnodes:
+            bnodes.append(j)
+    bdofs = np.array([asm.dof_index(j, "uz") for j in bnodes], dtype=np.int64)
+    fc = spec.cutoff_hz if cutoff_hz is None else float(cutoff_hz)
+    cb = craig_bampton(asm.M, asm.K, bdofs, f_cut_hz=fc)
+    Kd, Md = asm.K.toarray(), asm.M.toarray()
+    lam, V = sla.eigh(Kd, Md)
+    lam = np.clip(lam, 0.0, None)
+    flex = lam > 1e-8 * lam.max()  # the two rigid-body modes get no damping
+    om = np.sqrt(lam[flex])
+    MV = Md @ V[:, flex]
+    C_full = MV @ np.diag(2.0 * spec.zeta_carbody * om) @ MV.T  # modal damping zeta
+    return Carbody(assembly=asm, node_x=xs, cb=cb, boundary_nodes=tuple(bnodes),
+                   C_cb=cb.project(C_full), f_free_hz=np.sqrt(lam) / (2.0 * math.pi))
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleModel:
+    """Coupled linear vehicle (module docstring) and its real modes.
+
+    Attributes
+    ----------
+    spec : VehicleSpec
+        With ``theta`` applied.
+    carbody : Carbody
+    M, C, K : (n, n) float arrays
+        Coupled matrices on ``x = [u_b; eta; z_1, beta_1, z_2, beta_2; z_e...]``.
+    Gamma : (n, 8) float array
+        Track input participation (module docstring).
+    dof_names : tuple of str
+    S : (n_ch, n) float array
+        Floor ``uz`` of each sensor from ``x``.
+    D_sec : (2, n) float array
+        Secondary-suspension drifts ``u_pivot - z_b`` (front, rear) from ``x``.
+    f_hz, omega : (n,) float arrays
+        Undamped natural frequencies of the coupled model.
+    Phi : (n, n) float array
+        Mass-normalised real modes.
+    channels : tuple of ChannelSpec
+        ``floor_<label>_z`` absolute accelerations.
+    """
+
+    spec: VehicleSpec
+    carbody: Carbody
+    M: FloatArray
+    C: FloatArray
+    K: FloatArray
+    Gamma: FloatArray
+    dof_names: tuple[str, ...]
+    S: FloatArray
+    D_sec: FloatArray
+    f_hz: FloatArray
+    omega: FloatArray
+    Phi: FloatArray
+    channels: tuple[ChannelSpec, ...]
+
+    @property
+    def n_dof(self) -> int:
+        """Number of coupled coordinates."""
+        return int(self.M.shape[0])
+
+    def rigid_lift(self) -> FloatArray:
+        """Coordinates ``x`` of a unit rigid vertical translation of the whole vehicle."""
+        r = np.zeros(self.n_dof)
+        cb = self.carbody.cb
+        r[: cb.n_boundary] = 1.0  # boundary uz; fixed-interface modes stay 0
+        for j, name in enumerate(self.dof_names):
+            if name.startswith("z_"):
+                r[j] = 1.0
+        return r
+
+    def mass(self) -> float:
+        """Mass moving with a rigid lift, ``r' M r`` (kg): carbody, bogies, equipment."""
+        r = self.rigid_lift()
+        return float(r @ self.M @ r)
+
+    def damped_modes(self) -> tuple[FloatArray, FloatArray, ComplexArray]:
+        """Frequencies ``|lambda| / 2 pi`` (Hz), damping ratios ``-Re lambda / |lambda|`` and
+        shapes (on ``x``) of the complex modes of the coupled model, ascending."""
+        n = self.n_dof
+        Minv = np.linalg.inv(self.M)
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ self.K, -Minv @ self.C]])
+        lam, V = np.linalg.eig(A)
+        keep = lam.imag > 0.0
+        lam, V = lam[keep], V[:n, keep]
+        order = np.argsort(np.abs(lam))
+        lam, V = lam[order], V[:, order]
+        return np.abs(lam) / (2.0 * math.pi), -lam.real / np.abs(lam), V
+
+    def to_reduced_system(self, *, n_modes: int | None = None,
+                          secondary_devices: bool = False) -> ReducedSystem:
+        """Return the modal :class:`ReducedSystem` (module docstring).
+
+        Parameters
+        ----------
+        n_modes : int, optional
+            Lowest real modes kept (default all).
+        secondary_devices : bool
+            Carry the secondary suspensions as 1-direction
+            :class:`~modal_twin.models.devices.LinearDevice` attachments (their spring and
+            dashpot removed from ``K_r``, ``C_r``) so that an effect can replace them.
+
+        Raises
+        ------
+        OptionError
+            ``n_modes`` not an int in ``[1, n]``.
+        """
+        n = self.n_dof
+        r = n if n_modes is None else n_modes
+        if isinstance(r, bool) or not isinstance(r, int | np.integer) or not 1 <= r <= n:
+            msg = f"n_modes: expected an int in [1, {n}], got {n_modes!r}"
+            raise OptionError(msg)
+        Phi = self.Phi[:, :r]
+        K = np.diag(self.omega[:r] ** 2)
+        C = Phi.T @ self.C @ Phi
+        devices: tuple[DeviceAttachment, ...] = ()
+        if secondary_devices:
+            sp_ = self.spec
+            atts = []
+            for b, side in enumerate(("front", "rear")):
+                B = (self.D_sec[b] @ Phi)[None, :]
+                K = K - sp_.k_secondary * B.T @ B  # law supplies k_s d + c_s d'
+                C = C - sp_.c_secondary * B.T @ B
+                dev = LinearDevice([sp_.k_secondary], [sp_.c_secondary],
+                                   name=f"secondary_{side}")
+                atts.append(DeviceAttachment(device=dev, B=B))
+            devices = tuple(atts)
+        SPhi = self.S @ Phi
+        z = np.zeros_like(SPhi)
+        return ReducedSystem(M=np.eye(r), C=0.5 * (C + C.T), K=0.5 * (K + K.T),
+                             Gamma=Phi.T @ self.Gamma, devices=devices,
+                             C_out=np.hstack([z, z, SPhi]),
+                             D_out=np.zeros((SPhi.shape[0], len(INPUT_NAMES))),
+                             output_names=tuple(c.name for c in self.channels))
+
+
+
+def _add_pair(A: FloatArray, d: FloatArray, k: float) -> None:
+    A += k * np.outer(d, d)  # spring / dashpot k on the drift d' x
+
+
+def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = None,
+                     cutoff_hz: float | None = None) -> VehicleModel:
+    """Assemble the coupled linear vehicle (module docstring).
+
+    Parameters
+    ----------
+    spec : VehicleSpec
+    theta : mapping, optional
+        Parameter values (:func:`~modal_twin.models.vehicle_spec.theta_names`).
+    cutoff_hz : float, optional
+        Craig-Bampton cutoff (default ``spec.cutoff_hz``).
+
+    Returns
+    -------
+    VehicleModel
+
+    Raises
+    ------
+    OptionError, ModelError
+        Unknown or invalid ``theta``; a coupled stiffness that is not positive definite.
+    """
+    spec = apply_theta(spec, theta)
+    car = build_carbody(spec, cutoff_hz=cutoff_hz)
+    cb = car.cb
+    n_cb = cb.Mr.shape[0]
+    elastic = [e for e in spec.equipment if e.mount == "elastic"]
+    n = n_cb + 4 + len(elastic)
+    names = [f"uz_{car.node_x[j]:+.2f}" for j in car.boundary_nodes]
+    names += [f"eta_{k + 1}" for k in range(cb.n_modes)]
+    names += ["z_bogie_front", "beta_bogie_front", "z_bogie_rear", "beta_bogie_rear"]
+    names += [f"z_{e.name}" for e in elastic]
+    M = np.zeros((n, n))
+    K = np.zeros((n, n))
+    C = np.zeros((n, n))
+    M[:n_cb, :n_cb] = cb.Mr
+    K[:n_cb, :n_cb] = cb.Kr
+    C[:n_cb, :n_cb] = car.C_cb
+    Gamma = np.zeros((n, len(INPUT_NAMES)))
+    D_sec = np.zeros((2, n))
+    a = 0.5 * spec.wheelbase
+    for b, xb in enumerate(spec.pivot_x):
+        iz, ib = n_cb + 2 * b, n_cb + 2 * b + 1
+        M[iz, iz] = spec.bogie_mass
+        M[ib, ib] = spec.bogie_pitch_inertia
+        d = np.zeros(n)
+        d[car.cb_index(xb)] = 1.0
+        d[iz] = -1.0
+        D_sec[b] = d
+        _add_pair(K, d, spec.k_secondary)
+        _add_pair(C, d, spec.c_secondary)
+        for s, off in enumerate((a, -a)):
+            i = 2 * b + s  # wheelset 1 leads: front bogie, front axle
+            g = np.zeros(n)
+            g[iz] = 1.0
+            g[ib] = off
+            _add_pair(K, g, spec.k_primary)
+            _add_pair(C, g, spec.c_primary)
+            Gamma[:, i] = -spec.k_primary * g  # simulator: ... = -Gamma u
+            Gamma[:, 4 + i] = -spec.c_primary * g
+    for k, e in enumerate(elastic):
+        ie = n_cb + 4 + k
+        M[ie, ie] = e.mass
+        d = np.zeros(n)
+        d[ie] = 1.0
+        d[car.cb_index(e.x)] = -1.0
+        _add_pair(K, d, e.k_mount)
+        _add_pair(C, d, e.c_mount)
+    S = np.zeros((len(spec.sensors), n))
+    for j, s in enumerate(spec.sensors):
+        S[j, :n_cb] = car.uz_row(s.x)
+    try:
+        lam, Phi = sla.eigh(K, M)
+    except np.linalg.LinAlgError as err:
+        msg = f"{spec.source}: coupled M is not positive definite ({err})"
+        raise ModelError(msg) from err
+    if lam[0] <= 1e-12 * lam[-1]:
+        msg = (f"{spec.source}: coupled K is not positive definite (lowest eigenvalue "
+               f"{lam[0]:.3g}, largest {lam[-1]:.3g})")
+        raise ModelError(msg)
+    omega = np.sqrt(lam)
+    channels = tuple(ChannelSpec(f"floor_{s.label}_z", "acceleration", f"floor_{s.label}",
+                                 "z", position_m=(s.x, 0.0, 0.0)) for s in spec.sensors)
+    return VehicleModel(spec=spec, carbody=car, M=M, C=C, K=K, Gamma=Gamma,
+                        dof_names=tuple(names), S=S, D_sec=D_sec, f_hz=omega / (2 * math.pi),
+                        omega=omega, Phi=Phi, channels=channels)
+
+
+def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float] | None = None,
+                  n_modes: int | None = None, cutoff_hz: float | None = None,
+                  secondary_devices: bool = False) -> Plant:
+    """Build the trailer-car :class:`~modal_twin.twin.plant.Plant` (module docstring).
+
+    Parameters
+    ----------
+    spec : VehicleSpec, optional
+        Default: :func:`load_vehicle` of :data:`DEFAULT_VEHICLE_YAML`.
+    theta : mapping, optional
+        ``EI_carbody``, ``m_<equipment>``, ``f_<elastic equipment>`` ... (see
+        :func:`~modal_twin.models.vehicle_spec.theta_names`).
+    n_modes : int, optional
+        Coupled real modes kept (default all).
+    cutoff_hz : float, optional
+        Craig-Bampton cutoff of the carbody (default the file's, 40 Hz).
+    secondary_devices : bool
+        Secondary suspensions as linear devices (see
+        :meth:`VehicleModel.to_reduced_system`).
+
+    Returns
+    -------
+    Plant
+        Inputs :data:`INPUT_NAMES`; channels ``floor_<label>_z`` (m/s^2, absolute).
+
+    Examples
+    --------
+    >>> p = build_vehicle()
+    >>> p.input_names[:2], p.channel_names[2]
+    (('zt1', 'zt2'), 'floor_mid_z')
+    """
+    spec = load_vehicle() if spec is None else spec
+    vm = assemble_vehicle(spec, theta=theta, cutoff_hz=cutoff_hz)
+    system = vm.to_reduced_system(n_modes=n_modes, secondary_devices=secondary_devices)
+    sources: tuple[Source, ...] = tuple(("y", i) for i in range(len(vm.channels)))
+    label = ",".join(f"{e.name}:elastic" for e in vm.spec.equipment
+                     if e.mount == "elastic") or "nominal"
+    return Plant(system, INPUT_NAMES, vm.channels, sources, name=f"{vm.spec.name}@{label}")
+
+
+
+def vehicle_info(model: VehicleModel, n_show: int = 12) -> dict[str, object]:
+    """JSON-ready summary: DOFs, mass, and the lowest complex modes with their dominant part.
+
+    The part of a mode is the group (``carbody``, ``bogie_front``, ``bogie_rear`` or an
+    elastic equipment item) with the largest share of ``|v_i (M v)_i|``.
+    """
+    f, zeta, V = model.damped_modes()
+    n_cb = model.carbody.cb.Mr.shape[0]
+    groups = {"carbody": slice(0, n_cb), "bogie_front": slice(n_cb, n_cb + 2),
+              "bogie_rear": slice(n_cb + 2, n_cb + 4)}
+    for k, name in enumerate(model.dof_names[n_cb + 4:]):
+        groups[name[2:]] = slice(n_cb + 4 + k, n_cb + 5 + k)
+    modes = []
+    for j in range(min(n_show, f.size)):
+        e = np.abs(V[:, j].conj() * (model.M @ V[:, j]))
+        share = {g: float(e[s].sum() / e.sum()) for g, s in groups.items()}
+        modes.append({"number": j + 1, "f_hz": float(f[j]), "zeta": float(zeta[j]),
+                      "part": max(share, key=share.__getitem__), "shares": share})
+    return {"name": model.spec.name, "n_dof": model.n_dof,
+            "n_cb_modes": model.carbody.cb.n_modes, "total_mass_kg": model.mass(),
+            "carbody_f_free_hz": model.carbody.f_free_hz[2:5].tolist(), "modes": modes}

@@ -1,0 +1,394 @@
+"""Vehicle file (``config/vehicles/*.yaml``) -> :class:`VehicleSpec` of a trailer car.
+
+A vehicle file lists, in SI units (see ``config/vehicles/trailer_car.yaml``):
+
+``carbody``
+    ``{length, pivot_spacing, shell_line_mass, fittings_line_mass, EI, zeta, n_elements,
+    cutoff_hz}``: a free-free Euler-Bernoulli beam (Sec. 5.1 of [002] uses a Craig-Bampton
+    flexible carbody) with a uniform line mass ``shell + fittings`` (kg/m).
+``bogie``
+    ``{mass, pitch_inertia, wheelbase}`` of each bogie frame.
+``primary``, ``secondary``
+    ``{k, c}``: vertical stiffness (N/m) and damping (N s/m) per wheelset and per bogie.
+``equipment``
+    ``[{name, mass, x, mount: rigid | elastic, f_mount_hz, zeta_mount}]``: underframe items
+    at ``x`` (m from the carbody centre), bolted (rigid) or hung on elastic mounts (Fig. 3b
+    of [002]).
+``sensors``
+    ``[{label, x}]``: floor vertical accelerometers, channel ``floor_<label>_z``.
+``speed_kmh``
+    Running speed.
+
+Schema problems (missing key, wrong type, unknown mount) raise :class:`ConfigError`;
+physical ones (a mass or stiffness that is not positive) :class:`ModelError`; both name
+the file and the entry.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Literal
+
+from modal_twin.errors import ConfigError, ModelError, OptionError
+from modal_twin.yaml_files import read_yaml
+
+__all__ = [
+    "DEFAULT_VEHICLE_YAML",
+    "MOUNTS",
+    "EquipmentSpec",
+    "SensorSpec",
+    "VehicleSpec",
+    "apply_theta",
+    "equipment_mounted",
+    "load_vehicle",
+    "theta_names",
+]
+
+DEFAULT_VEHICLE_YAML = (Path(__file__).resolve().parents[2] / "config" / "vehicles"
+                        / "trailer_car.yaml")
+"""The trailer car of [002] shipped with the package."""
+
+MOUNTS: tuple[str, ...] = ("rigid", "elastic")
+"""Equipment mount types (Fig. 3b of [002]: bolted or elastic hanging)."""
+
+Mount = Literal["rigid", "elastic"]
+
+
+@dataclass(frozen=True, slots=True)
+class EquipmentSpec:
+    """An underframe equipment item.
+
+    Attributes
+    ----------
+    name : str
+    mass : float
+        kg.
+    x : float
+        Attachment position from the carbody centre, m (+ = front).
+    mount : {"rigid", "elastic"}
+    f_mount_hz : float
+        Vertical mount frequency ``sqrt(k / m) / 2 pi`` when elastic, Hz.
+    zeta_mount : float
+        Mount damping ratio when elastic (``c = 2 zeta m 2 pi f``).
+    """
+
+    name: str
+    mass: float
+    x: float
+    mount: Mount = "rigid"
+    f_mount_hz: float = 10.0
+    zeta_mount: float = 0.05
+
+    @property
+    def k_mount(self) -> float:
+        """Mount stiffness ``m (2 pi f)^2``, N/m."""
+        return self.mass * (2.0 * math.pi * self.f_mount_hz) ** 2
+
+    @property
+    def c_mount(self) -> float:
+        """Mount damping ``2 zeta m 2 pi f``, N s/m."""
+        return 2.0 * self.zeta_mount * self.mass * 2.0 * math.pi * self.f_mount_hz
+
+
+@dataclass(frozen=True, slots=True)
+class SensorSpec:
+    """A floor vertical accelerometer: ``label`` and position ``x`` (m from the centre)."""
+
+    label: str
+    x: float
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleSpec:
+    """Trailer car in the vertical plane (module docstring; SI units).
+
+    Attributes
+    ----------
+    name : str
+    length, pivot_spacing : float
+        Carbody length and bogie pivot spacing, m.
+    shell_line_mass, fittings_line_mass : float
+        Distributed masses, kg/m.
+    EI : float
+        Vertical bending stiffness, N m^2.
+    zeta_carbody : float
+        Modal damping of the flexible carbody modes.
+    n_elements : int
+        Beam elements over the length (before nodes are inserted at special points).
+    cutoff_hz : float
+        Craig-Bampton cutoff.
+    bogie_mass, bogie_pitch_inertia, wheelbase : float
+        kg, kg m^2, m.
+    k_primary, c_primary : float
+        Per wheelset, N/m and N s/m.
+    k_secondary, c_secondary : float
+        Per bogie, N/m and N s/m.
+    equipment : tuple of EquipmentSpec
+    sensors : tuple of SensorSpec
+    speed_kmh : float
+    source : str
+        File the spec came from (for messages).
+    """
+
+    name: str
+    length: float
+    pivot_spacing: float
+    shell_line_mass: float
+    fittings_line_mass: float
+    EI: float
+    zeta_carbody: float
+    n_elements: int
+    cutoff_hz: float
+    bogie_mass: float
+    bogie_pitch_inertia: float
+    wheelbase: float
+    k_primary: float
+    c_primary: float
+    k_secondary: float
+    c_secondary: float
+    equipment: tuple[EquipmentSpec, ...]
+    sensors: tuple[SensorSpec, ...]
+    speed_kmh: float = 300.0
+    source: str = "<spec>"
+
+    @property
+    def carbody_mass(self) -> float:
+        """Carbody in service: shell, fittings and every equipment item, kg."""
+        return ((self.shell_line_mass + self.fittings_line_mass) * self.length
+                + sum(e.mass for e in self.equipment))
+
+    @property
+    def total_mass(self) -> float:
+        """Sprung and bogie mass: carbody in service plus two bogie frames, kg."""
+        return self.carbody_mass + 2.0 * self.bogie_mass
+
+    @property
+    def speed(self) -> float:
+        """Running speed, m/s."""
+        return self.speed_kmh / 3.6
+
+    @property
+    def pivot_x(self) -> tuple[float, float]:
+        """Bogie pivot positions (front, rear), m."""
+        return 0.5 * self.pivot_spacing, -0.5 * self.pivot_spacing
+
+    @property
+    def axle_x(self) -> tuple[float, float, float, float]:
+        """Wheelset positions 1 (leading) .. 4 (trailing), m from the carbody centre."""
+        a = 0.5 * self.wheelbase
+        f, r = self.pivot_x
+        return f + a, f - a, r + a, r - a
+
+    def equipment_named(self, name: str) -> EquipmentSpec:
+        """Return the equipment item ``name``.
+
+        Raises
+        ------
+        OptionError
+            Unknown name (the message lists the known ones).
+        """
+        for e in self.equipment:
+            if e.name == name:
+                return e
+        msg = f"equipment: expected one of {[e.name for e in self.equipment]}, got {name!r}"
+        raise OptionError(msg)
+
+
+def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float) -> VehicleSpec:
+    """Return a copy of ``spec`` with equipment ``name`` on elastic mounts (f_hz, zeta).
+
+    The "elastic attachment" candidate of the diagnosis (Fig. 3b of [002]).
+
+    Raises
+    ------
+    OptionError
+        Unknown equipment name.
+    ModelError
+        ``f_hz`` not positive or ``zeta`` negative.
+    """
+    spec.equipment_named(name)
+    if not (math.isfinite(f_hz) and f_hz > 0.0):
+        msg = f"f_hz: expected a finite value > 0, got {f_hz!r}"
+        raise ModelError(msg)
+    if not (math.isfinite(zeta) and zeta >= 0.0):
+        msg = f"zeta: expected a finite value >= 0, got {zeta!r}"
+        raise ModelError(msg)
+    eq = tuple(replace(e, mount="elastic", f_mount_hz=float(f_hz), zeta_mount=float(zeta))
+               if e.name == name else e for e in spec.equipment)
+    return replace(spec, equipment=eq)
+
+
+_SCALAR_THETA = {"EI_carbody": "EI", "zeta_carbody": "zeta_carbody",
+                 "k_primary": "k_primary", "c_primary": "c_primary",
+                 "k_secondary": "k_secondary", "c_secondary": "c_secondary"}
+
+
+def theta_names(spec: VehicleSpec) -> tuple[str, ...]:
+    """Parameter names :func:`apply_theta` accepts for ``spec``.
+
+    ``EI_carbody``, ``zeta_carbody``, ``k_/c_primary``, ``k_/c_secondary``, and per
+    equipment item ``m_<name>``; per elastic item also ``f_<name>`` (mount frequency, Hz)
+    and ``zeta_<name>``.
+    """
+    names = list(_SCALAR_THETA)
+    for e in spec.equipment:
+        names.append(f"m_{e.name}")
+        if e.mount == "elastic":
+            names += [f"f_{e.name}", f"zeta_{e.name}"]
+    return tuple(names)
+
+
+def apply_theta(spec: VehicleSpec, theta: Mapping[str, float] | None) -> VehicleSpec:
+    """Return ``spec`` with the parameter values ``theta`` (see :func:`theta_names`).
+
+    Raises
+    ------
+    OptionError
+        Unknown parameter name (the message lists the valid ones).
+    ModelError
+        A value that is not finite, or not positive (``zeta_*``: negative).
+    """
+    if not theta:
+        return spec
+    valid = theta_names(spec)
+    bad = [k for k in theta if k not in valid]
+    if bad:
+        msg = f"theta: expected names from {list(valid)}, got {bad}"
+        raise OptionError(msg)
+    for key, val in theta.items():
+        ok = math.isfinite(val) and (val >= 0.0 if key.startswith("zeta_") else val > 0.0)
+        if not ok:
+            msg = f"theta[{key!r}]: expected a finite value {'>=' if 'zeta' in key else '>'} 0, "
+            msg += f"got {val!r}"
+            raise ModelError(msg)
+    changes = {_SCALAR_THETA[k]: float(v) for k, v in theta.items() if k in _SCALAR_THETA}
+    eq = []
+    for e in spec.equipment:
+        upd = {f: float(theta[f"{p}_{e.name}"]) for p, f in
+               (("m", "mass"), ("f", "f_mount_hz"), ("zeta", "zeta_mount"))
+               if f"{p}_{e.name}" in theta}
+        eq.append(replace(e, **upd) if upd else e)
+    return replace(spec, equipment=tuple(eq), **changes)
+
+
+# ---------------------------------------------------------------------------- loading
+def _get(d: Mapping[str, Any], key: str, where: str, src: str) -> Any:
+    if not isinstance(d, Mapping) or key not in d:
+        msg = f"{src}: {where}.{key}: missing"
+        raise ConfigError(msg)
+    return d[key]
+
+
+def _num(d: Mapping[str, Any], key: str, where: str, src: str, *, positive: bool = True,
+         default: float | None = None) -> float:
+    if default is not None and isinstance(d, Mapping) and key not in d:
+        return float(default)
+    v = _get(d, key, where, src)
+    if isinstance(v, str):  # PyYAML (YAML 1.1) reads 2.0e6 without a sign as a string
+        with contextlib.suppress(ValueError):
+            v = float(v)
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        msg = f"{src}: {where}.{key}: expected a number, got {v!r}"
+        raise ConfigError(msg)
+    if not math.isfinite(v) or (v <= 0.0 if positive else v < 0.0):
+        msg = f"{src}: {where}.{key}: expected a finite value {'>' if positive else '>='} 0, "
+        msg += f"got {v!r}"
+        raise ModelError(msg)
+    return float(v)
+
+
+def _equipment(item: Any, i: int, src: str) -> EquipmentSpec:
+    where = f"equipment[{i}]"
+    if not isinstance(item, Mapping):
+        msg = f"{src}: {where}: expected a mapping, got {item!r}"
+        raise ConfigError(msg)
+    name = str(_get(item, "name", where, src))
+    where = f"equipment[{i}] ({name})"
+    mount = item.get("mount", "rigid")
+    if mount not in MOUNTS:
+        msg = f"{src}: {where}.mount: expected one of {list(MOUNTS)}, got {mount!r}"
+        raise ConfigError(msg)
+    return EquipmentSpec(
+        name=name, mass=_num(item, "mass", where, src),
+        x=_position(_get(item, "x", where, src), where, src),
+        mount=mount, f_mount_hz=_num(item, "f_mount_hz", where, src, default=10.0),
+        zeta_mount=_num(item, "zeta_mount", where, src, positive=False, default=0.05))
+
+
+def _position(v: Any, where: str, src: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        msg = f"{src}: {where}.x: expected a finite number, got {v!r}"
+        raise ConfigError(msg)
+    return float(v)
+
+
+def load_vehicle(path: str | Path | None = None) -> VehicleSpec:
+    """Read a vehicle file (default :data:`DEFAULT_VEHICLE_YAML`).
+
+    Raises
+    ------
+    ConfigError
+        Missing file or key, wrong type, unknown mount type, a position off the carbody.
+    ModelError
+        A mass, stiffness, damping or length that is not positive.
+    """
+    p = Path(DEFAULT_VEHICLE_YAML if path is None else path)
+    doc = read_yaml(p, "vehicle file")
+    src = str(p)
+    cb = _get(doc, "carbody", "<top>", src)
+    bg = _get(doc, "bogie", "<top>", src)
+    pr = _get(doc, "primary", "<top>", src)
+    se = _get(doc, "secondary", "<top>", src)
+    n_el = _get(cb, "n_elements", "carbody", src)
+    if isinstance(n_el, bool) or not isinstance(n_el, int) or n_el < 2:
+        msg = f"{src}: carbody.n_elements: expected an int >= 2, got {n_el!r}"
+        raise ConfigError(msg)
+    eq_doc = doc.get("equipment", []) or []
+    sn_doc = _get(doc, "sensors", "<top>", src)
+    if not isinstance(eq_doc, list) or not isinstance(sn_doc, list) or not sn_doc:
+        msg = f"{src}: equipment, sensors: expected lists (sensors non-empty), got "
+        msg += f"{type(eq_doc).__name__}, {type(sn_doc).__name__}"
+        raise ConfigError(msg)
+    equipment = tuple(_equipment(e, i, src) for i, e in enumerate(eq_doc))
+    names = [e.name for e in equipment]
+    if len(set(names)) != len(names):
+        msg = f"{src}: equipment: expected unique names, got {names}"
+        raise ConfigError(msg)
+    sensors = []
+    for i, s in enumerate(sn_doc):
+        where = f"sensors[{i}]"
+        label = str(_get(s, "label", where, src))
+        sensors.append(SensorSpec(label, _position(_get(s, "x", where, src), where, src)))
+    spec = VehicleSpec(
+        name=str(doc.get("name", p.stem)),
+        length=_num(cb, "length", "carbody", src),
+        pivot_spacing=_num(cb, "pivot_spacing", "carbody", src),
+        shell_line_mass=_num(cb, "shell_line_mass", "carbody", src),
+        fittings_line_mass=_num(cb, "fittings_line_mass", "carbody", src, positive=False),
+        EI=_num(cb, "EI", "carbody", src), zeta_carbody=_num(cb, "zeta", "carbody", src,
+                                                               positive=False),
+        n_elements=int(n_el), cutoff_hz=_num(cb, "cutoff_hz", "carbody", src),
+        bogie_mass=_num(bg, "mass", "bogie", src),
+        bogie_pitch_inertia=_num(bg, "pitch_inertia", "bogie", src),
+        wheelbase=_num(bg, "wheelbase", "bogie", src),
+        k_primary=_num(pr, "k", "primary", src), c_primary=_num(pr, "c", "primary", src,
+                                                                positive=False),
+        k_secondary=_num(se, "k", "secondary", src),
+        c_secondary=_num(se, "c", "secondary", src, positive=False),
+        equipment=equipment, sensors=tuple(sensors),
+        speed_kmh=_num(doc, "speed_kmh", "<top>", src, default=300.0), source=src)
+    half = 0.5 * spec.length
+    if spec.pivot_spacing >= spec.length:
+        msg = (f"{src}: carbody.pivot_spacing: expected < length {spec.length}, got "
+               f"{spec.pivot_spacing}")
+        raise ConfigError(msg)
+    for what, x in [(f"equipment {e.name}", e.x) for e in equipment] + [
+            (f"sensor {s.label}", s.x) for s in sensors]:
+        if abs(x) > half:
+            msg = f"{src}: {what}.x: expected within +-{half} m of the centre, got {x}"
+            raise ConfigError(msg)
+    return spec

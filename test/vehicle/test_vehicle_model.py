@@ -1,0 +1,235 @@
+"""Trailer-car model: masses, carbody bending, Craig-Bampton, suspension modes, static lift."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from modal_twin.errors import ConfigError, ModelError, OptionError
+from modal_twin.models.craig_bampton import cb_check
+from modal_twin.models.vehicle import (
+    INPUT_NAMES,
+    assemble_vehicle,
+    build_carbody,
+    build_vehicle,
+    equipment_mounted,
+    load_vehicle,
+    theta_names,
+)
+from modal_twin.models.vehicle_spec import DEFAULT_VEHICLE_YAML, apply_theta
+from modal_twin.twin.simulator import simulate
+
+
+@pytest.fixture(scope="module")
+def spec():
+    return load_vehicle(DEFAULT_VEHICLE_YAML)
+
+
+@pytest.fixture(scope="module")
+def nominal(spec):
+    return assemble_vehicle(spec)
+
+
+def test_spec_reads_paper_numbers(spec):
+    # Sec. 2 of [002]: 25.0 m, 17.8 m pivots, 2.5 m wheelbase, 41.03 t in service.
+    assert (spec.length, spec.pivot_spacing, spec.wheelbase) == (25.0, 17.8, 2.5)
+    assert spec.carbody_mass == pytest.approx(41030.0, rel=1e-12)
+    assert spec.axle_x == pytest.approx((10.15, 7.65, -7.65, -10.15))
+    assert spec.speed == pytest.approx(300.0 / 3.6)
+    assert spec.equipment_named("EQ1").mount == "rigid"
+
+
+def test_total_mass_is_exact(spec, nominal):
+    # carbody 41.03 t + 2 bogie frames of 2.6 t = 46.23 t, as r' M r of a rigid lift
+    assert nominal.mass() == pytest.approx(spec.total_mass, rel=1e-12)
+    assert spec.total_mass == pytest.approx(46230.0, rel=1e-12)
+    el = assemble_vehicle(equipment_mounted(spec, "EQ1", 10.0, 0.05))
+    assert el.mass() == pytest.approx(spec.total_mass, rel=1e-12)
+
+
+def test_free_free_first_bending_is_873_hz(spec):
+    car = build_carbody(spec)
+    f = car.f_free_hz
+    assert f[:2] == pytest.approx([0.0, 0.0], abs=1e-2)  # bounce and pitch (round-off)
+    assert f[2] == pytest.approx(8.73, rel=0.03)  # Sec. 2 of [002]: f_mode,1 = 8.73 Hz
+    assert f[2] == pytest.approx(8.73, rel=1e-3)  # measured: 8.7300 Hz
+    # uniform free-free beam check: 4.730^2 / (2 pi L^2) sqrt(EI / mu) without EQ1
+    bare = replace(spec, equipment=())
+    mu = spec.shell_line_mass + spec.fittings_line_mass
+    f_cf = 4.730041**2 / (2 * math.pi * spec.length**2) * math.sqrt(spec.EI / mu)
+    assert build_carbody(bare, cutoff_hz=40.0).f_free_hz[2] == pytest.approx(f_cf, rel=1e-3)
+
+
+def test_craig_bampton_checks(spec):
+    car = build_carbody(spec)
+    asm = car.assembly
+    chk = cb_check(car.cb, asm.M, asm.K, rb=asm.rigid_body_modes(), f_compare_hz=30.0)
+    assert chk.rb_mass_rel_err < 1e-10
+    assert chk.rb_mass_full[2, 2] == pytest.approx(spec.carbody_mass, rel=1e-12)
+    assert chk.kbq_rel < 1e-10
+    flex = np.isfinite(chk.f_rel_err)
+    assert np.count_nonzero(flex) == 2  # 8.73 and 24.9 Hz below 30 Hz
+    assert np.nanmax(chk.f_rel_err) < 5e-3  # measured 0.04 % and 0.15 %
+    assert car.cb.n_boundary == 3  # two pivots and EQ1
+
+
+def test_bounce_and_pitch_on_the_suspension(nominal):
+    f, zeta, V = nominal.damped_modes()
+    assert 0.8 < f[0] < 1.5 and 0.8 < f[1] < 1.5  # measured 0.950 and 1.221 Hz
+    iz = [nominal.dof_names.index(n) for n in ("uz_+8.90", "uz_-8.90")]
+    for j, same_sign in ((0, True), (1, False)):
+        zr = V[iz[1], j] / V[iz[0], j]
+        assert (zr.real > 0) == same_sign  # bounce: pivots in phase; pitch: opposed
+    bend = [j for j in range(len(f)) if 7.5 < f[j] < 10.0 and zeta[j] < 0.1]
+    assert len(bend) == 1
+    assert f[bend[0]] == pytest.approx(8.72, rel=0.02)  # on its suspension: 8.723 Hz
+
+
+def test_static_track_lift_raises_the_whole_vehicle(spec):
+    plant = build_vehicle(spec)
+    sys = plant.system
+    z = 0.01
+    u = np.zeros(len(INPUT_NAMES))
+    u[:4] = z
+    q = np.linalg.solve(sys.K, -sys.Gamma @ u)  # static: K q = -Gamma u
+    floor = sys.C_out[:, 2 * sys.n:] @ q  # C_out acts on q''; same rows give uz
+    assert floor == pytest.approx(np.full(len(floor), z), rel=1e-9)
+    # and in time: a slow ramp to z and a hold; the floor settles at z
+    fs = 200.0
+    t = np.arange(int(8 * fs)) / fs
+    ramp = np.clip(t / 2.0, 0, 1) * z
+    U = np.zeros((8, t.size))
+    U[:4] = ramp
+    U[4:] = np.where(t < 2.0, z / 2.0, 0.0)
+    res = simulate(sys, U, 1 / fs)
+    disp = sys.C_out[:, 2 * sys.n:] @ res.q[:, -1]
+    assert disp == pytest.approx(np.full(len(floor), z), rel=2e-3)
+
+
+def test_elastic_mount_is_a_mode_near_its_frequency(spec):
+    el = equipment_mounted(spec, "EQ1", 10.0, 0.05)
+    # stiff carbody: the equipment sits on a rigid car; closed form of the 2-mass system
+    vm = assemble_vehicle(el, theta={"EI_carbody": 1e3 * spec.EI})
+    f, zeta, V = vm.damped_modes()
+    ie = vm.dof_names.index("z_EQ1")
+    frac = [3000.0 * abs(V[ie, j]) ** 2 / np.real(V[:, j].conj() @ vm.M @ V[:, j])
+            for j in range(len(f))]
+    j = int(np.argmax(frac))
+    m = 3000.0
+    M = spec.carbody_mass - m
+    J = M * spec.length**2 / 12.0
+    f_cf = 10.0 * math.sqrt(1.0 + m * (1.0 / M + 1.5**2 / J))  # 10.403 Hz
+    assert f[j] == pytest.approx(f_cf, rel=5e-3)  # measured 10.402 Hz
+    assert zeta[j] == pytest.approx(0.05 * f_cf / 10.0, rel=0.05)  # measured 5.33 %
+    # nominal carbody: the mount couples with the 8.7 Hz bending (a vibration absorber)
+    vm = assemble_vehicle(el)
+    f, zeta, V = vm.damped_modes()
+    ie = vm.dof_names.index("z_EQ1")
+    frac = [3000.0 * abs(V[ie, j]) ** 2 / np.real(V[:, j].conj() @ vm.M @ V[:, j])
+            for j in range(len(f))]
+    j = int(np.argmax(frac))
+    assert 9.0 < f[j] < 12.5  # measured 11.59 Hz
+    assert 0.04 < zeta[j] < 0.06  # measured 4.99 %
+
+
+def test_theta_changes_model(spec):
+    assert "m_EQ1" in theta_names(spec) and "f_EQ1" not in theta_names(spec)
+    el = equipment_mounted(spec, "EQ1", 10.0, 0.05)
+    assert {"f_EQ1", "zeta_EQ1"} <= set(theta_names(el))
+    s2 = apply_theta(el, {"m_EQ1": 2000.0, "f_EQ1": 9.0, "EI_carbody": 4e9})
+    eq = s2.equipment_named("EQ1")
+    assert (eq.mass, eq.f_mount_hz, s2.EI) == (2000.0, 9.0, 4e9)
+    assert eq.k_mount == pytest.approx(2000.0 * (2 * math.pi * 9.0) ** 2)
+    vm = assemble_vehicle(spec, theta={"m_EQ1": 2000.0})
+    assert vm.mass() == pytest.approx(spec.total_mass - 1000.0, rel=1e-12)
+    with pytest.raises(OptionError, match=r"theta: expected names from .*'EI_carbody'"):
+        apply_theta(spec, {"f_EQ1": 9.0})
+    with pytest.raises(ModelError, match=r"theta\['m_EQ1'\]: expected a finite value > 0"):
+        apply_theta(spec, {"m_EQ1": -1.0})
+
+
+def test_plant_and_secondary_devices(spec, nominal):
+    plant = build_vehicle(spec)
+    assert plant.input_names == INPUT_NAMES
+    assert plant.channel_names[2] == "floor_mid_z"
+    assert plant.channels[2].quantity == "acceleration"
+    assert plant.name == "trailer_car@nominal"
+    assert plant.system.n == nominal.n_dof
+    assert build_vehicle(equipment_mounted(spec, "EQ1", 10.0, 0.05)).name.endswith(
+        "EQ1:elastic")
+    pd = build_vehicle(spec, secondary_devices=True, n_modes=8)
+    assert [a.device.name for a in pd.system.devices] == ["secondary_front", "secondary_rear"]
+    # with the devices' springs back, K equals the modal stiffness
+    k_back = pd.system.K + sum(spec.k_secondary * a.B.T @ a.B for a in pd.system.devices)
+    np.testing.assert_allclose(k_back, np.diag(nominal.omega[:8] ** 2), rtol=1e-9,
+                               atol=1e-9 * nominal.omega[7] ** 2)
+    with pytest.raises(OptionError, match=r"n_modes: expected an int in \[1, 9\], got 0"):
+        build_vehicle(spec, n_modes=0)
+
+
+def test_singular_models_are_refused(spec):
+    with pytest.raises(ModelError, match="coupled M is not positive definite"):
+        assemble_vehicle(replace(spec, bogie_pitch_inertia=0.0))
+    with pytest.raises(ModelError, match="coupled K is not positive definite"):
+        assemble_vehicle(replace(spec, k_primary=0.0))
+
+
+def test_equipment_mounted_errors(spec):
+    with pytest.raises(OptionError, match=r"equipment: expected one of \['EQ1'\], got 'EQ9'"):
+        equipment_mounted(spec, "EQ9", 10.0, 0.05)
+    with pytest.raises(ModelError, match="f_hz: expected a finite value > 0, got -1"):
+        equipment_mounted(spec, "EQ1", -1.0, 0.05)
+    with pytest.raises(ModelError, match=r"zeta: expected a finite value >= 0, got -0\.1"):
+        equipment_mounted(spec, "EQ1", 10.0, -0.1)
+
+
+def _write(tmp_path: Path, change) -> Path:
+    doc = yaml.safe_load(DEFAULT_VEHICLE_YAML.read_text())
+    change(doc)
+    p = tmp_path / "car.yaml"
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+def _del(d, k):
+    del d[k]
+
+
+@pytest.mark.parametrize(("change", "error", "match"), [
+    (lambda d: _del(d["bogie"], "mass"), ConfigError, r"bogie\.mass: missing"),
+    (lambda d: d["primary"].update(k=-2e6), ModelError, r"primary\.k: expected a finite "
+                                                        r"value > 0, got -2000000"),
+    (lambda d: d["equipment"][0].update(mass=-5.0), ModelError,
+     r"equipment\[0\] \(EQ1\)\.mass: expected a finite value > 0"),
+    (lambda d: _del(d["equipment"][0], "mass"), ConfigError,
+     r"equipment\[0\] \(EQ1\)\.mass: missing"),
+    (lambda d: d["equipment"][0].update(mount="spring"), ConfigError,
+     r"equipment\[0\] \(EQ1\)\.mount: expected one of \['rigid', 'elastic'\], got 'spring'"),
+    (lambda d: d["secondary"].update(k="soft"), ConfigError,
+     r"secondary\.k: expected a number, got 'soft'"),
+    (lambda d: d["carbody"].update(n_elements=1.5), ConfigError,
+     r"carbody\.n_elements: expected an int >= 2"),
+    (lambda d: d.update(sensors=[]), ConfigError, r"sensors: expected lists"),
+    (lambda d: d["equipment"].append(dict(d["equipment"][0])), ConfigError,
+     r"equipment: expected unique names, got \['EQ1', 'EQ1'\]"),
+    (lambda d: d["carbody"].update(pivot_spacing=30.0), ConfigError,
+     r"carbody\.pivot_spacing: expected < length 25\.0"),
+    (lambda d: d["sensors"][0].update(x=13.0), ConfigError,
+     r"sensor front_pivot\.x: expected within \+-12\.5 m"),
+    (lambda d: d["equipment"][0].update(x="mid"), ConfigError,
+     r"equipment\[0\] \(EQ1\)\.x: expected a finite number"),
+    (lambda d: d["equipment"].append(3), ConfigError, r"equipment\[1\]: expected a mapping"),
+])
+def test_bad_vehicle_files_name_the_entry(tmp_path, change, error, match):
+    with pytest.raises(error, match=match):
+        load_vehicle(_write(tmp_path, change))
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ConfigError, match=r"no such vehicle file"):
+        load_vehicle(tmp_path / "none.yaml")
