@@ -86,9 +86,9 @@ def _cmd_model(a: argparse.Namespace) -> int:
 
     from modal_twin.models.building import build_building, modal_reduction
     from modal_twin.models.model_info import model_info
-    from modal_twin.yaml_files import read_yaml
+    from modal_twin.models.vehicle_spec import is_vehicle_file
 
-    if "carbody" in read_yaml(a.file, "model file"):  # a vehicle file (config/vehicles)
+    if is_vehicle_file(a.file):  # config/vehicles
         return _vehicle_info(a)
     bld = build_building(a.file)
     red = modal_reduction(bld, a.modes)
@@ -166,6 +166,7 @@ def _cmd_effects(a: argparse.Namespace) -> int:
 def _start_params(a: argparse.Namespace) -> dict[str, float]:
     from modal_twin.diagnosis.screening import parameter_grid
     from modal_twin.diagnosis.workflow import record_from_bag
+    from modal_twin.models.effects import MOUNT_LAW
     from modal_twin.twin.plants import PlantFactory
 
     out: dict[str, float] = {}
@@ -174,8 +175,15 @@ def _start_params(a: argparse.Namespace) -> dict[str, float]:
         out[key] = float(value)
     if out:
         return out
-    f = PlantFactory(a.model)
     rec = record_from_bag(a.train)
+    if a.law == MOUNT_LAW:  # start at the best mount frequency of the screening grid
+        from modal_twin.diagnosis.attachments import screen_attachments
+        from modal_twin.diagnosis.workflow import model_factory
+
+        best = [c for c in screen_attachments(model_factory(a.model), rec)
+                if c.component == a.component]
+        return {"f_hz": best[0].f_hz if best else 10.0, "zeta": 0.05}
+    f = PlantFactory(a.model)
     u = rec.channels([f"{a.component}_dx", f"{a.component}_dy"])
     fo = rec.channels([f"{a.component}_fx", f"{a.component}_fy"])
     spec = f.sites[a.component]

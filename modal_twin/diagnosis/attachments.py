@@ -33,11 +33,11 @@ from modal_twin.diagnosis.fitting import (
 )
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
+from modal_twin.models.effects import MOUNT_LAW
 from modal_twin.rig.config import EffectSpec
 
 __all__ = ["MOUNT_LAW", "AttachmentCandidate", "fit_attachment", "screen_attachments"]
 
-MOUNT_LAW = "elastic_mount"
 _ZETA_BOUNDS = (0.005, 0.4)
 
 

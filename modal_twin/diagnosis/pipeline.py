@@ -65,22 +65,22 @@ class Diagnosis:
                     self.modal.format(), ""]
         out.append("CANDIDATES (screening on force-state maps, training record)")
         for c in self.screened[:8]:
-            out.append(f"  {c.component:<6}{c.law:<20} explains {100 * c.score:6.2f} % "
+            out.append(f"  {c.component:<12} {c.law:<14} explains {100 * c.score:6.2f} % "
                        f"(+{100 * c.gain:5.2f} % over linear)")
         for pc in self.parameters[:4]:
-            out.append(f"  {pc.name:<6}{pc.kind:<20} removes {100 * pc.gain:6.2f} % of the "
+            out.append(f"  {pc.name:<12} {pc.kind:<14} removes {100 * pc.gain:6.2f} % of the "
                        f"residual (start {pc.start:.4g}, nominal {pc.nominal:.4g})")
         for ac in self.attachments[:4]:
-            out.append(f"  {ac.component:<6}{'elastic_mount':<20} removes {100 * ac.gain:6.2f} "
+            out.append(f"  {ac.component:<12} {'elastic_mount':<14} removes {100 * ac.gain:6.2f} "
                        f"% of the residual (best mount frequency {ac.f_hz:.3g} Hz)")
         out.append("")
         out.append("FITTED BY SIMULATION (ranked by held-out error)")
-        out.append(f"  {'component':<10}{'law':<20}{'train %':>9}{'held-out %':>11}"
+        out.append(f"  {'component':<12} {'law':<20}{'train %':>9}{'held-out %':>11}"
                    f"{'nominal %':>10}{'x better':>9}{'BIC':>12}  parameters")
         for f in self.fitted:
             p = ", ".join(f"{k}={v:.4g}" + (f"±{f.std[k]:.2g}" if k in f.std else "")
                           for k, v in f.effect.params.items())
-            out.append(f"  {f.effect.component:<10}{f.effect.law:<20}{f.train_nmse_pct:9.3f}"
+            out.append(f"  {f.effect.component:<12} {f.effect.law:<20}{f.train_nmse_pct:9.3f}"
                        f"{f.test_nmse_pct:11.3f}{f.test_nmse_nominal_pct:10.3f}"
                        f"{f.error_ratio:9.1f}{f.bic:12.1f}  {p}")
         for s in self.skipped:

@@ -63,9 +63,10 @@ class WhereReport:
     def format(self, top: int = 10) -> str:
         """Human-readable tables."""
         order = np.argsort(-self.nmse_pct)[:top]
-        out = [f"{'channel':<12}{'Eq.8 %':>9}{'NMSE %':>9}{'coh(in)':>9}{'level b':>9}"]
+        w = max([12, *(len(self.channels[i].name) + 1 for i in order)])
+        out = [f"{'channel':<{w}}{'Eq.8 %':>9}{'NMSE %':>9}{'coh(in)':>9}{'level b':>9}"]
         for i in order:
-            out.append(f"{self.channels[i].name:<12}{self.rms_error_pct[i]:9.2f}"
+            out.append(f"{self.channels[i].name:<{w}}{self.rms_error_pct[i]:9.2f}"
                        f"{self.nmse_pct[i]:9.2f}{self.coherence_with_inputs[i]:9.2f}"
                        f"{self.level_slope[i]:9.2f}")
         for kind in ("location", "direction", "quantity"):

@@ -22,13 +22,15 @@ from modal_twin.diagnosis.record import Record, record_from_blocks
 from modal_twin.errors import OptionError
 from modal_twin.io.bag import read_blocks
 from modal_twin.models.versions import ModelVersion, latest_version, read_version, write_version
-from modal_twin.twin.plants import PlantFactory
+from modal_twin.twin.plants import PlantFactory, factory_for
+from modal_twin.twin.vehicle_plants import VehicleFactory
 
 __all__ = [
     "add_effect",
     "channel_errors",
     "diagnose_model",
     "force_state_plots",
+    "model_factory",
     "record_from_bag",
 ]
 
@@ -38,8 +40,13 @@ def record_from_bag(bag: str | Path, topic: str = "/measurement/frames") -> Reco
     return record_from_blocks(read_blocks(bag, topic), source=str(bag))
 
 
-def _factory(mv: ModelVersion) -> PlantFactory:
-    return PlantFactory(mv.structure, theta=mv.theta or None)
+def _factory(mv: ModelVersion) -> PlantFactory | VehicleFactory:
+    return factory_for(mv.structure, theta=mv.theta or None)
+
+
+def model_factory(model_file: str | Path) -> PlantFactory | VehicleFactory:
+    """The plant factory of a model file (structure, vehicle or version file)."""
+    return _factory(read_version(model_file))
 
 
 def channel_errors(mv: ModelVersion, rec: Record) -> dict[str, float]:

@@ -46,8 +46,11 @@ from modal_twin.models.devices import (
 )
 from modal_twin.models.structure_yaml import DEVICE_TYPES, DeviceSpec, make_device
 
-__all__ = ["EFFECT_LAWS", "effect_device"]
+__all__ = ["EFFECT_LAWS", "MOUNT_LAW", "effect_device"]
 
+# a rigidly attached mass hung on a spring-damper instead (f_hz, zeta): an effect that
+# changes the structure, not a device law (modal_twin.diagnosis.attachments)
+MOUNT_LAW = "elastic_mount"
 EFFECT_LAWS = ("linear", "stick_slip", "bilinear", "bilinear_hysteretic", "bouc_wen", "cubic",
                "gap")
 

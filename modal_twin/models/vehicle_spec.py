@@ -44,7 +44,9 @@ __all__ = [
     "VehicleSpec",
     "apply_theta",
     "equipment_mounted",
+    "is_vehicle_file",
     "load_vehicle",
+    "parameter_value",
     "theta_names",
 ]
 
@@ -324,6 +326,30 @@ def _position(v: Any, where: str, src: str) -> float:
         msg = f"{src}: {where}.x: expected a finite number, got {v!r}"
         raise ConfigError(msg)
     return float(v)
+
+
+def is_vehicle_file(path: str | Path) -> bool:
+    """True when ``path`` is a vehicle file (it has a ``carbody`` section)."""
+    doc = read_yaml(path, "model file")
+    return isinstance(doc, Mapping) and "carbody" in doc
+
+
+def parameter_value(spec: VehicleSpec, name: str) -> float:
+    """Current value of the parameter ``name`` of :func:`theta_names`.
+
+    Raises
+    ------
+    OptionError
+        Unknown name.
+    """
+    if name in _SCALAR_THETA:
+        return float(getattr(spec, _SCALAR_THETA[name]))
+    prefix, _, item = name.partition("_")
+    field_of = {"m": "mass", "f": "f_mount_hz", "zeta": "zeta_mount"}
+    if prefix in field_of and name in theta_names(spec):
+        return float(getattr(spec.equipment_named(item), field_of[prefix]))
+    msg = f"parameter: expected one of {list(theta_names(spec))}, got {name!r}"
+    raise OptionError(msg)
 
 
 def load_vehicle(path: str | Path | None = None) -> VehicleSpec:

@@ -80,11 +80,21 @@ def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
                             rig.sensitivity)
 
 
+# quantity of an input by its name: shake-table accelerations (ax .. arz) or the track
+# irregularity under a wheelset and its rate (zt1 .., vt1 ..; modal_twin.models.vehicle)
+_INPUT_QUANTITY = (("ar", "angular_acceleration"), ("a", "acceleration"),
+                   ("zt", "displacement"), ("vt", "velocity"))
+
+
 def table_channels(inputs: tuple[str, ...]) -> tuple[ChannelSpec, ...]:
-    """Measured table motion channels ``table_<input>``."""
-    return tuple(ChannelSpec(f"table_{n}", "angular_acceleration" if n.startswith("ar")
-                             else "acceleration", "table", n.removeprefix("a"))
-                 for n in inputs)
+    """Measured input channels ``table_<input>`` (table motion or track irregularity)."""
+    out = []
+    for n in inputs:
+        prefix, qty = next(((p, q) for p, q in _INPUT_QUANTITY if n.startswith(p)),
+                           ("", "acceleration"))
+        direction = n.removeprefix("a") if prefix in ("a", "ar") else "z"
+        out.append(ChannelSpec(f"table_{n}", qty, "table", direction))
+    return tuple(out)
 
 
 def with_sensitivity(channels: tuple[ChannelSpec, ...],

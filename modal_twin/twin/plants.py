@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError
@@ -14,7 +15,10 @@ from modal_twin.models.effects import effect_device
 from modal_twin.rig.config import EffectSpec
 from modal_twin.twin.plant import Plant, Source
 
-__all__ = ["INPUTS_6DOF", "PlantFactory", "load_model", "load_plant"]
+if TYPE_CHECKING:
+    from modal_twin.twin.vehicle_plants import VehicleFactory
+
+__all__ = ["INPUTS_6DOF", "PlantFactory", "factory_for", "load_model", "load_plant"]
 
 INPUTS_6DOF = ("ax", "ay", "az", "arx", "ary", "arz")
 
@@ -99,6 +103,18 @@ class PlantFactory:
                      name=f"{bld.spec.name}@{label}")
 
 
+def factory_for(model_file: str | Path, *, theta: Mapping[str, float] | None = None,
+                n_modes: int | None = None) -> PlantFactory | VehicleFactory:
+    """The factory of a structure file (building) or of a vehicle file (trailer car)."""
+    from modal_twin.models.vehicle_spec import is_vehicle_file
+
+    if is_vehicle_file(model_file):
+        from modal_twin.twin.vehicle_plants import VehicleFactory
+
+        return VehicleFactory(model_file, theta=theta)
+    return PlantFactory(model_file, theta=theta, n_modes=n_modes)
+
+
 def load_plant(
     structure_file: str | Path,
     *,
@@ -107,7 +123,7 @@ def load_plant(
     n_modes: int | None = None,
 ) -> Plant:
     """Build the plant of a structure file (see :class:`PlantFactory`)."""
-    return PlantFactory(structure_file, theta=theta, n_modes=n_modes).plant(effects)
+    return factory_for(structure_file, theta=theta, n_modes=n_modes).plant(effects)
 
 
 def load_model(model_file: str | Path, *, theta: Mapping[str, float] | None = None) -> Plant:
@@ -117,5 +133,5 @@ def load_model(model_file: str | Path, *, theta: Mapping[str, float] | None = No
 
     mv = read_version(model_file)
     th = {**mv.theta, **(theta or {})}
-    plant = PlantFactory(mv.structure, theta=th or None).plant(mv.effects)
+    plant = factory_for(mv.structure, theta=th or None).plant(mv.effects)
     return replace(plant, name=f"{plant.name}#{mv.label}")

@@ -1,0 +1,89 @@
+"""Plants of a vehicle file: the trailer car with parameter values and elastic mounts.
+
+The vehicle counterpart of :class:`modal_twin.twin.plants.PlantFactory`, with the same
+interface the diagnosis and updating use (``plant``, ``with_theta``, ``parameters``,
+``attachments``, ``sites``). The vehicle has no device sites (its suspensions are linear);
+its candidate effects are parameter changes (``EI_carbody``, ``m_<equipment>``) and
+elastic mounts of the rigidly bolted equipment (``elastic_mount``, Fig. 3b of [002]).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+from modal_twin.errors import OptionError
+from modal_twin.models.effects import MOUNT_LAW
+from modal_twin.models.vehicle import build_vehicle
+from modal_twin.models.vehicle_spec import (
+    VehicleSpec,
+    apply_theta,
+    equipment_mounted,
+    load_vehicle,
+    parameter_value,
+    theta_names,
+)
+from modal_twin.rig.config import EffectSpec
+from modal_twin.twin.plant import Plant
+
+__all__ = ["VehicleFactory"]
+
+
+class VehicleFactory:
+    """Build plants of one vehicle file with different parameter values and mounts.
+
+    Parameters
+    ----------
+    vehicle_file : path
+        A vehicle file (``config/vehicles/*.yaml``).
+    theta : mapping, optional
+        Parameter values (:func:`~modal_twin.models.vehicle_spec.theta_names`).
+    """
+
+    def __init__(self, vehicle_file: str | Path, *,
+                 theta: Mapping[str, float] | None = None) -> None:
+        self.structure_file = Path(vehicle_file)
+        self.theta = dict(theta or {})
+        self.spec: VehicleSpec = load_vehicle(vehicle_file)
+        apply_theta(self.spec, self.theta)  # refuses unknown names and bad values now
+        self.sites: dict[str, object] = {}  # no nonlinear device sites
+
+    def with_theta(self, changes: Mapping[str, float]) -> VehicleFactory:
+        """A factory of the same vehicle with some parameter values changed."""
+        return VehicleFactory(self.structure_file, theta={**self.theta, **changes})
+
+    def parameters(self) -> dict[str, float]:
+        """Current value of every parameter."""
+        spec = apply_theta(self.spec, self.theta)
+        return {n: parameter_value(spec, n) for n in theta_names(spec)}
+
+    def attachments(self) -> tuple[str, ...]:
+        """The rigidly mounted equipment an ``elastic_mount`` effect can hang."""
+        return tuple(e.name for e in self.spec.equipment if e.mount == "rigid")
+
+    def weight(self, component: str) -> float:
+        """Weight of an equipment item, N."""
+        return 9.81 * apply_theta(self.spec, self.theta).equipment_named(component).mass
+
+    def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
+        """The plant with ``effects`` (elastic mounts) applied.
+
+        Raises
+        ------
+        OptionError
+            An effect other than ``elastic_mount``, or at an unknown / already elastic item.
+        """
+        spec = self.spec
+        for e in effects:
+            if e.law != MOUNT_LAW:
+                msg = (f"effect {e.law!r} at {e.component!r}: a vehicle takes "
+                       f"{MOUNT_LAW!r} effects at {list(self.attachments())} and parameter "
+                       "changes")
+                raise OptionError(msg)
+            if e.component not in self.attachments():
+                msg = (f"{MOUNT_LAW}: unknown or already elastic item {e.component!r}; "
+                       f"rigid items: {list(self.attachments())}")
+                raise OptionError(msg)
+            spec = equipment_mounted(spec, e.component, float(e.params["f_hz"]),
+                                     float(e.params.get("zeta", 0.05)))
+        return build_vehicle(spec, theta=self.theta or None)
