@@ -10,9 +10,10 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
 from modal_twin.excitation import signals
 
-__all__ = ["KINDS", "ExcitationConfig", "make_drive"]
+__all__ = ["KINDS", "TRACK_CHANNELS", "ExcitationConfig", "make_drive"]
 
-KINDS = ("random", "chirp", "multisine", "earthquake", "record")
+KINDS = ("random", "chirp", "multisine", "earthquake", "record", "track")
+TRACK_CHANNELS = ("zt1", "zt2", "zt3", "zt4", "vt1", "vt2", "vt3", "vt4")
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,6 +37,10 @@ class ExcitationConfig:
     record_path: str = field(default="", metadata={"doc": ".npz or .csv record (kind=record)"})
     record_scale: float = field(default=1.0, metadata={"doc": "scale on the record"})
     seed: int = field(default=1, metadata={"doc": "random seed"})
+    speed_kmh: float = field(default=300.0, metadata={"doc": "running speed (kind=track)"})
+    vehicle_file: str = field(default="config/vehicles/trailer_car.yaml",
+                              metadata={"doc": "vehicle whose axle positions the track "
+                                        "irregularity passes under (kind=track)"})
     autostart: bool = field(default=True, metadata={"doc": "start once a reader is matched"})
     rate: float = field(default=1.0, metadata={"doc": "pace: 1 = real time, 0 = flat out"})
     wait_subscribers: int = field(default=1, metadata={"doc": "readers to wait for"})
@@ -47,7 +52,15 @@ class ExcitationConfig:
         if self.block_size < 1:
             msg = f"block_size: expected >= 1, got {self.block_size}"
             raise OptionError(msg)
-        if self.kind != "record" and len(self.rms) not in (1, len(self.channels)):
+        if self.kind == "track" and tuple(self.channels) != TRACK_CHANNELS:
+            msg = (f"channels: kind=track drives the track irregularity under the four "
+                   f"wheelsets and its rate, expected {list(TRACK_CHANNELS)}, got "
+                   f"{list(self.channels)}")
+            raise OptionError(msg)
+        if self.kind == "track" and not self.speed_kmh > 0:
+            msg = f"speed_kmh: expected > 0, got {self.speed_kmh}"
+            raise OptionError(msg)
+        if self.kind not in ("record", "track") and len(self.rms) not in (1, len(self.channels)):
             msg = (f"rms: expected 1 or {len(self.channels)} values (one per channel), "
                    f"got {len(self.rms)}")
             raise OptionError(msg)
@@ -59,6 +72,8 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
     n_ch = len(cfg.channels)
     if cfg.kind == "record":
         return _record_drive(cfg)
+    if cfg.kind == "track":
+        return _track_drive(cfg)
     rms = np.broadcast_to(np.asarray(cfg.rms, dtype=float), (n_ch,))
     if cfg.kind == "random":
         return signals.band_limited_random(
@@ -79,6 +94,19 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
         return rms[:, None] * one
     msg = f"kind: expected one of {KINDS}, got {cfg.kind!r}"
     raise OptionError(msg)
+
+
+def _track_drive(cfg: ExcitationConfig) -> FloatArray:
+    """Vertical irregularity of a random German low-interference track (and its rate)
+    under the wheelsets of ``cfg.vehicle_file`` running at ``cfg.speed_kmh``."""
+    from modal_twin.models.track import random_profile, wheelset_inputs
+    from modal_twin.models.vehicle_spec import load_vehicle
+    from modal_twin.paths import resolve_config
+
+    spec = load_vehicle(resolve_config(cfg.vehicle_file))
+    v = cfg.speed_kmh / 3.6
+    prof = random_profile(v * cfg.duration_s + spec.length + 20.0, rng=cfg.seed)
+    return wheelset_inputs(prof, spec.axle_x, v, cfg.fs_hz, cfg.duration_s)
 
 
 def _record_drive(cfg: ExcitationConfig) -> FloatArray:

@@ -93,10 +93,11 @@ class TwinRunner:
         order = np.argsort(-np.nan_to_num(m.residual_pct, nan=-1.0))
         if top is not None:
             order = order[:top]
-        lines = [f"{'channel':<14}{'RMS meas':>12}{'RMS model':>12}{'Eq.8 err %':>12}"
+        w = max([14, *(len(self.compare[i]) + 1 for i in order)])
+        lines = [f"{'channel':<{w}}{'RMS meas':>12}{'RMS model':>12}{'Eq.8 err %':>12}"
                  f"{'resid %':>10}"]
         for i in order:
-            lines.append(f"{self.compare[i]:<14}{m.rms_measured[i]:12.4g}"
+            lines.append(f"{self.compare[i]:<{w}}{m.rms_measured[i]:12.4g}"
                          f"{m.rms_predicted[i]:12.4g}{m.rms_error_pct[i]:12.2f}"
                          f"{m.residual_pct[i]:10.2f}")
         return "\n".join(lines)

@@ -93,3 +93,22 @@ def test_earthquake_like_peak_envelope_and_band() -> None:
                            rms=(3.0, 2.0, 1.0, 0.0, 0.0, 0.0))
     d = make_drive(cfg)
     np.testing.assert_allclose(np.max(np.abs(d), axis=1), [3, 2, 1, 0, 0, 0], atol=1e-12)
+
+
+def test_track_drive_delays_the_irregularity_between_wheelsets() -> None:
+    from modal_twin.excitation.drive import TRACK_CHANNELS, ExcitationConfig, make_drive
+    from modal_twin.models.vehicle_spec import load_vehicle
+
+    cfg = ExcitationConfig(kind="track", channels=TRACK_CHANNELS, fs_hz=400.0,
+                           duration_s=4.0, speed_kmh=300.0, seed=3)
+    u = make_drive(cfg)
+    assert u.shape == (8, 1601)
+    x = load_vehicle().axle_x
+    # wheelset 2 meets the track that wheelset 1 met (x1 - x2) / v earlier
+    lag = round((x[0] - x[1]) / (300.0 / 3.6) * 400.0)
+    np.testing.assert_allclose(u[1, lag:], u[0, :-lag], atol=2e-3 * np.abs(u[0]).max())
+    # rates are the time derivative of the displacements
+    np.testing.assert_allclose(np.gradient(u[0], 1 / 400.0)[10:-10], u[4, 10:-10],
+                               atol=0.05 * np.abs(u[4]).max())
+    with pytest.raises(OptionError, match=r"kind=track drives the track irregularity"):
+        ExcitationConfig(kind="track")
