@@ -63,7 +63,8 @@ class Diagnosis:
         if self.modal is not None:
             out += ["MODAL VIEW (N4SID of the held-out record vs the model's modes)",
                     self.modal.format(), ""]
-        out.append("CANDIDATES (screening on force-state maps, training record)")
+        out.append("CANDIDATES (screened on the training record: force-state maps of the "
+                   "devices, simulated sensitivities of parameters and mounts)")
         for c in self.screened[:8]:
             out.append(f"  {c.component:<12} {c.law:<14} explains {100 * c.score:6.2f} % "
                        f"(+{100 * c.gain:5.2f} % over linear)")
