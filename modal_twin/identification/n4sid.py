@@ -18,7 +18,8 @@ which has the same column space as the N4SID oblique projection weighted by
    space of :math:`L_{32}`; the eigen-decomposition :math:`L_{32} L_{32}^T = U S^2 U^T`
    (the SVD of :math:`L_{32}`) gives the extended observability matrix of every model
    order n by truncation, :math:`\\Gamma_n = U_n` (up to a diagonal change of basis);
-   above 500 rows only the leading max(2 n_max, 100) eigenpairs are computed.
+   only the leading n_max eigenvectors are computed (tridiagonal reduction, inverse
+   iteration, :func:`~modal_twin.identification._subspace.leading_eigh`).
 4. Poles, damping and complex shapes at the outputs for all orders from one QR of
    :math:`\\underline{\\Gamma}` (:mod:`modal_twin.identification._subspace`).
 
@@ -62,27 +63,45 @@ def _groups(m: int, l: int, i: int) -> list[tuple[slice, slice]]:
     return [(fut, uc), (past, uc), (past, yc), (fut, yc)]
 
 
-def _chol(A: FloatArray) -> FloatArray | None:
-    """Lower Cholesky factor of a symmetric PSD A with relative ridge 1e-10 (None if it fails)."""
-    ridge = 1e-10 * max(float(np.trace(A)) / max(A.shape[0], 1), np.finfo(float).tiny)
-    try:
-        Lc: FloatArray = sla.cholesky(A + ridge * np.eye(A.shape[0]), lower=True,
-                                      check_finite=False)
-    except np.linalg.LinAlgError:
+def _chol(A: FloatArray, *, overwrite: bool = False) -> FloatArray | None:
+    """Lower Cholesky factor of a symmetric PSD A with relative ridge 1e-10 (None if it fails).
+
+    Only the lower triangle of A is read (LAPACK ``dpotrf``); with ``overwrite`` a
+    Fortran-ordered A is factorised in place (no copy, no fresh pages).
+    """
+    n = A.shape[0]
+    ridge = 1e-10 * max(float(np.trace(A)) / max(n, 1), np.finfo(float).tiny)
+    Ar = A if overwrite and A.flags.f_contiguous else np.array(A, order="F")
+    Ar.flat[:: n + 1] += ridge
+    Lc, info = sla.lapack.dpotrf(Ar, lower=1, clean=1, overwrite_a=1)
+    if info != 0:
         return None
-    return Lc
+    out: FloatArray = Lc
+    return out
 
 
 def _whiten(A: FloatArray, B: FloatArray) -> FloatArray:
-    """W with W^T W = B^T A^-1 B for a symmetric PSD A (Cholesky, else least squares)."""
+    """W with W^T W = B^T A^-1 B for a symmetric PSD A (Cholesky, else least squares).
+
+    Only the lower triangle of A is read.
+    """
     Lc = _chol(A)
     if Lc is None:  # singular beyond the ridge: symmetric square root of the pseudo-inverse
-        w, V = np.linalg.eigh(0.5 * (A + A.T))
+        w, V = np.linalg.eigh(np.tril(A) + np.tril(A, -1).T)
         keep = w > 1e-10 * max(float(w.max()), np.finfo(float).tiny)
         out: FloatArray = (V[:, keep] / np.sqrt(w[keep])).T @ B
         return out
-    W: FloatArray = sla.solve_triangular(Lc, B, lower=True, check_finite=False)
+    # W = L^-1 B as W^T = B^T L^-T: the transpose of a C-ordered B is Fortran-ordered
+    W: FloatArray = sla.blas.dtrsm(1.0, Lc, B.T, side=1, lower=1, trans_a=1).T
     return W
+
+
+def _schur22(Phi: FloatArray, W12: FloatArray, mf: int, p: int) -> FloatArray:
+    """:math:`\\Phi_{22|1} = \\Phi_{22} - W_{12}^T W_{12}` (lower triangle, Fortran order)."""
+    Sc22 = np.array(Phi[mf : mf + p, mf : mf + p], order="F")
+    out: FloatArray = sla.blas.dsyrk(-1.0, W12, trans=1, beta=1.0, c=Sc22, lower=1,
+                                     overwrite_c=1)
+    return out
 
 
 def _l32(Phi: FloatArray, mf: int, p: int) -> FloatArray:
@@ -93,12 +112,21 @@ def _l32(Phi: FloatArray, mf: int, p: int) -> FloatArray:
     \\Phi_{11}^{-1} \\Phi_{1r}` (data with U_f projected out), and
     :math:`L_{32} L_{32}^T = \\Phi_{32|1} \\Phi_{22|1}^{-1} \\Phi_{23|1}`. Both inverses
     enter through Cholesky factors, and only the rows of the instruments (block 2) of the
-    first Schur complement are formed.
+    first Schur complement are formed (its symmetric block by a rank-k update, SYRK).
     """
     W1 = _whiten(Phi[:mf, :mf], Phi[:mf, mf:])
-    W12 = W1[:, :p]
-    Sc2 = Phi[mf : mf + p, mf:] - W12.T @ W1  # rows [Phi_22|1, Phi_23|1]
-    return _whiten(Sc2[:, :p], Sc2[:, p:])
+    W12, W13 = W1[:, :p], W1[:, p:]
+    Sc22 = _schur22(Phi, W12, mf, p)
+    # Phi_32|1 = Phi_32 - W13^T W12 (Phi_32 = Phi_23^T), Fortran-ordered, updated in place
+    X = np.array(Phi[mf : mf + p, mf + p :].T, order="F")
+    X = sla.blas.dgemm(-1.0, W13, W12, trans_a=1, beta=1.0, c=X, overwrite_c=1)
+    Lc = _chol(Sc22, overwrite=True)
+    if Lc is None:  # singular beyond the ridge (Sc22 overwritten): rebuild it, as _whiten
+        return _whiten(_schur22(Phi, W12, mf, p), X.T)
+    # W^T = Phi_32|1 L^-T: one in-place triangular solve; W = its transpose (a view)
+    X = sla.blas.dtrsm(1.0, Lc, X, side=1, lower=1, trans_a=1, overwrite_b=1)
+    W: FloatArray = X.T
+    return W
 
 
 def _l32_times(Phi: FloatArray, mf: int, p: int, G: FloatArray) -> FloatArray:
@@ -110,16 +138,16 @@ def _l32_times(Phi: FloatArray, mf: int, p: int, G: FloatArray) -> FloatArray:
     """
     W1 = _whiten(Phi[:mf, :mf], Phi[:mf, mf:])
     W12, W13 = W1[:, :p], W1[:, p:]
-    Sc22 = Phi[mf : mf + p, mf : mf + p] - W12.T @ W12
+    Sc22 = _schur22(Phi, W12, mf, p)
     ScG = Phi[mf : mf + p, mf + p :] @ G - W12.T @ (W13 @ G)  # Phi_23|1 G
     Lc = _chol(Sc22)
     if Lc is None:
-        w, V = np.linalg.eigh(0.5 * (Sc22 + Sc22.T))
+        w, V = np.linalg.eigh(np.tril(Sc22) + np.tril(Sc22, -1).T)
         keep = w > 1e-10 * max(float(w.max()), np.finfo(float).tiny)
         u = V[:, keep] @ ((V[:, keep].T @ ScG) / w[keep][:, None])
     else:
         u = sla.cho_solve((Lc, True), ScG, check_finite=False)
-    out: FloatArray = Phi[mf + p :, mf : mf + p] @ u - W13.T @ (W12 @ u)  # Phi_32|1 u
+    out: FloatArray = Phi[mf : mf + p, mf + p :].T @ u - W13.T @ (W12 @ u)  # Phi_32|1 u
     return out
 
 
@@ -227,12 +255,14 @@ def n4sid(
     sy = sz[m:]
     mf, p = m * i, (m + l) * i
     edges = np.linspace(0, j, nb + 1).astype(int) if nb else np.array([0, j])
-    Phi_b = hankel_gram(z, 2 * i, edges, _groups(m, l, i))  # exact, from lag sums
+    # exact, from lag sums; rows of [U_f; U_p; Y_p] only (Phi_33 is never used)
+    Phi_b = hankel_gram(z, 2 * i, edges, _groups(m, l, i), row_groups=3)
     Phi = Phi_b[0] if len(Phi_b) == 1 else np.sum(Phi_b, axis=0)  # = H H^T = L L^T
     W2 = _l32(Phi, mf, p)
-    P = W2.T @ W2  # the one factorisation: L32 L32^T = U S^2 U^T
+    # the one factorisation: L32 L32^T = U S^2 U^T (lower triangle, by SYRK, factorised in place)
+    P = sla.blas.dsyrk(1.0, W2.T, lower=1)
     nm = int(o[-1])
-    s2, Uo = leading_eigh(P, nm)
+    s2, Uo = leading_eigh(P, nm, overwrite=True)
     s = np.sqrt(np.clip(s2, 0.0, None))
     G = Uo[:, :nm]
     s2_inv = 1.0 / np.where(s2[:nm] > 0, s2[:nm], np.inf)

@@ -34,6 +34,7 @@ from typing import Literal
 
 import numpy as np
 import scipy.linalg as sla
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike
 
 from modal_twin._types import ComplexArray, FloatArray
@@ -84,25 +85,32 @@ def _reduced_normal(
     Wcs = np.empty((nf, 2, 2 * q))
     Wcs[:, 0, :q] = Wcs[:, 0, q:] = Cs.T
     Wcs[:, 1, :q], Wcs[:, 1, q:] = Sn.T, -Sn.T
-    Hri = np.ascontiguousarray(H).reshape(n_out * m, nf).view(np.float64)  # (o i, 2 n_f)
+    Hc = np.ascontiguousarray(H)
+    Hri = Hc.reshape(n_out * m, nf).view(np.float64)  # (o i, 2 n_f)
     ab = Hri @ Wcs.reshape(2 * nf, 2 * q)  # [:, :q] = a + b (lag +d), [:, q:] = a - b (-d)
     s0 = -np.concatenate([ab[:, q + 1 :][:, ::-1], ab[:, :q]], axis=1).T.reshape(-1, n_out, m)
-    Hr, Hi = H.real, H.imag
-    Pr = np.einsum("oik,ojk->kij", Hr, Hr) + np.einsum("oik,ojk->kij", Hi, Hi)
-    Pi = np.einsum("oik,ojk->kij", Hr, Hi) - np.einsum("oik,ojk->kij", Hi, Hr)
-    # sum_o conj(H_oi) H_oj = Pr + j Pi per line
-    ta, tb = Cs @ Pr.reshape(nf, m * m), Sn @ Pi.reshape(nf, m * m)
+    # sum_o conj(H_oi) H_oj = Pr + j Pi per line (upper triangle, then Hermitian)
+    Pc = np.empty((nf, m, m), dtype=np.complex128)
+    for a in range(m):
+        for b in range(a, m):
+            Pc[:, a, b] = (Hc[:, a].conj() * Hc[:, b]).sum(axis=0)
+            Pc[:, b, a] = Pc[:, a, b].conj()
+    ta, tb = Cs @ Pc.real.reshape(nf, m * m), Sn @ Pc.imag.reshape(nf, m * m)
     t0 = np.concatenate([(ta - tb)[:0:-1], ta + tb]).reshape(-1, m, m)
     r0 = Cs.sum(axis=1)
     idx = np.arange(q)
-    D = idx[None, :] - idx[:, None] + pmax  # (r, s) -> s - r + pmax
     R = r0[np.abs(idx[None, :] - idx[:, None])]
-    S = s0[D].transpose(0, 2, 1, 3).reshape(q, n_out * q * m)  # (r, (o, s, i))
-    T = t0[D].transpose(0, 2, 1, 3).reshape(q * m, q * m)  # (r, i, s, j)
+    # Toeplitz in the polynomial index, entry (r, s) = lag s - r (index s - r + pmax): views
+    # T4[r, ..., s] = x[pmax - r + s] of the lag arrays, copied once into the layout
+    S = (sliding_window_view(s0, q, axis=0)[::-1].transpose(0, 1, 3, 2)
+         .reshape(q, n_out * q * m))  # (r, (o, s, i))
+    T = (sliding_window_view(t0, q, axis=0)[::-1].transpose(0, 1, 3, 2)
+         .reshape(q * m, q * m))  # (r, i, s, j)
     Lc: FloatArray | None = None
     try:  # R = Re(X^H X) is SPD
         Lc = sla.cholesky(R, lower=True, check_finite=False)
-        W = sla.solve_triangular(Lc, S, lower=True, check_finite=False)
+        # W = L^-1 S solved on the transposed (Fortran-ordered) layout: X L^T = S^T, no copy
+        W = sla.blas.dtrsm(1.0, Lc, S.T, side=1, lower=1, trans_a=1, overwrite_b=1).T
     except np.linalg.LinAlgError:  # numerically singular basis: symmetric pseudo-root
         Lc = None
         w, V = np.linalg.eigh(R)
@@ -110,11 +118,8 @@ def _reduced_normal(
         W = np.zeros_like(S)
         W[: int(keep.sum())] = (V[:, keep] / np.sqrt(w[keep])).T @ S
     W3 = W.reshape(q, n_out, q * m)
-    C = np.empty((q, q * m, q * m))
-    acc = np.zeros((q * m, q * m))
-    for r in range(q):  # cumulative sum of the per-row Gram matrices (one SYRK each)
-        acc += W3[r].T @ W3[r]
-        C[r] = acc
+    # cumulative sum of the per-row Gram matrices (one batched product)
+    C = np.cumsum(np.matmul(W3.transpose(0, 2, 1), W3), axis=0)
     return T, C, Lc, W3
 
 

@@ -8,10 +8,10 @@ Toeplitz matrix (Peeters & De Roeck, 1999)
 
 whose SVD :math:`T = U S V^T` (computed as :math:`T T^T = U S^2 U^T`) gives the
 observability matrix :math:`U_n S_n^{1/2}` of every order n by truncation: ONE SVD serves
-the whole stabilization diagram (above 500 rows only the leading max(2 n_max, 100)
-eigenpairs are computed). Poles and shapes follow from shift invariance (see
-:mod:`modal_twin.identification._subspace`). The correlations are exact lag sums computed
-by segmented FFT (:mod:`modal_twin.identification._lagsums`).
+the whole stabilization diagram (only the leading n_max eigenvectors are computed,
+:func:`~modal_twin.identification._subspace.leading_eigh`). Poles and shapes follow
+from shift invariance (see :mod:`modal_twin.identification._subspace`). The correlations
+are exact lag sums computed by segmented FFT (:mod:`modal_twin.identification._lagsums`).
 
 Uncertainty: the record is split into ``n_blocks_std`` blocks; each block's Toeplitz
 matrix :math:`T_b` is projected on the common right singular vectors,
@@ -25,6 +25,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
@@ -153,21 +154,25 @@ def ssi_cov(
     o = check_orders(orders, min(l * (i - 1), r * i), f"rank limit of {l * i} x {r * i} Toeplitz")
     scale = np.sqrt(np.mean((Y - Y.mean(axis=1, keepdims=True)) ** 2, axis=1))
     Ys = (Y - Y.mean(axis=1, keepdims=True)) / scale[:, None]
+    all_ref = r == l and bool(np.all(ref == np.arange(l)))  # y_ref IS y: one FFT a segment
+
+    def corr(a: int, b: int) -> FloatArray:
+        yb = Ys[:, a:b]
+        return correlations(yb, yb if all_ref else Ys[ref, a:b], n_lags)
+
     if nb:
         edges = np.linspace(0, n, nb + 1).astype(int)
-        Tb = [
-            _toeplitz(correlations(Ys[:, a:b], Ys[ref, a:b], n_lags), i)
-            for a, b in itertools.pairwise(edges)
-        ]
+        Tb = [_toeplitz(corr(a, b), i) for a, b in itertools.pairwise(edges)]
         w = np.diff(edges) / n
         T = sum(wk * Tk for wk, Tk in zip(w, Tb, strict=True))
     else:
         Tb = []
-        T = _toeplitz(correlations(Ys, Ys[ref], n_lags), i)
+        T = _toeplitz(corr(0, n), i)
     # the one factorisation for every order: T T^T = U S^2 U^T (symmetric eigen-solve,
     # about half the cost of the SVD of T; the leading singular vectors are the same)
     nm = int(o[-1])
-    s2, U = leading_eigh(T @ T.T, nm)
+    TT = sla.blas.dsyrk(1.0, T.T, trans=1, lower=1)  # T T^T, lower triangle, Fortran order
+    s2, U = leading_eigh(TT, nm, overwrite=True)
     s = np.sqrt(np.clip(s2, 0.0, None))
     G = U[:, :nm]
     s2_inv = 1.0 / np.where(s2[:nm] > 0, s2[:nm], np.inf)

@@ -14,12 +14,14 @@ cluster's median frequency and damping.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.cluster.hierarchy as sch
 
-from modal_twin._types import BoolArray, FloatArray
+from modal_twin._types import BoolArray, ComplexArray, FloatArray
 from modal_twin.errors import OptionError
-from modal_twin.identification.metrics import mac
+from modal_twin.identification.metrics import _shapes
 from modal_twin.identification.modal_model import (
     ModalModel,
     PoleSet,
@@ -30,15 +32,34 @@ from modal_twin.identification.modal_model import (
 __all__ = ["select_modes", "stabilization_diagram"]
 
 
+def _unit_shapes(shapes: ComplexArray, name: str) -> ComplexArray:
+    """Shapes of unit norm, so that MAC = :math:`|u_a^H u_b|^2` (Eq. (6) of [002]).
+
+    Same validation and the same scaling by the largest entry first as
+    :func:`~modal_twin.identification.metrics.mac`; all-zero shapes stay zero (MAC 0).
+    Each order's shapes are normalised once and compared with both neighbours.
+    """
+    a = _shapes(shapes, name)
+    a = a / np.where((ma := np.abs(a).max(axis=0)) > 0, ma, 1.0)
+    nrm = np.sqrt(np.einsum("ij,ij->j", a.real, a.real) + np.einsum("ij,ij->j", a.imag, a.imag))
+    out: ComplexArray = a / np.where(nrm > 0, nrm, 1.0)
+    return out
+
+
 def _compare(
-    a: PoleSet, b: PoleSet, tol_f: float, tol_z: float, mac_min: float
+    a: PoleSet,
+    b: PoleSet,
+    tol_f: float,
+    tol_z: float,
+    mac_min: float,
+    unit: Callable[[PoleSet, str], ComplexArray],
 ) -> tuple[BoolArray, BoolArray, BoolArray]:
     n = a.f_hz.size
     if n == 0 or b.f_hz.size == 0:
         z = np.zeros(n, dtype=bool)
         return z, z.copy(), z.copy()
     df = np.abs(b.f_hz[None, :] - a.f_hz[:, None]) / np.maximum(a.f_hz[:, None], 1e-300)
-    M = mac(a.shapes, b.shapes)
+    M = np.minimum(np.abs(unit(a, "phi_a").conj().T @ unit(b, "phi_b")) ** 2, 1.0)  # MAC
     # candidate of the next order: within the frequency tolerance, best MAC; else nearest
     score = np.where(df <= tol_f, M, -1.0 - df)
     j = np.argmax(score, axis=1)
@@ -92,9 +113,16 @@ def stabilization_diagram(
         msg = f"sweep: expected at least 2 model orders for stability, got {len(P)}"
         raise OptionError(msg)
     sf, sz, sm = [], [], []
+    cache: dict[int, ComplexArray] = {}
+
+    def unit(p: PoleSet, name: str) -> ComplexArray:
+        if id(p) not in cache:
+            cache[id(p)] = _unit_shapes(p.shapes, name)
+        return cache[id(p)]
+
     for k, a in enumerate(P):
         b = P[k + 1] if k + 1 < len(P) else P[k - 1]
-        f_ok, z_ok, m_ok = _compare(a, b, rel_tol_f, rel_tol_zeta, mac_min)
+        f_ok, z_ok, m_ok = _compare(a, b, rel_tol_f, rel_tol_zeta, mac_min, unit)
         sf.append(f_ok)
         sz.append(z_ok)
         sm.append(m_ok)
@@ -152,11 +180,16 @@ def select_modes(
         msg = f"min_support: expected an integer >= 1, got {min_support!r}"
         raise OptionError(msg)
     rows = []
+    fl, zl, Sl = [], [], []  # the kept poles, gathered order by order
     for k, (p, s) in enumerate(zip(diagram.poles, diagram.stable, strict=True)):
         keep = s & (p.zeta > 0) & (p.zeta < zeta_max)
         if f_range_hz is not None:
             keep &= (p.f_hz >= f_range_hz[0]) & (p.f_hz <= f_range_hz[1])
-        rows.extend((k, int(q)) for q in np.nonzero(keep)[0])
+        q = np.nonzero(keep)[0]
+        rows.extend((k, int(qq)) for qq in q)
+        fl.append(p.f_hz[q])
+        zl.append(p.zeta[q])
+        Sl.append(p.shapes[:, q])
     n_ch = diagram.poles[0].shapes.shape[0]
     if len(rows) < ms:
         e = np.zeros(0)
@@ -164,12 +197,14 @@ def select_modes(
             e, e, np.zeros((n_ch, 0), complex), e, e, diagram.method, 0,
             np.zeros(0, np.int64), np.zeros(0, np.int64),
         )  # fmt: skip
-    f = np.array([diagram.poles[k].f_hz[q] for k, q in rows])
-    z = np.array([diagram.poles[k].zeta[q] for k, q in rows])
-    S = np.stack([diagram.poles[k].shapes[:, q] for k, q in rows], axis=1)
+    f = np.concatenate(fl).astype(float)
+    z = np.concatenate(zl).astype(float)
+    S = np.concatenate(Sl, axis=1)
     if len(rows) > 1:
         df = np.abs(f[:, None] - f[None, :]) / (0.5 * (f[:, None] + f[None, :]))
-        d = np.maximum(df / diagram.rel_tol_f, (1.0 - mac(S, S)) / max(1 - diagram.mac_min, 1e-6))
+        u = _unit_shapes(S, "phi_a")
+        M = np.minimum(np.abs(u.conj().T @ u) ** 2, 1.0)  # MAC, Eq. (6) of [002]
+        d = np.maximum(df / diagram.rel_tol_f, (1.0 - M) / max(1 - diagram.mac_min, 1e-6))
         np.fill_diagonal(d, 0.0)
         Z = sch.linkage(d[np.triu_indices(len(rows), 1)], method="average")
         lab = sch.fcluster(Z, t=1.0, criterion="distance")

@@ -143,7 +143,16 @@ def main() -> None:
     ap.add_argument("--peer-timeout", type=float, default=240.0)
     ap.add_argument("--repeat", type=int, default=7,
                     help="best of N runs for every tool (the machine is shared)")
+    ap.add_argument("--only", default="ssi_io,ssi_cov,uncertainty,plscf",
+                    help="comma-separated subset of ssi_io, ssi_cov, uncertainty, plscf "
+                         "(default all; a partial run prints only the speed-ups it measured)")
+    ap.add_argument("--cases", default="a,b",
+                    help="comma-separated subset of the SSI records a, b")
     args = ap.parse_args()
+    only = set(args.only.split(","))
+    bad = only - {"ssi_io", "ssi_cov", "uncertainty", "plscf"}
+    if bad:
+        ap.error(f"--only: unknown task(s) {sorted(bad)}")
     global REPEAT
     REPEAT = max(int(args.repeat), 1)
     py = peer_python()
@@ -167,6 +176,8 @@ def main() -> None:
         "b": (rec["b"], list(range(2, 67, 2)), br_b),
     }
     for name, (r, orders, br) in cases.items():
+        if name not in args.cases.split(","):
+            continue
         npz = tmp / f"{name}.npz"
         np.savez(npz, u=r.u, y=r.y, fs=r.fs_hz, f_true=r.truth.f_hz)
         t = r.truth
@@ -184,6 +195,8 @@ def main() -> None:
             ("ssi_io", ours_io, {"method": "IOcov"}),
             ("ssi_cov", ours_cov, {"method": "cov"}),
         ):
+            if method not in only and not (method == "ssi_cov" and "uncertainty" in only):
+                continue
             sec, mm = best_of(fn)
             sec_std, mm_std = best_of(lambda fn=fn: fn(nb=8))
             peer = run_peer(py, "pyoma_ssi", npz, {**common, **task_opt, "repeat": REPEAT},
@@ -193,7 +206,7 @@ def main() -> None:
             rows.append({"case": name, "method": method + " +std (default)",
                          "peer": "pyOMA2 " + task_opt["method"], "ours_s": sec_std,
                          "mm": mm_std, "peer_res": peer, "truth": t, "aux": True})
-            if name == "a" and method == "ssi_cov":
+            if name == "a" and method == "ssi_cov" and "uncertainty" in only:
                 unc = run_peer(py, "pyoma_ssi", npz,
                                {**common, **task_opt, "calc_unc": True, "nb": 50},
                                args.unc_timeout)
@@ -201,6 +214,14 @@ def main() -> None:
                              "ours_s": sec_std, "mm": mm_std, "peer_res": unc, "truth": t})
 
     # (c) PolyMAX on 200 FRFs
+    if "plscf" in only:
+        rows.extend(_polymax_rows(py, tc, tmp, args.peer_timeout))
+    _report(rows, args.unc_timeout)
+
+
+def _polymax_rows(py: Path, tc: ModalTruth, tmp: Path, peer_timeout: float) -> list[dict]:
+    """Case (c): PolyMAX / pLSCF on 200 FRFs, ours and both peers."""
+    rows: list[dict] = []
     f = np.linspace(0.0, 50.0, 1025)
     H = frf_record(tc, f)
     npz = tmp / "c.npz"
@@ -220,15 +241,19 @@ def main() -> None:
         pz.append(-lk.real / np.abs(lk))
     of, oz = oracle(pf, pz, tc)
     peers = {"pyOMA2 pLSCF": run_peer(py, "pyoma_plscf", npz, {"ordmax": pmax},
-                                      args.peer_timeout),
+                                      peer_timeout),
              "sdypy-EMA LSCF": run_peer(py, "sdypy_lscf", npz, {"ordmax": pmax, "repeat": REPEAT},
-                                        args.peer_timeout)}
+                                        peer_timeout)}
     for pname, pres in peers.items():
         rows.append({"case": "c", "method": "plscf (poles)", "peer": pname, "ours_s": sec_poles,
                      "mm": (of, oz), "peer_res": pres, "truth": tc})
         rows.append({"case": "c", "method": "polymax+select+LSFD", "peer": pname,
                      "ours_s": sec_full, "mm": mm, "peer_res": pres, "truth": tc, "aux": True})
+    return rows
 
+
+def _report(rows: list[dict], unc_timeout: float) -> None:
+    """Print the table and the JSON line of speed-ups and worst errors."""
     print(f"{'case':4} {'method':24} {'peer':22} {'ours s':>8} {'peer s':>9} {'ratio':>7} "
           f"{'ours df%':>8} {'ours dz%':>8} {'peer df%':>8} {'peer dz%':>8}  notes")
     speed: dict[str, list[float]] = {}
@@ -254,7 +279,7 @@ def main() -> None:
         print(f"{r['case']:4} {r['method']:24} {r['peer']:22} {r['ours_s']:8.3f} {ps:9.3f} "
               f"{ratio:7.1f} {ef:8.3f} {ez:8.2f} {pf_:8.3f} {pz_:8.2f}  {note}")
         if "timeout" in note:  # the peer took at least the timeout: a lower bound
-            ratio = args.unc_timeout / r["ours_s"]
+            ratio = unc_timeout / r["ours_s"]
         if not r.get("aux") and r["method"] in key and np.isfinite(ratio):
             speed.setdefault(key[r["method"]], []).append(ratio)
         worst_f, worst_z = max(worst_f, ef), max(worst_z, ez)

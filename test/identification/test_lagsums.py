@@ -62,3 +62,43 @@ def test_default_block_rows_rule() -> None:
     assert default_block_rows(71.4, 0.05, 400, 4, 54, floor=6) == 102
     with pytest.raises(OptionError, match=r"f_min_hz: expected a frequency in \(0, fs_hz / 2"):
         default_block_rows(71.4, 40.0, 66, 42, 54, floor=6)
+
+
+def test_lag_sums_many_passes_and_self_correlation() -> None:
+    # a long record: several hundred FFT segments, so more than one pass of segments
+    rng = np.random.default_rng(2)
+    z = rng.standard_normal((3, 60000)) * np.array([[1.0], [1e2], [1e-2]])
+    L, a, b = 5, 3, 59990
+    got = lag_sums(z, z, L, a, b, z.shape[1])
+    ref = _direct(z, z, L, a, b, z.shape[1])
+    scale = np.sqrt(np.sum(z[:, a:b] ** 2, axis=1))
+    assert np.max(np.abs(got - ref) / np.outer(scale, scale)) < 1e-12
+
+
+def test_hankel_gram_leading_row_groups() -> None:
+    rng = np.random.default_rng(3)
+    c, L = 3, 8
+    z = rng.standard_normal((c, 500))
+    j = z.shape[1] - L + 1
+    groups = [(slice(4, 8), slice(0, 1)), (slice(0, 4), slice(0, 1)), (slice(0, 4), slice(1, 3)),
+              (slice(4, 8), slice(1, 3))]
+    edges = np.array([0, 200, j])
+    full = hankel_gram(z, L, edges, groups)
+    part = hankel_gram(z, L, edges, groups, row_groups=3)
+    kr = 4 * 1 + 4 * 1 + 4 * 2  # rows of [U_f; U_p; Y_p]
+    for f, p in zip(full, part, strict=True):
+        assert p.shape == (kr, L * c)
+        np.testing.assert_allclose(p, f[:kr], rtol=0, atol=1e-12 * np.abs(f).max())
+
+
+@pytest.mark.parametrize(("a", "b", "n_valid", "L"), [(0, 3000, 3000, 7), (10, 811, 811, 25),
+                                                      (5, 2000, 2500, 40), (3, 2811, 2820, 9)])
+def test_lag_sums_of_a_signal_with_itself(a: int, b: int, n_valid: int, L: int) -> None:
+    # x IS y: one transform per segment plus a short DFT of the next L - 1 samples
+    rng = np.random.default_rng(4)
+    z = rng.standard_normal((3, 3000)) * np.array([[1.0], [1e3], [1e-3]])
+    got = lag_sums(z, z, L, a, b, n_valid)
+    ref = _direct(z, z, L, a, b, n_valid)
+    scale = np.sqrt(np.sum(z[:, a:b] ** 2, axis=1))[:, None] * np.sqrt(
+        np.sum(z[:, a:] ** 2, axis=1))[None, :]
+    assert np.max(np.abs(got - ref) / scale) < 1e-12

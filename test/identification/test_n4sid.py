@@ -171,3 +171,44 @@ def test_thin_block_product_matches_the_factor() -> None:
     ref = W.T @ (W @ G)
     got = _l32_times(Phi, 12, 24, G)  # the std-block route, products with G only
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+def test_whiten_reads_the_lower_triangle_and_falls_back_to_the_pseudo_inverse() -> None:
+    from modal_twin.identification.n4sid import _whiten
+
+    rng = np.random.default_rng(7)
+    X = rng.standard_normal((6, 9))
+    A = X @ X.T  # SPD: Cholesky with its relative 1e-10 ridge
+    B = rng.standard_normal((6, 3))
+    W = _whiten(np.tril(A), B)  # upper triangle never read
+    ref = B.T @ np.linalg.solve(A + 1e-10 * np.trace(A) / 6 * np.eye(6), B)
+    np.testing.assert_allclose(W.T @ W, ref, rtol=1e-10)
+    A[5, 5] = -1.0  # indefinite: Cholesky fails, pseudo-inverse of the PSD part
+    w, V = np.linalg.eigh(A)
+    keep = w > 1e-10 * w.max()
+    ref = B.T @ V[:, keep] @ np.diag(1 / w[keep]) @ V[:, keep].T @ B
+    W = _whiten(np.tril(A), B)
+    np.testing.assert_allclose(W.T @ W, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+
+
+def test_l32_factor_against_the_schur_complement_formula() -> None:
+    from modal_twin.identification.n4sid import _l32
+
+    rng = np.random.default_rng(8)
+    mf, p, ly = 3, 8, 5
+    H = rng.standard_normal((mf + p + ly, 60))
+    Phi = H @ H.T  # SPD Gram matrix of [U_f; W_p; Y_f]
+    S = Phi[mf:, mf:] - Phi[mf:, :mf] @ np.linalg.solve(Phi[:mf, :mf], Phi[:mf, mf:])
+    ref = S[p:, :p] @ np.linalg.solve(S[:p, :p], S[:p, p:])  # Phi_32|1 Phi_22|1^-1 Phi_23|1
+    W = _l32(Phi[: mf + p], mf, p)  # only the rows of [U_f; W_p] are read
+    np.testing.assert_allclose(W.T @ W, ref, rtol=1e-8, atol=1e-8 * np.abs(ref).max())
+    # Phi_22|1 indefinite beyond the ridge: the pseudo-inverse of its PSD part
+    Phi2 = Phi.copy()
+    Phi2[mf + 2, mf + 2] -= 2 * S[2, 2]
+    S2 = S.copy()
+    S2[2, 2] -= 2 * S[2, 2]
+    w, V = np.linalg.eigh(S2[:p, :p])
+    keep = w > 1e-10 * w.max()
+    ref2 = S2[p:, :p] @ V[:, keep] @ np.diag(1 / w[keep]) @ V[:, keep].T @ S2[:p, p:]
+    W2 = _l32(Phi2[: mf + p], mf, p)
+    np.testing.assert_allclose(W2.T @ W2, ref2, rtol=1e-8, atol=1e-8 * np.abs(ref2).max())
