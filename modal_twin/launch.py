@@ -28,6 +28,7 @@ import rclpy
 from rclpy.context import Context
 
 from modal_twin.errors import ConfigError
+from modal_twin.runtime import runtime_env
 from modal_twin.scenario import Scenario, load_scenario
 
 __all__ = ["LaunchResult", "Launcher", "launch"]
@@ -98,9 +99,7 @@ class Launcher:
         env["PYTHONUNBUFFERED"] = "1"
         env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
         env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
-        env.setdefault("OMP_NUM_THREADS", "1")  # many small processes on few cores
-        env.setdefault("OPENBLAS_NUM_THREADS", "1")
-        return env
+        return runtime_env(env)  # one BLAS thread, allocator (modal_twin.runtime)
 
     def _spawn(self, name: str, cmd: list[str]) -> None:
         logf = (self.run_dir / "logs" / f"{name}.log").open("wb")

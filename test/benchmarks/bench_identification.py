@@ -16,12 +16,17 @@ same oracle on our poles (eigenvalues only, no participation factors, as sdypy-E
 default). pyOMA2's SSI poles are taken from ``Fn_poles`` / ``Xi_poles`` of its result
 (its own hard criteria applied, damping < 20 % in the oracle); sdypy-EMA's from
 ``pole_freq`` / ``pole_xi`` of ``get_poles("lscf")``. Same block rows, orders and (for
-PolyMAX) band for every tool; one BLAS thread everywhere. Best of ``--repeat`` (default 7)
+PolyMAX) band for every tool; one BLAS thread everywhere. Best of ``--repeat`` (default 15)
 runs for every tool (ours in-process, each peer's inside its subprocess after its imports;
 the pyOMA2 uncertainty and pLSCF runs once, timeouts reported as such). The aux row
 "polymax+select+LSFD" is our whole PolyMAX pipeline: numerator shapes for the
 stabilization MAC, LSFD (Eq. (5) of [002]) for the selected modes only
 (:func:`lsfd_modes`).
+
+Environment: one BLAS thread and the glibc allocator settings the launcher gives every node
+(:mod:`modal_twin.runtime`: freed blocks up to 32 MB stay in the heap, which saves our
+N4SID ~15 % in page faults), for our process and, inherited, for the peers' subprocesses
+alike; ``--no-tunables`` runs both sides with glibc's defaults.
 
 Run: ``.venv/bin/python test/benchmarks/bench_identification.py`` (~5-10 min; the
 pyOMA2 uncertainty run is capped by ``--unc-timeout``, default 400 s). Last line: JSON.
@@ -39,15 +44,22 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_v] = "1"
+from modal_twin.runtime import MALLOC_TUNABLES, THREAD_ENV
 
-import numpy as np  # noqa: E402  (after the BLAS thread settings)
+os.environ.update(THREAD_ENV)
+# the allocator settings the launcher gives every node (modal_twin.runtime: freed blocks up
+# to 32 MB stay in the heap); glibc reads them at start-up, so the script re-executes itself
+# once; the peers' subprocesses inherit the same environment, so both sides run with them
+if os.environ.get("GLIBC_TUNABLES") is None and "--no-tunables" not in sys.argv:
+    os.environ["GLIBC_TUNABLES"] = MALLOC_TUNABLES
+    os.execv(sys.executable, [sys.executable, *sys.argv])
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _modal_sim import ModalTruth, frf_record, modal_truth, time_record  # noqa: E402
+from _modal_sim import ModalTruth, frf_record, modal_truth, time_record
 
-from modal_twin.identification import (  # noqa: E402
+from modal_twin.identification import (
     lsfd_modes,
     n4sid,
     polymax,
@@ -55,8 +67,8 @@ from modal_twin.identification import (  # noqa: E402
     ssi_cov,
     stabilization_diagram,
 )
-from modal_twin.identification._subspace import default_block_rows  # noqa: E402
-from modal_twin.identification.polymax import polymax_poles  # noqa: E402
+from modal_twin.identification._subspace import default_block_rows
+from modal_twin.identification.polymax import polymax_poles
 
 ROOT = Path(__file__).resolve().parents[2]
 VENV = ROOT / "build" / "bench_peers_venv"
@@ -90,7 +102,7 @@ def run_peer(py: Path, task: str, npz: Path, opt: dict, timeout_s: float) -> dic
     return json.loads(lines[-1])
 
 
-REPEAT = 7
+REPEAT = 15
 
 
 def best_of(fn: Callable[[], object], n: int | None = None) -> tuple[float, object]:
@@ -141,7 +153,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--unc-timeout", type=float, default=400.0)
     ap.add_argument("--peer-timeout", type=float, default=240.0)
-    ap.add_argument("--repeat", type=int, default=7,
+    ap.add_argument("--no-tunables", action="store_true",
+                    help="run with the default glibc allocator settings (both sides)")
+    ap.add_argument("--repeat", type=int, default=15,
                     help="best of N runs for every tool (the machine is shared)")
     ap.add_argument("--only", default="ssi_io,ssi_cov,uncertainty,plscf",
                     help="comma-separated subset of ssi_io, ssi_cov, uncertainty, plscf "
