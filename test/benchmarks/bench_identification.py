@@ -254,10 +254,11 @@ def _polymax_rows(py: Path, tc: ModalTruth, tmp: Path, peer_timeout: float) -> l
         pf.append(np.abs(lk) / (2 * np.pi))
         pz.append(-lk.real / np.abs(lk))
     of, oz = oracle(pf, pz, tc)
-    peers = {"pyOMA2 pLSCF": run_peer(py, "pyoma_plscf", npz, {"ordmax": pmax},
-                                      peer_timeout),
-             "sdypy-EMA LSCF": run_peer(py, "sdypy_lscf", npz, {"ordmax": pmax, "repeat": REPEAT},
-                                        peer_timeout)}
+    # the fast peer right after our runs (same machine state), the minute-long one last
+    peers = {"sdypy-EMA LSCF": run_peer(py, "sdypy_lscf", npz, {"ordmax": pmax, "repeat": REPEAT},
+                                        peer_timeout),
+             "pyOMA2 pLSCF": run_peer(py, "pyoma_plscf", npz, {"ordmax": pmax},
+                                      peer_timeout)}
     for pname, pres in peers.items():
         rows.append({"case": "c", "method": "plscf (poles)", "peer": pname, "ours_s": sec_poles,
                      "mm": (of, oz), "peer_res": pres, "truth": tc})
