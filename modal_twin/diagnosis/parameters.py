@@ -32,7 +32,8 @@ from modal_twin.twin.plants import PlantFactory
 __all__ = ["KINDS", "PARAMETER_LAWS", "ParameterCandidate", "fit_parameter",
            "screen_parameters"]
 
-KINDS = {"m_": "added_mass", "E_": "stiffness", "EI_": "stiffness"}
+KINDS = {"m_": "added_mass", "E_": "stiffness", "EI_": "stiffness", "k_": "stiffness",
+         "c_": "damping"}
 PARAMETER_LAWS = tuple(KINDS.values())  # effects that change a parameter value
 
 
@@ -54,9 +55,16 @@ def _residual(factory: PlantFactory, theta: dict[str, float], rec: Record, decim
 
 
 def screen_parameters(factory: PlantFactory, train: Record, *,
-                      prefixes: Sequence[str] = tuple(KINDS), rel_step: float = 0.05,
+                      prefixes: Sequence[str] | None = None, rel_step: float = 0.05,
                       decimate: int = 5) -> list[ParameterCandidate]:
-    """Score every parameter whose name starts with one of ``prefixes`` (best first)."""
+    """Score every parameter whose name starts with one of ``prefixes`` (best first).
+
+    ``prefixes`` defaults to the factory's ``parameter_prefixes`` (the building: masses and
+    moduli -- its isolators' k and c are screened as device laws; the vehicle: also its
+    suspensions' k and c), else to every kind of :data:`KINDS`.
+    """
+    if prefixes is None:
+        prefixes = tuple(getattr(factory, "parameter_prefixes", tuple(KINDS)))
     values = factory.parameters()
     scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
     r0 = _residual(factory, {}, train, decimate, scale)
@@ -93,7 +101,9 @@ def fit_parameter(factory: PlantFactory, cand: ParameterCandidate, train: Record
     import time
 
     t0 = time.perf_counter()
-    lo = 0.0 if cand.kind == "added_mass" else 0.3 * cand.nominal
+    # a mass may be added from nothing; a damper may have all but failed; a stiffness or
+    # modulus is searched down to 30 %
+    lo = {"added_mass": 0.0, "damping": 0.01 * cand.nominal}.get(cand.kind, 0.3 * cand.nominal)
     hi = cand.nominal * 5.0 + 1.0
     x0 = float(np.clip(cand.start, lo + 1e-9 * hi, hi * (1 - 1e-9)))
     scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]

@@ -40,6 +40,10 @@ class PlantFactory:
         Modes kept (the file's ``n_modes`` by default).
     """
 
+    # parameters the diagnosis screens as candidates (masses, moduli); the isolators' k and
+    # c are screened as device laws at their components
+    parameter_prefixes = ("m_", "E_")
+
     def __init__(self, structure_file: str | Path, *, theta: Mapping[str, float] | None = None,
                  n_modes: int | None = None) -> None:
         self.structure_file = Path(structure_file)

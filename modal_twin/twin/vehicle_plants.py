@@ -40,6 +40,10 @@ class VehicleFactory:
         Parameter values (:func:`~modal_twin.models.vehicle_spec.theta_names`).
     """
 
+    # parameters the diagnosis screens as candidates: equipment masses, carbody bending
+    # stiffness, primary and secondary suspension stiffness and damping
+    parameter_prefixes = ("m_", "EI_", "k_", "c_")
+
     def __init__(self, vehicle_file: str | Path, *,
                  theta: Mapping[str, float] | None = None) -> None:
         self.structure_file = Path(vehicle_file)

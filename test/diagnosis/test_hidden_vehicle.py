@@ -94,3 +94,27 @@ def test_s2_control_rigid_truth_reports_nothing(case: tuple) -> None:
     d = diagnose(factory, train, test, n_fit=1)
     assert not d.significant, d.summary
     assert d.best is None
+
+
+def test_own_worn_secondary_dampers(case: tuple) -> None:
+    """Own scenario (suspension deterioration, sec. 1 of [002]): the secondary vertical
+    dampers at 25 % of their nominal damping; the nominal model is not told."""
+    factory, _, _, _ = case
+    worn = factory.with_theta({"c_secondary": 0.25 * factory.parameters()["c_secondary"]})
+
+    def rec(speed_kmh: float, seed: int) -> Record:
+        v = speed_kmh / 3.6
+        u = wheelset_inputs(random_profile(v * T + 40.0, rng=seed), factory.spec.axle_x, v,
+                            FS, T)
+        rig = TruthRig(worn.plant(), 1 / FS, noise_rms={"acceleration": 0.005}, seed=seed)
+        return record_from_blocks([rig.process(SignalBlock(factory.plant().input_names, FS,
+                                                           0, u))])
+
+    train, test = rec(300.0, 31), rec(350.0, 32)
+    d = diagnose(factory, train, test, n_fit=2)
+    assert d.best is not None
+    assert (d.best.effect.component, d.best.effect.law) == ("c_secondary", "damping")
+    assert d.best.effect.params["c_secondary"] == pytest.approx(1.0e4, rel=0.02)
+    assert d.best.error_ratio >= 3.0
+    # the carbody's rigid modes lose their damping: the modal view shows it
+    assert d.modal is not None
