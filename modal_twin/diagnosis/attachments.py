@@ -26,10 +26,10 @@ from scipy.optimize import least_squares
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.fitting import (
     FittedEffect,
+    SimulationObjective,
     _parameter_std,
+    judge_fit,
     normalised_residual,
-    record_nmse,
-    simulate_record,
 )
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
@@ -107,37 +107,17 @@ def fit_attachment(factory: Any, component: str, start: dict[str, float], train:
         raise OptionError(msg)
     z0 = float(np.clip(start.get("zeta", 0.05), *_ZETA_BOUNDS))
     t0 = time.perf_counter()
-    scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
-    n_sim = 0
 
     def to_params(x: FloatArray) -> dict[str, float]:
         return {"f_hz": float(np.exp(x[0])), "zeta": float(x[1])}
 
-    def residual(x: FloatArray) -> FloatArray:
-        nonlocal n_sim
-        n_sim += 1
-        p = to_params(x)
-        try:
-            return normalised_residual(factory.plant([_mount(component, **p)]), train,
-                                       decimate, scale)
-        except ModalTwinError:
-            return np.full(train.scored[:, ::decimate].size, 1e3)
-
+    objective = SimulationObjective(
+        lambda x: factory.plant([_mount(component, **to_params(x))]), train, decimate)
     lo = np.array([np.log(0.2), _ZETA_BOUNDS[0]])
     hi = np.array([np.log(min(200.0, train.fs_hz / 2.0)), _ZETA_BOUNDS[1]])
     x0 = np.clip([np.log(f0), z0], lo + 1e-9, hi - 1e-9)
-    sol = least_squares(residual, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
+    sol = least_squares(objective, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
                         x_scale=[0.1, 0.02])
     effect = _mount(component, **to_params(sol.x))
-    plant = factory.plant([effect])
-    nominal = factory.plant()
-    N = sol.fun.size
-    sse = float(sol.fun @ sol.fun)
-    return FittedEffect(
-        effect, 2,
-        float(np.mean(record_nmse(simulate_record(plant, train), train))),
-        float(np.mean(record_nmse(simulate_record(plant, test), test))),
-        float(np.mean(record_nmse(simulate_record(nominal, test), test))),
-        float(N * np.log(max(sse, 1e-300) / N) + 2 * np.log(N)), n_sim + 3,
-        time.perf_counter() - t0, str(sol.message),
-        _parameter_std(sol, to_params, ["f_hz", "zeta"]))
+    return judge_fit(effect, factory.plant([effect]), factory.plant(), sol, 2, train, test,
+                     objective, t0, _parameter_std(sol, to_params, ["f_hz", "zeta"]))

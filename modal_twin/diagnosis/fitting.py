@@ -15,6 +15,7 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -27,7 +28,8 @@ from modal_twin.twin.plant import Plant
 from modal_twin.twin.plants import PlantFactory
 from modal_twin.twin.simulator import Simulator
 
-__all__ = ["FittedEffect", "fit_effect", "normalised_residual", "record_nmse", "simulate_record"]
+__all__ = ["FittedEffect", "SimulationObjective", "fit_effect", "judge_fit", "normalised_residual",
+           "record_nmse", "simulate_record"]
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +87,43 @@ def normalised_residual(plant: Plant, rec: Record, decimate: int, scale: FloatAr
     flattened: the vector the fits minimise."""
     pred = simulate_record(plant, rec)
     return ((pred[:, rec.skip:] - rec.scored) / scale)[:, ::decimate].ravel()
+
+
+class SimulationObjective:
+    """The vector ``least_squares`` minimises: :func:`normalised_residual` of the plant
+    ``build(x)`` on the training record. A trial that fails to simulate (unstable, no
+    convergence) returns a large penalty instead of stopping the fit; ``n`` counts the
+    simulations."""
+
+    def __init__(self, build: Callable[[FloatArray], Plant], rec: Record, decimate: int
+                 ) -> None:
+        self.build, self.rec, self.decimate = build, rec, decimate
+        self.scale = np.maximum(np.std(rec.scored, axis=1), 1e-300)[:, None]
+        self.n = 0
+
+    def __call__(self, x: FloatArray) -> FloatArray:
+        self.n += 1
+        try:
+            return normalised_residual(self.build(x), self.rec, self.decimate, self.scale)
+        except ModalTwinError as err:
+            log.debug("trial %s refused: %s", x, err)
+            return np.full(self.rec.scored[:, ::self.decimate].size, 1e3)
+
+
+def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_params: int,
+              train: Record, test: Record, objective: SimulationObjective, t0: float,
+              std: dict[str, float]) -> FittedEffect:
+    """The :class:`FittedEffect` of a finished fit: errors of the fitted and the nominal plant
+    on both records and the BIC ``N ln(SSE / N) + p ln N`` of the training residual."""
+    N = sol.fun.size
+    sse = float(sol.fun @ sol.fun)
+    return FittedEffect(
+        effect, n_params,
+        float(np.mean(record_nmse(simulate_record(fitted, train), train))),
+        float(np.mean(record_nmse(simulate_record(fitted, test), test))),
+        float(np.mean(record_nmse(simulate_record(nominal, test), test))),
+        float(N * np.log(max(sse, 1e-300) / N) + n_params * np.log(N)), objective.n + 3,
+        time.perf_counter() - t0, str(sol.message), std)
 
 
 def _transform(law: str, start: dict[str, float], k: float) -> Transform:
@@ -160,36 +199,15 @@ def fit_effect(
         start.setdefault("c0", float(np.mean(spec.c)) or 1.0)
     names, to_params, to_x, lo, hi = _transform(law, start, k)
     x0 = np.clip(to_x(start), lo + 1e-9, hi - 1e-9)
-    scale_tr = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
-    n_sim = 0
-
-    def residual(x: FloatArray) -> FloatArray:
-        nonlocal n_sim
-        n_sim += 1
-        try:
-            return normalised_residual(factory.plant([EffectSpec(component, law,
-                                                                 to_params(x))]),
-                                       train, decimate, scale_tr)
-        except ModalTwinError as err:  # the trial made the model fail: a large penalty
-            log.debug("trial %s refused: %s", to_params(x), err)
-            return np.full(train.scored[:, ::decimate].size, 1e3)
-
-    sol = least_squares(residual, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
+    objective = SimulationObjective(
+        lambda x: factory.plant([EffectSpec(component, law, to_params(x))]), train, decimate)
+    sol = least_squares(objective, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
                         x_scale="jac")
     params = to_params(sol.x)
     effect = EffectSpec(component, law, {n: params[n] for n in names if n in params}
                         if law != "linear" else params)
-    plant = factory.plant([effect])
-    nominal = factory.plant()
-    train_nmse = float(np.mean(record_nmse(simulate_record(plant, train), train)))
-    test_nmse = float(np.mean(record_nmse(simulate_record(plant, test), test)))
-    test_nom = float(np.mean(record_nmse(simulate_record(nominal, test), test)))
-    N = sol.fun.size
-    sse = float(sol.fun @ sol.fun)
-    bic = N * np.log(max(sse, 1e-300) / N) + len(names) * np.log(N)
-    return FittedEffect(effect, len(names), train_nmse, test_nmse, test_nom, float(bic),
-                        n_sim + 3, time.perf_counter() - t0, str(sol.message),
-                        _parameter_std(sol, to_params, names))
+    return judge_fit(effect, factory.plant([effect]), factory.plant(), sol, len(names), train,
+                     test, objective, t0, _parameter_std(sol, to_params, names))
 
 
 def _parameter_std(sol: object, to_params: Callable[[FloatArray], dict[str, float]],

@@ -11,6 +11,7 @@ is explained this way; a nonlinearity is not.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -20,9 +21,10 @@ from scipy.optimize import least_squares
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.fitting import (
     FittedEffect,
+    SimulationObjective,
+    _parameter_std,
+    judge_fit,
     normalised_residual,
-    record_nmse,
-    simulate_record,
 )
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
@@ -98,43 +100,24 @@ def fit_parameter(factory: PlantFactory, cand: ParameterCandidate, train: Record
     OptionError
         A start outside the physical range (negative mass or modulus).
     """
-    import time
-
     t0 = time.perf_counter()
     # a mass may be added from nothing; a damper may have all but failed; a stiffness or
     # modulus is searched down to 30 %
     lo = {"added_mass": 0.0, "damping": 0.01 * cand.nominal}.get(cand.kind, 0.3 * cand.nominal)
     hi = cand.nominal * 5.0 + 1.0
     x0 = float(np.clip(cand.start, lo + 1e-9 * hi, hi * (1 - 1e-9)))
-    scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
-    n = 0
-
-    def res(x: FloatArray) -> FloatArray:
-        nonlocal n
-        n += 1
-        try:
-            return _residual(factory, {cand.name: float(x[0])}, train, decimate, scale)
-        except ModalTwinError:
-            return np.full(train.scored[:, ::decimate].size, 1e3)
-
     if not lo < x0 < hi:
         msg = f"{cand.name}: start {cand.start} outside ({lo}, {hi})"
         raise OptionError(msg)
-    sol = least_squares(res, [x0], bounds=([lo], [hi]), x_scale=[abs(cand.nominal) or 1.0],
-                        diff_step=1e-3, max_nfev=max_nfev)
-    value = float(sol.x[0])
-    fitted = factory.with_theta({cand.name: value}).plant()
-    nominal = factory.plant()
-    N = sol.fun.size
-    sse = float(sol.fun @ sol.fun)
-    J = np.asarray(sol.jac)
-    s2 = sse / max(N - 1, 1)
-    jtj = float((J.T @ J).squeeze()) if J.size else 0.0
-    std = float(np.sqrt(s2 / jtj)) if jtj > 0 else float("nan")
-    return FittedEffect(
-        EffectSpec(cand.name, cand.kind, {cand.name: value}), 1,
-        float(np.mean(record_nmse(simulate_record(fitted, train), train))),
-        float(np.mean(record_nmse(simulate_record(fitted, test), test))),
-        float(np.mean(record_nmse(simulate_record(nominal, test), test))),
-        float(N * np.log(max(sse, 1e-300) / N) + np.log(N)), n + 3,
-        time.perf_counter() - t0, str(sol.message), {cand.name: std})
+
+    def to_params(x: FloatArray) -> dict[str, float]:
+        return {cand.name: float(x[0])}
+
+    objective = SimulationObjective(lambda x: factory.with_theta(to_params(x)).plant(),
+                                    train, decimate)
+    sol = least_squares(objective, [x0], bounds=([lo], [hi]),
+                        x_scale=[abs(cand.nominal) or 1.0], diff_step=1e-3, max_nfev=max_nfev)
+    effect = EffectSpec(cand.name, cand.kind, to_params(sol.x))
+    return judge_fit(effect, factory.with_theta(effect.params).plant(), factory.plant(), sol,
+                     1, train, test, objective, t0,
+                     _parameter_std(sol, to_params, [cand.name]))
