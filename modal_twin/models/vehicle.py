@@ -444,7 +444,9 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
     sources: tuple[Source, ...] = tuple(("y", i) for i in range(len(vm.channels)))
     label = ",".join(f"{e.name}:elastic" for e in vm.spec.equipment
                      if e.mount == "elastic") or "nominal"
-    return Plant(system, INPUT_NAMES, vm.channels, sources, name=f"{vm.spec.name}@{label}")
+    quantities = ("displacement",) * 4 + ("velocity",) * 4
+    return Plant(system, INPUT_NAMES, quantities, vm.channels, sources,
+                 name=f"{vm.spec.name}@{label}")
 
 
 

@@ -39,7 +39,7 @@ class TruthRig:
         self.plant = plant
         self.sim = Simulator(plant.system, dt, modal_histories=False)
         self.rng = np.random.default_rng(seed)
-        self.channels = with_sensitivity(table_channels(plant.input_names) + plant.channels,
+        self.channels = with_sensitivity(table_channels(plant) + plant.channels,
                                          sensitivity or {})
         self.names = tuple(c.name for c in self.channels)
         self.sens = np.array([c.sensitivity for c in self.channels])[:, None]
@@ -76,25 +76,15 @@ def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
     from modal_twin.twin.plants import load_plant
 
     plant = load_plant(rig.structure)
-    return with_sensitivity(table_channels(plant.input_names) + plant.channels,
+    return with_sensitivity(table_channels(plant) + plant.channels,
                             rig.sensitivity)
 
 
-# quantity of an input by its name: shake-table accelerations (ax .. arz) or the track
-# irregularity under a wheelset and its rate (zt1 .., vt1 ..; modal_twin.models.vehicle)
-_INPUT_QUANTITY = (("ar", "angular_acceleration"), ("a", "acceleration"),
-                   ("zt", "displacement"), ("vt", "velocity"))
-
-
-def table_channels(inputs: tuple[str, ...]) -> tuple[ChannelSpec, ...]:
-    """Measured input channels ``table_<input>`` (table motion or track irregularity)."""
-    out = []
-    for n in inputs:
-        prefix, qty = next(((p, q) for p, q in _INPUT_QUANTITY if n.startswith(p)),
-                           ("", "acceleration"))
-        direction = n.removeprefix("a") if prefix in ("a", "ar") else "z"
-        out.append(ChannelSpec(f"table_{n}", qty, "table", direction))
-    return tuple(out)
+def table_channels(plant: Plant) -> tuple[ChannelSpec, ...]:
+    """Measured input channels ``table_<input>`` of a plant (table motion, track
+    irregularity), each with the plant's quantity for it."""
+    return tuple(ChannelSpec(f"table_{n}", q, "table", n.removeprefix("a"))
+                 for n, q in zip(plant.input_names, plant.input_quantities, strict=True))
 
 
 def with_sensitivity(channels: tuple[ChannelSpec, ...],

@@ -33,6 +33,9 @@ class Plant:
     system : ReducedSystem
     input_names : tuple of str
         Names of the base inputs (columns of Gamma), e.g. ``("ax", ..., "arz")``.
+    input_quantities : tuple of str
+        Quantity of each input (``acceleration``, ``angular_acceleration``,
+        ``displacement``, ``velocity``): how a rig measures it.
     channels : tuple of ChannelSpec
         Measured channels in order.
     sources : tuple of (kind, row)
@@ -44,6 +47,7 @@ class Plant:
 
     system: ReducedSystem
     input_names: tuple[str, ...]
+    input_quantities: tuple[str, ...]
     channels: tuple[ChannelSpec, ...]
     sources: tuple[Source, ...]
     name: str = ""
@@ -52,6 +56,10 @@ class Plant:
         if len(self.sources) != len(self.channels):
             msg = (f"sources: expected one per channel ({len(self.channels)}), got "
                    f"{len(self.sources)}")
+            raise ShapeError(msg)
+        if len(self.input_quantities) != len(self.input_names):
+            msg = (f"input_quantities: expected one per input ({len(self.input_names)}), got "
+                   f"{len(self.input_quantities)}")
             raise ShapeError(msg)
         if len(self.input_names) != self.system.n_in:
             msg = (f"input_names: expected {self.system.n_in} (columns of Gamma), got "

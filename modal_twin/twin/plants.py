@@ -21,6 +21,7 @@ if TYPE_CHECKING:
 __all__ = ["INPUTS_6DOF", "PlantFactory", "factory_for", "load_model", "load_plant"]
 
 INPUTS_6DOF = ("ax", "ay", "az", "arx", "ary", "arz")
+_QUANTITIES_6DOF = ("acceleration",) * 3 + ("angular_acceleration",) * 3
 
 
 class PlantFactory:
@@ -103,7 +104,7 @@ class PlantFactory:
                     sources.append(("y", y_index[name]) if name in y_index
                                    else ("force", f_rows.index(name)))
         label = ",".join(f"{e.component}:{e.law}" for e in effects) or "nominal"
-        return Plant(system, INPUTS_6DOF, tuple(channels), tuple(sources),
+        return Plant(system, INPUTS_6DOF, _QUANTITIES_6DOF, tuple(channels), tuple(sources),
                      name=f"{bld.spec.name}@{label}")
 
 
