@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ShapeError, SignalError
@@ -36,7 +37,18 @@ __all__ = [
     "N_STATE",
     "Device",
     "DeviceResponse",
+    "carry_state",
 ]
+
+
+@njit(cache=True, inline="always")
+def carry_state(s, u, s_new):  # pragma: no cover - jitted
+    """s_new = s with the drift u in s_new[0:2]: the state update of every law whose only
+    memory is the last drift (explicit loop: ``s_new[:] = s`` is ~30 ns slower)."""
+    for ic in range(s.shape[0]):
+        s_new[ic] = s[ic]
+    s_new[0] = u[0]
+    s_new[1] = u[1]
 
 KIND_LINEAR = 0
 KIND_BILINEAR_ELASTIC = 1

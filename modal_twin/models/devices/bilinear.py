@@ -27,6 +27,7 @@ from modal_twin.models.devices.base import (
     KIND_BILINEAR_ELASTIC,
     KIND_BILINEAR_HYSTERETIC,
     Device,
+    carry_state,
 )
 
 __all__ = [
@@ -64,10 +65,7 @@ def law_bilinear_elastic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - ji
         f[i] = fi
         Kt[i, i] = kt
         Ct[i, i] = p[3 + i]
-    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
-        s_new[ic] = s[ic]
-    s_new[0] = u[0]
-    s_new[1] = u[1]
+    carry_state(s, u, s_new)
 
 
 @njit(cache=True)

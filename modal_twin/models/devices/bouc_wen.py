@@ -28,7 +28,7 @@ from numba import njit
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError
-from modal_twin.models.devices.base import KIND_BW_ESB, KIND_BW_SDP, Device
+from modal_twin.models.devices.base import KIND_BW_ESB, KIND_BW_SDP, Device, carry_state
 
 __all__ = [
     "BoucWenESB",
@@ -118,10 +118,7 @@ def _bw_advance(p, s, u, s_new):  # pragma: no cover - jitted
         hy = dy / nsub
     for _ in range(nsub):
         zx, zy = _bw_rk4(A, beta, gamma, zx, zy, hx, hy)
-    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
-        s_new[ic] = s[ic]
-    s_new[0] = u[0]
-    s_new[1] = u[1]
+    carry_state(s, u, s_new)
     s_new[2] = zx
     s_new[3] = zy
     return _bw_tangent(A, beta, gamma, dx, dy, zx, zy)

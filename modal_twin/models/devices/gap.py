@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from modal_twin.errors import ModelError
-from modal_twin.models.devices.base import KIND_GAP, Device
+from modal_twin.models.devices.base import KIND_GAP, Device, carry_state
 
 __all__ = ["GapSpring", "law_gap"]
 
@@ -37,10 +37,7 @@ def law_gap(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
             continue
         Kt[i, i] = k
         Ct[i, i] = c
-    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
-        s_new[ic] = s[ic]
-    s_new[0] = u[0]
-    s_new[1] = u[1]
+    carry_state(s, u, s_new)
 
 
 class GapSpring(Device):

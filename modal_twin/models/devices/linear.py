@@ -7,7 +7,7 @@ from numba import njit
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError
-from modal_twin.models.devices.base import KIND_LINEAR, Device
+from modal_twin.models.devices.base import KIND_LINEAR, Device, carry_state
 
 __all__ = ["LinearDevice", "law_linear", "table6_updated"]
 
@@ -22,10 +22,7 @@ def law_linear(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
             Ct[i, j] = 0.0
         Kt[i, i] = p[i]
         Ct[i, i] = p[2 + i]
-    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
-        s_new[ic] = s[ic]
-    s_new[0] = u[0]
-    s_new[1] = u[1]
+    carry_state(s, u, s_new)
 
 
 class LinearDevice(Device):
