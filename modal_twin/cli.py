@@ -19,12 +19,12 @@ import os
 import sys
 from pathlib import Path
 
-# Small dense problems on few cores: BLAS threads only contend (measured: a 238-DOF
-# eigen-solve 0.38 s with default threads, 0.01 s with one). Set before numpy loads.
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
 from modal_twin.errors import ModalTwinError
+from modal_twin.runtime import THREAD_ENV
+
+# one BLAS thread (modal_twin.runtime), set before numpy loads (neither import above does)
+for _k, _v in THREAD_ENV.items():
+    os.environ.setdefault(_k, _v)
 
 __all__ = ["main"]
 

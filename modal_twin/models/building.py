@@ -261,10 +261,11 @@ def positive_definite(K: sp.spmatrix | sp.sparray, rtol: float = 1e-13) -> tuple
     second instead of the tens of seconds of a dense Cholesky.
     """
     Kc = sp.csc_matrix(K)
-    n = Kc.shape[0]
-    scale = float(np.abs(Kc.diagonal()).max()) if n else 0.0
-    if n == 0 or scale == 0.0:
-        return n == 0, 0 if n else -1
+    if Kc.shape[0] == 0:
+        return True, -1
+    scale = float(np.abs(Kc.diagonal()).max())
+    if scale == 0.0:  # no stiffness at all
+        return False, 0
     try:
         lu = spla.splu(Kc, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                        options={"SymmetricMode": True})
