@@ -12,7 +12,7 @@ from rclpy.node import Node
 
 from modal_twin.errors import BagError
 from modal_twin.io.bag import BagWriter
-from modal_twin.io.ros import message_class, qos_for, run_node
+from modal_twin.io.ros import message_class, qos_for, run_node, split_ros_args
 from modal_twin.io.topics import TOPICS
 from modal_twin.io.typestore import known_types
 
@@ -95,12 +95,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--flush-period", type=float, default=0.5, help="s between flushes")
     p.add_argument("--rotate-s", type=float, default=None, help="start a new part every N s")
     p.add_argument("--rotate-mb", type=float, default=None, help="new part every N MB")
-    argv = sys.argv[1:] if argv is None else argv
-    ros_args: list[str] = []
-    if "--ros-args" in argv:
-        i = argv.index("--ros-args")
-        argv, ros_args = argv[:i], argv[i:]
-    a = p.parse_args(argv)
+    own, ros_args = split_ros_args(sys.argv[1:] if argv is None else argv)
+    a = p.parse_args(own)
     try:
         topics = resolve_topics(a.topics)
     except BagError as err:

@@ -12,7 +12,7 @@ from rclpy.node import Node
 
 from modal_twin.errors import BagError
 from modal_twin.io.bag import bag_info, read_raw
-from modal_twin.io.ros import message_class, qos_for, wait_for_subscribers
+from modal_twin.io.ros import message_class, qos_for, split_ros_args, wait_for_subscribers
 
 __all__ = ["main", "replay"]
 
@@ -68,12 +68,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--wait", type=float, default=10.0, help="s to wait for subscribers")
     p.add_argument("--subscribers", type=int, default=1,
                    help="readers each topic must have before publishing starts")
-    argv = sys.argv[1:] if argv is None else argv
-    ros_args: list[str] = []
-    if "--ros-args" in argv:  # as the launcher starts it
-        i = argv.index("--ros-args")
-        argv, ros_args = argv[:i], argv[i:]
-    a = p.parse_args(argv)
+    own, ros_args = split_ros_args(sys.argv[1:] if argv is None else argv)
+    a = p.parse_args(own)
     try:
         info = bag_info(a.bag)
     except BagError as err:

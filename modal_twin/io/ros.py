@@ -21,6 +21,7 @@ __all__ = [
     "qos_profile",
     "report",
     "run_node",
+    "split_ros_args",
     "wait_for_subscribers",
 ]
 
@@ -71,6 +72,15 @@ def message_class(msgtype: str) -> Any:
     except (ImportError, AttributeError) as err:
         msg = f"message type {msgtype!r} is not available to rclpy: {err}"
         raise ConfigError(msg) from err
+
+
+def split_ros_args(argv: list[str]) -> tuple[list[str], list[str]]:
+    """``argv`` split into the command's own arguments and the ``--ros-args ...`` tail
+    (empty when there is none), as the launcher starts a command."""
+    if "--ros-args" not in argv:
+        return list(argv), []
+    i = argv.index("--ros-args")
+    return argv[:i], argv[i:]
 
 
 def wait_for_subscribers(
