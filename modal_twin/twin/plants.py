@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -49,14 +50,19 @@ class PlantFactory:
                  n_modes: int | None = None) -> None:
         self.structure_file = Path(structure_file)
         self.theta = dict(theta or {})
+        self.n_modes = n_modes
         self.bld = build_building(structure_file)
         self.mb = modal_reduction(self.bld, n_modes, theta=dict(theta) if theta else None)
         self.weights = self.bld.gravity_loads()
         self.sites = {d.name: d for d in self.bld.spec.devices}
 
     def with_theta(self, changes: Mapping[str, float]) -> PlantFactory:
-        """A factory of the same structure with some parameter values changed."""
-        return PlantFactory(self.structure_file, theta={**self.theta, **changes})
+        """A factory of the same structure with some parameter values changed: the assembly
+        is shared (K(theta) is parametric), only the modal reduction is redone."""
+        new = copy.copy(self)
+        new.theta = {**self.theta, **changes}
+        new.mb = modal_reduction(self.bld, self.n_modes, theta=new.theta or None)
+        return new
 
     def parameters(self) -> dict[str, float]:
         """Current value of every model parameter (the structure's ``theta``)."""

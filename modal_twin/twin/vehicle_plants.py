@@ -9,6 +9,7 @@ elastic mounts of the rigidly bolted equipment (``elastic_mount``, Fig. 3b of [0
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
@@ -53,8 +54,12 @@ class VehicleFactory:
         self.sites: dict[str, object] = {}  # no nonlinear device sites
 
     def with_theta(self, changes: Mapping[str, float]) -> VehicleFactory:
-        """A factory of the same vehicle with some parameter values changed."""
-        return VehicleFactory(self.structure_file, theta={**self.theta, **changes})
+        """A factory of the same vehicle with some parameter values changed (the file is
+        not read again)."""
+        new = copy.copy(self)
+        new.theta = {**self.theta, **changes}
+        apply_theta(new.spec, new.theta)  # refuses unknown names and bad values now
+        return new
 
     def parameters(self) -> dict[str, float]:
         """Current value of every parameter."""
