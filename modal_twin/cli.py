@@ -117,14 +117,15 @@ def _vehicle_info(a: argparse.Namespace) -> int:
 
 
 def _cmd_diagnose(a: argparse.Namespace) -> int:
-    from modal_twin.diagnosis.workflow import diagnose_model, record_from_bag
+    from modal_twin.diagnosis.workflow import diagnose_model
+    from modal_twin.io.records import record_from_bag
 
     train, test = record_from_bag(a.train), record_from_bag(a.test)
     d = diagnose_model(a.model, train, test, n_fit=a.n_fit,
                        progress=lambda s: print(f"  {s}", file=sys.stderr))
     print(d.format())
     if a.plots:
-        from modal_twin.diagnosis.workflow import force_state_plots
+        from modal_twin.viz.force_state import force_state_plots
 
         for png in force_state_plots(a.model, d, train, a.plots):
             print(f"force-state map: {png}")
@@ -132,7 +133,8 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
 
 def _cmd_effects(a: argparse.Namespace) -> int:
-    from modal_twin.diagnosis.workflow import add_effect, diagnose_model, record_from_bag
+    from modal_twin.diagnosis.workflow import add_effect, diagnose_model
+    from modal_twin.io.records import record_from_bag
     from modal_twin.models.versions import history
     from modal_twin.viz.error_history import plot_error_history
 
@@ -165,9 +167,9 @@ def _cmd_effects(a: argparse.Namespace) -> int:
 
 def _start_params(a: argparse.Namespace) -> dict[str, float]:
     from modal_twin.diagnosis.screening import parameter_grid
-    from modal_twin.diagnosis.workflow import record_from_bag
+    from modal_twin.io.records import record_from_bag
     from modal_twin.models.effects import MOUNT_LAW
-    from modal_twin.twin.plants import PlantFactory
+    from modal_twin.models.loading import load_model
 
     out: dict[str, float] = {}
     for item in a.param or []:
@@ -178,12 +180,11 @@ def _start_params(a: argparse.Namespace) -> dict[str, float]:
     rec = record_from_bag(a.train)
     if a.law == MOUNT_LAW:  # start at the best mount frequency of the screening grid
         from modal_twin.diagnosis.attachments import screen_attachments
-        from modal_twin.diagnosis.workflow import model_factory
 
-        best = [c for c in screen_attachments(model_factory(a.model), rec)
+        best = [c for c in screen_attachments(load_model(a.model), rec)
                 if c.component == a.component]
         return {"f_hz": best[0].f_hz if best else 10.0, "zeta": 0.05}
-    f = PlantFactory(a.model)
+    f = load_model(a.model)
     u = rec.channels([f"{a.component}_dx", f"{a.component}_dy"])
     fo = rec.channels([f"{a.component}_fx", f"{a.component}_fy"])
     spec = f.sites[a.component]

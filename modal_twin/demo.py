@@ -75,14 +75,11 @@ def run_demo(run_dir: Path | None = None) -> int:
     """Run the hidden-effect demo; returns 0 when the error fell by the scenario's 3x."""
     from dataclasses import replace
 
-    from modal_twin.diagnosis.workflow import (
-        add_effect,
-        diagnose_model,
-        force_state_plots,
-        record_from_bag,
-    )
+    from modal_twin.diagnosis.workflow import add_effect, diagnose_model
+    from modal_twin.io.records import record_from_bag
     from modal_twin.scenario import load_scenario, with_parameters
     from modal_twin.viz.error_history import plot_error_history
+    from modal_twin.viz.force_state import force_state_plots
 
     t0 = time.monotonic()
     out = run_dir or ROOT / "runs" / time.strftime("demo_%Y%m%d-%H%M%S")

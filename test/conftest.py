@@ -62,9 +62,9 @@ def write_frames_bag(path: Path, plant: object, *, seconds: float, scale: tuple[
     from modal_twin.io.bag import BagWriter
     from modal_twin.io.convert import block_to_rosbags
     from modal_twin.io.typestore import typestore
+    from modal_twin.models.building_factory import INPUTS_6DOF
     from modal_twin.rig.truth import TruthRig
     from modal_twin.signal_block import SignalBlock
-    from modal_twin.twin.plants import INPUTS_6DOF
 
     rig = TruthRig(plant, 1e-3, noise_rms=noise_rms, seed=seed)  # type: ignore[arg-type]
     rng = np.random.default_rng(seed)

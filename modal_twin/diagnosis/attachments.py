@@ -33,8 +33,7 @@ from modal_twin.diagnosis.fitting import (
 )
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
-from modal_twin.models.effects import MOUNT_LAW
-from modal_twin.rig.config import EffectSpec
+from modal_twin.models.effects import MOUNT_LAW, EffectSpec
 
 __all__ = ["MOUNT_LAW", "AttachmentCandidate", "fit_attachment", "screen_attachments"]
 

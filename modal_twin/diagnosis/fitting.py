@@ -23,9 +23,9 @@ from scipy.optimize import least_squares
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
-from modal_twin.rig.config import EffectSpec
-from modal_twin.twin.plant import Plant
-from modal_twin.twin.plants import PlantFactory
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import ModelFactory
+from modal_twin.models.plant import Plant
 from modal_twin.twin.simulator import Simulator
 
 __all__ = ["FittedEffect", "SimulationObjective", "fit_effect", "judge_fit", "normalised_residual",
@@ -171,7 +171,7 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
 
 
 def fit_effect(
-    factory: PlantFactory,
+    factory: ModelFactory,
     component: str,
     law: str,
     start: dict[str, float],

@@ -14,7 +14,7 @@ from modal_twin.acquisition.decimation import decimate
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, SignalError
 from modal_twin.identification import n4sid, select_modes, stabilization_diagram
-from modal_twin.twin.plant import Plant
+from modal_twin.models.plant import Plant
 from modal_twin.updating.matching import match_modes
 
 __all__ = ["ModalView", "modal_view", "model_modes"]

@@ -26,9 +26,9 @@ from modal_twin.io.convert import block_from_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.report_convert import diagnosis_to_msg, version_to_parameters_msg
 from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.models.loading import load_model
 from modal_twin.paths import resolve_config
 from modal_twin.signal_block import SignalBlock
-from modal_twin.twin.plants import load_model
 
 __all__ = ["DiagnosisConfig", "DiagnosisNode", "main"]
 
@@ -67,7 +67,7 @@ class DiagnosisNode(Node):
         self.create_subscription(SignalBlockMsg, "/twin/residual", self._on_residual,
                                  qos_for("/twin/residual"))
         self.channels = {c.name: c for c in
-                         load_model(resolve_config(self.cfg.model_file)).channels}
+                         load_model(resolve_config(self.cfg.model_file)).plant().channels}
         self.create_service(RunDiagnosis, "~/run", self._on_run)
         self.create_service(AddEffect, "~/add_effect", self._on_add)
         if self.cfg.period_s > 0:

@@ -28,8 +28,8 @@ from modal_twin.diagnosis.fitting import (
 )
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
-from modal_twin.rig.config import EffectSpec
-from modal_twin.twin.plants import PlantFactory
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import ModelFactory
 
 __all__ = ["KINDS", "PARAMETER_LAWS", "ParameterCandidate", "fit_parameter",
            "screen_parameters"]
@@ -50,13 +50,13 @@ class ParameterCandidate:
     gain: float  # share of the residual energy the change removes (training record)
 
 
-def _residual(factory: PlantFactory, theta: dict[str, float], rec: Record, decimate: int,
+def _residual(factory: ModelFactory, theta: dict[str, float], rec: Record, decimate: int,
               scale: FloatArray) -> FloatArray:
     plant = (factory.with_theta(theta) if theta else factory).plant()
     return normalised_residual(plant, rec, decimate, scale)
 
 
-def screen_parameters(factory: PlantFactory, train: Record, *,
+def screen_parameters(factory: ModelFactory, train: Record, *,
                       prefixes: Sequence[str] | None = None, rel_step: float = 0.05,
                       decimate: int = 5) -> list[ParameterCandidate]:
     """Score every parameter whose name starts with one of ``prefixes`` (best first).
@@ -91,7 +91,7 @@ def screen_parameters(factory: PlantFactory, train: Record, *,
     return sorted(out, key=lambda c: -c.gain)
 
 
-def fit_parameter(factory: PlantFactory, cand: ParameterCandidate, train: Record,
+def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Record,
                   test: Record, *, decimate: int = 5, max_nfev: int = 30) -> FittedEffect:
     """Fit one parameter by simulation on ``train``, judge on ``test``.
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -31,7 +30,7 @@ from modal_twin.diagnosis.record import Record
 from modal_twin.diagnosis.screening import ScreenedCandidate, screen_components
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
 from modal_twin.errors import ModalTwinError
-from modal_twin.twin.plants import PlantFactory
+from modal_twin.models.loading import ModelFactory
 
 __all__ = ["Diagnosis", "diagnose"]
 
@@ -100,7 +99,7 @@ def _device_data(rec: Record, names: list[str]) -> tuple[dict, dict]:  # type: i
 
 
 def diagnose(
-    factory: PlantFactory | Any,
+    factory: ModelFactory,
     train: Record,
     test: Record,
     *,

@@ -1,4 +1,4 @@
-"""Whole-job helpers: records from bags, diagnose, add an effect as a new model version."""
+"""Whole-job helpers: diagnose a model file, add an effect as a new model version."""
 
 from __future__ import annotations
 
@@ -18,35 +18,20 @@ from modal_twin.diagnosis.parameters import (
     fit_parameter,
 )
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
-from modal_twin.diagnosis.record import Record, record_from_blocks
+from modal_twin.diagnosis.record import Record
 from modal_twin.errors import OptionError
-from modal_twin.io.bag import read_blocks
+from modal_twin.models.loading import ModelFactory, load_model
 from modal_twin.models.versions import ModelVersion, latest_version, read_version, write_version
-from modal_twin.twin.plants import PlantFactory, factory_for
-from modal_twin.twin.vehicle_plants import VehicleFactory
 
 __all__ = [
     "add_effect",
     "channel_errors",
     "diagnose_model",
-    "force_state_plots",
-    "model_factory",
-    "record_from_bag",
 ]
 
 
-def record_from_bag(bag: str | Path, topic: str = "/measurement/frames") -> Record:
-    """The measurement frames of a bag as one :class:`Record`."""
-    return record_from_blocks(read_blocks(bag, topic), source=str(bag))
-
-
-def _factory(mv: ModelVersion) -> PlantFactory | VehicleFactory:
-    return factory_for(mv.structure, theta=mv.theta or None)
-
-
-def model_factory(model_file: str | Path) -> PlantFactory | VehicleFactory:
-    """The plant factory of a model file (structure, vehicle or version file)."""
-    return _factory(read_version(model_file))
+def _factory(mv: ModelVersion) -> ModelFactory:
+    return load_model(mv.structure, theta=mv.theta or None)
 
 
 def channel_errors(mv: ModelVersion, rec: Record) -> dict[str, float]:
@@ -109,30 +94,3 @@ def add_effect(
                         f"{fitted.test_nmse_nominal_pct:.3f} % -> {fitted.test_nmse_pct:.3f} %)"))
     new = replace(new, errors=channel_errors(new, test))
     return write_version(folder, new), fitted
-
-
-def force_state_plots(model_file: str | Path, diag: Diagnosis, rec: Record,
-                      folder: str | Path, *, n: int = 2) -> list[Path]:
-    """Residual force-state maps (before / after) at the components of the top ``n``
-    fitted candidates, as PNG files in ``folder``."""
-    from modal_twin.viz.force_state import plot_force_state
-
-    mv = read_version(model_file)
-    factory = _factory(mv)
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    out: list[Path] = []
-    for f in diag.fitted[:n]:
-        comp = f.effect.component
-        cols = [f"{comp}_d{a}" for a in "xy"], [f"{comp}_f{a}" for a in "xy"]
-        if not all(c in rec.channel_names for c in cols[0] + cols[1]):
-            continue
-        plant = factory.plant([*mv.effects, f.effect])
-        fitted = simulate_record(plant, rec.with_channels(cols[1]))
-        spec = factory.sites[comp]
-        out.append(plot_force_state(
-            rec.channels(cols[0]), rec.channels(cols[1]), spec.k, spec.c, rec.fs_hz,
-            folder / f"force_state_{comp}_{f.effect.law}.png",
-            title=f"{comp}: residual of the nominal law and with {f.effect.law}",
-            fitted_force=fitted))
-    return out

@@ -47,8 +47,8 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.devices import Device
 from modal_twin.models.fe import FEAssembly, solve_modes
+from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
 from modal_twin.models.structure_yaml import StructureSpec, load_structure, make_device
-from modal_twin.twin.simulator import DeviceAttachment, ReducedSystem
 
 __all__ = [
     "DEFAULT_BUILDING_YAML",

@@ -28,7 +28,7 @@ others                    any type of :data:`~modal_twin.models.structure_yaml.D
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -46,7 +46,17 @@ from modal_twin.models.devices import (
 )
 from modal_twin.models.structure_yaml import DEVICE_TYPES, DeviceSpec, make_device
 
-__all__ = ["EFFECT_LAWS", "MOUNT_LAW", "effect_device"]
+__all__ = ["EFFECT_LAWS", "MOUNT_LAW", "EffectSpec", "effect_device"]
+
+
+@dataclass(frozen=True, slots=True)
+class EffectSpec:
+    """A physical effect placed at a model component, with its parameters."""
+
+    component: str
+    law: str
+    params: dict[str, float] = field(default_factory=dict)
+
 
 # a rigidly attached mass hung on a spring-damper instead (f_hz, zeta): an effect that
 # changes the structure, not a device law (modal_twin.diagnosis.attachments)

@@ -51,6 +51,8 @@ from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.craig_bampton import CBReduction, craig_bampton
 from modal_twin.models.devices import LinearDevice
 from modal_twin.models.fe import FEAssembly, FEModel
+from modal_twin.models.plant import Plant, Source
+from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
 from modal_twin.models.vehicle_spec import (
     DEFAULT_VEHICLE_YAML,
     EquipmentSpec,
@@ -61,8 +63,6 @@ from modal_twin.models.vehicle_spec import (
     load_vehicle,
     theta_names,
 )
-from modal_twin.twin.plant import Plant, Source
-from modal_twin.twin.simulator import DeviceAttachment, ReducedSystem
 
 __all__ = [
     "DEFAULT_VEHICLE_YAML",
@@ -410,7 +410,7 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
 def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float] | None = None,
                   n_modes: int | None = None, cutoff_hz: float | None = None,
                   secondary_devices: bool = False) -> Plant:
-    """Build the trailer-car :class:`~modal_twin.twin.plant.Plant` (module docstring).
+    """Build the trailer-car :class:`~modal_twin.models.plant.Plant` (module docstring).
 
     Parameters
     ----------

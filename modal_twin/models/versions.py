@@ -26,7 +26,7 @@ from typing import Any
 import yaml
 
 from modal_twin.errors import ConfigError
-from modal_twin.rig.config import EffectSpec
+from modal_twin.models.effects import EffectSpec
 from modal_twin.yaml_files import read_yaml
 
 __all__ = ["ModelVersion", "history", "latest_version", "read_version", "write_version"]

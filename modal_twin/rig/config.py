@@ -18,18 +18,10 @@ from pathlib import Path
 from typing import Any
 
 from modal_twin.errors import ConfigError
+from modal_twin.models.effects import EffectSpec
 from modal_twin.yaml_files import read_yaml
 
-__all__ = ["EffectSpec", "RigFile", "load_rig"]
-
-
-@dataclass(frozen=True, slots=True)
-class EffectSpec:
-    """A physical effect placed at a model component, with its parameters."""
-
-    component: str
-    law: str
-    params: dict[str, float] = field(default_factory=dict)
+__all__ = ["RigFile", "load_rig"]
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,10 +12,10 @@ from modal_twin.errors import ModalTwinError
 from modal_twin.io.convert import block_from_msg, block_to_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.models.loading import load_model
 from modal_twin.paths import resolve_config
 from modal_twin.rig.config import load_rig
 from modal_twin.rig.truth import TruthRig
-from modal_twin.twin.plants import load_plant
 
 __all__ = ["RigConfig", "RigNode", "main"]
 
@@ -36,7 +36,7 @@ class RigNode(Node):
         super().__init__("rig")
         self.cfg = declare_config(self, RigConfig)
         rig = load_rig(resolve_config(self.cfg.rig_file))
-        plant = load_plant(rig.structure, theta=rig.theta or None, effects=rig.effects)
+        plant = load_model(rig.structure, theta=rig.theta or None).plant(rig.effects)
         self.truth = TruthRig(plant, 1.0 / self.cfg.fs_hz, noise_rms=rig.noise_rms,
                               sensitivity=rig.sensitivity, seed=rig.seed)
         self.monitor = StreamMonitor()

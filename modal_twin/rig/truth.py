@@ -10,9 +10,9 @@ import numpy as np
 from modal_twin._types import FloatArray
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import SignalError
+from modal_twin.models.plant import Plant
 from modal_twin.rig.config import RigFile
 from modal_twin.signal_block import SignalBlock
-from modal_twin.twin.plant import Plant
 from modal_twin.twin.simulator import Simulator
 
 __all__ = ["TruthRig", "rig_channels", "table_channels", "with_sensitivity"]
@@ -73,9 +73,9 @@ class TruthRig:
 def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
     """Channels of a rig (table inputs, then the structure's), with the rig's
     sensitivities per quantity: the channel map the acquisition applies."""
-    from modal_twin.twin.plants import load_plant
+    from modal_twin.models.loading import load_model
 
-    plant = load_plant(rig.structure)
+    plant = load_model(rig.structure).plant()
     return with_sensitivity(table_channels(plant) + plant.channels,
                             rig.sensitivity)
 

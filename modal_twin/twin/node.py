@@ -18,8 +18,8 @@ from modal_twin.errors import ModalTwinError
 from modal_twin.io.convert import block_from_msg, block_to_msg, metrics_to_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.models.loading import load_model
 from modal_twin.paths import resolve_config
-from modal_twin.twin.plants import load_model
 from modal_twin.twin.runner import TwinRunner
 
 __all__ = ["TwinConfig", "TwinNode", "main"]
@@ -42,7 +42,7 @@ class TwinNode(Node):
     def __init__(self) -> None:
         super().__init__("twin")
         self.cfg = declare_config(self, TwinConfig)
-        self.plant = load_model(resolve_config(self.cfg.model_file))
+        self.plant = load_model(resolve_config(self.cfg.model_file)).plant()
         self.version = self.plant.name
         self.runner = TwinRunner(self.plant, self.cfg.fs_hz, window_s=self.cfg.window_s)
         self.monitor = StreamMonitor()
@@ -80,7 +80,7 @@ class TwinNode(Node):
         try:
             theta = dict(zip(msg.names, msg.values, strict=True))
             plant = load_model(resolve_config(msg.model_file or self.cfg.model_file),
-                               theta=theta)
+                               theta=theta).plant()
         except (ModalTwinError, ValueError) as err:
             self.get_logger().error(f"model parameters {msg.model_version!r} refused: {err}")
             return

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from modal_twin.errors import SignalError
+from modal_twin.models.plant import Plant
 from modal_twin.signal_block import SignalBlock
 from modal_twin.twin.metrics import ChannelMetrics, SlidingMetrics
-from modal_twin.twin.plant import Plant
 from modal_twin.twin.simulator import Simulator
 
 __all__ = ["TwinRunner", "TwinStep"]

@@ -82,14 +82,14 @@ from modal_twin.models.devices.base import (
     N_STATE,
 )
 from modal_twin.models.devices.bouc_wen import esb_pressure_factor
+from modal_twin.models.reduced import ReducedSystem, SimResult
 from modal_twin.twin.kernels import (
     STATUS_DIVERGED,
     STATUS_NONFINITE,
     run_block,
 )
-from modal_twin.twin.system import DeviceAttachment, ReducedSystem, SimResult
 
-__all__ = ["DeviceAttachment", "ReducedSystem", "SimResult", "Simulator", "simulate"]
+__all__ = ["Simulator", "simulate"]
 
 _log = logging.getLogger(__name__)
 _METHODS = ("modal-foh",)
@@ -414,7 +414,8 @@ def simulate(
     Examples
     --------
     >>> import numpy as np
-    >>> from modal_twin.twin.simulator import ReducedSystem, simulate
+    >>> from modal_twin.models.reduced import ReducedSystem
+    >>> from modal_twin.twin.simulator import simulate
     >>> w = 2 * np.pi
     >>> s = ReducedSystem(M=np.eye(1), C=np.array([[0.1 * w]]), K=np.array([[w * w]]),
     ...                   Gamma=np.eye(1), devices=(), C_out=np.array([[1.0, 0, 0]]),

@@ -8,6 +8,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.fitting import simulate_record
+from modal_twin.diagnosis.pipeline import Diagnosis
+from modal_twin.diagnosis.record import Record
+from modal_twin.models.loading import load_model
+from modal_twin.models.versions import read_version
 
 __all__ = ["plot_force_state"]
 
@@ -56,4 +61,29 @@ def plot_force_state(
     out = Path(out_png)
     fig.savefig(out, dpi=100)
     plt.close(fig)
+    return out
+
+
+def force_state_plots(model_file: str | Path, diag: Diagnosis, rec: Record,
+                      folder: str | Path, *, n: int = 2) -> list[Path]:
+    """Residual force-state maps (before / after) at the components of the top ``n``
+    fitted candidates, as PNG files in ``folder``."""
+    mv = read_version(model_file)
+    factory = load_model(mv.structure, theta=mv.theta or None)
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    out: list[Path] = []
+    for f in diag.fitted[:n]:
+        comp = f.effect.component
+        cols = [f"{comp}_d{a}" for a in "xy"], [f"{comp}_f{a}" for a in "xy"]
+        if not all(c in rec.channel_names for c in cols[0] + cols[1]):
+            continue
+        plant = factory.plant([*mv.effects, f.effect])
+        fitted = simulate_record(plant, rec.with_channels(cols[1]))
+        spec = factory.sites[comp]
+        out.append(plot_force_state(
+            rec.channels(cols[0]), rec.channels(cols[1]), spec.k, spec.c, rec.fs_hz,
+            folder / f"force_state_{comp}_{f.effect.law}.png",
+            title=f"{comp}: residual of the nominal law and with {f.effect.law}",
+            fitted_force=fitted))
     return out

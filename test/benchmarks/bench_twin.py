@@ -56,11 +56,8 @@ from modal_twin.models.devices import (
 )
 from modal_twin.models.devices._dispatch import evaluate_law
 from modal_twin.models.devices.linear import LinearDevice
-from modal_twin.twin.simulator import (
-    DeviceAttachment,
-    ReducedSystem,
-    Simulator,
-)
+from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
+from modal_twin.twin.simulator import Simulator
 
 
 def building(n: int = 36, seed: int = 1) -> ReducedSystem:

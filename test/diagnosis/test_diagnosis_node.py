@@ -17,11 +17,11 @@ ROOT = Path(__file__).resolve().parents[2]
 def _bag(path: Path) -> None:
     from conftest import write_frames_bag
 
+    from modal_twin.models.loading import load_model
     from modal_twin.rig.config import load_rig
-    from modal_twin.twin.plants import load_plant
 
     rig = load_rig(ROOT / "config" / "rigs" / "s1_stick_slip.yaml")
-    write_frames_bag(path, load_plant(rig.structure, effects=rig.effects), seconds=16.0,
+    write_frames_bag(path, load_model(rig.structure).plant(rig.effects), seconds=16.0,
                      scale=(1.2, 1.2, 0.3, 0, 0, 0), seed=3, block=200, noise_rms=rig.noise_rms)
 
 

@@ -17,11 +17,13 @@ from modal_twin.diagnosis.fitting import simulate_record
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
 from modal_twin.diagnosis.record import Record, record_from_blocks
 from modal_twin.excitation import signals
-from modal_twin.rig.config import EffectSpec, load_rig
+from modal_twin.models.building_factory import INPUTS_6DOF, BuildingFactory
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import load_model
+from modal_twin.rig.config import load_rig
 from modal_twin.rig.truth import TruthRig
 from modal_twin.signal_block import SignalBlock
 from modal_twin.twin.metrics import channel_metrics
-from modal_twin.twin.plants import INPUTS_6DOF, PlantFactory, load_plant
 
 ROOT = Path(__file__).resolve().parents[2]
 BUILDING = ROOT / "config" / "structures" / "building.yaml"
@@ -30,13 +32,13 @@ FS = 1000.0
 
 
 @pytest.fixture(scope="module")
-def factory() -> PlantFactory:
-    return PlantFactory(BUILDING)
+def factory() -> BuildingFactory:
+    return BuildingFactory(BUILDING)
 
 
 def make_record(effects: list[EffectSpec], *, kind: str, level: float, seed: int,
                 seconds: float = 12.0, noise: dict[str, float] | None = None) -> Record:
-    truth = TruthRig(load_plant(BUILDING, effects=effects), 1 / FS,
+    truth = TruthRig(load_model(BUILDING).plant(effects), 1 / FS,
                      noise_rms=noise or NOISE, seed=seed)
     rng = np.random.default_rng(seed)
     w = np.array([1.0, 1.0, 0.3, 0.0, 0.0, 0.0]) * level
@@ -50,7 +52,7 @@ def make_record(effects: list[EffectSpec], *, kind: str, level: float, seed: int
     return record_from_blocks([raw], source=f"{kind}{seed}")
 
 
-def error_fall(factory: PlantFactory, d: Diagnosis, test: Record, channels: list[str]
+def error_fall(factory: BuildingFactory, d: Diagnosis, test: Record, channels: list[str]
                ) -> float:
     """Eq. (8)-style RMS residual of ``channels``: nominal over fitted, held-out record."""
     assert d.best is not None
@@ -65,7 +67,7 @@ def error_fall(factory: PlantFactory, d: Diagnosis, test: Record, channels: list
 BASE_H = [f"F0_C{i}_{a}" for i in (1, 2, 3) for a in "xy"]
 
 
-def test_s1_stick_slip_at_esb1(factory: PlantFactory) -> None:
+def test_s1_stick_slip_at_esb1(factory: BuildingFactory) -> None:
     eff = list(load_rig(ROOT / "config" / "rigs" / "s1_stick_slip.yaml").effects)
     train = make_record(eff, kind="random", level=1.0, seed=1)
     test = make_record(eff, kind="earthquake", level=3.5, seed=2)
@@ -77,7 +79,7 @@ def test_s1_stick_slip_at_esb1(factory: PlantFactory) -> None:
     assert error_fall(factory, d, test, BASE_H) >= 3.0
 
 
-def test_s3_bearing_softening_quiet_at_low_level_found_at_high(factory: PlantFactory) -> None:
+def test_s3_bearing_softening_quiet_at_low_level_found_at_high(factory: BuildingFactory) -> None:
     eff = list(load_rig(ROOT / "config" / "rigs" / "s3_bearing_softening.yaml").effects)
     low_train = make_record(eff, kind="random", level=0.15, seed=3)
     low_test = make_record(eff, kind="random", level=0.15, seed=4)
@@ -94,7 +96,7 @@ def test_s3_bearing_softening_quiet_at_low_level_found_at_high(factory: PlantFac
     assert error_fall(factory, d, test, ["RB2_fx", "RB2_fy", *BASE_H]) >= 3.0
 
 
-def test_control_reports_nothing_significant(factory: PlantFactory) -> None:
+def test_control_reports_nothing_significant(factory: BuildingFactory) -> None:
     train = make_record([], kind="random", level=1.0, seed=7)
     test = make_record([], kind="earthquake", level=3.5, seed=8)
     d = diagnose(factory, train, test, n_fit=2)
@@ -103,7 +105,7 @@ def test_control_reports_nothing_significant(factory: PlantFactory) -> None:
     assert "nothing significant is missing" in d.summary
 
 
-def test_own_cubic_hardening_at_sdp2(factory: PlantFactory) -> None:
+def test_own_cubic_hardening_at_sdp2(factory: BuildingFactory) -> None:
     eff = [EffectSpec("SDP2", "cubic", {"k3": 4.0e8})]
     train = make_record(eff, kind="random", level=1.5, seed=9)
     test = make_record(eff, kind="earthquake", level=3.5, seed=10)
@@ -114,7 +116,7 @@ def test_own_cubic_hardening_at_sdp2(factory: PlantFactory) -> None:
     assert error_fall(factory, d, test, ["SDP2_fx", "SDP2_fy"]) >= 3.0
 
 
-def test_own_stick_slip_at_esb2_with_noisy_sensors(factory: PlantFactory) -> None:
+def test_own_stick_slip_at_esb2_with_noisy_sensors(factory: BuildingFactory) -> None:
     eff = [EffectSpec("ESB2", "stick_slip", {"mu_s": 0.05, "mu_k": 0.035})]
     noisy = {"acceleration": 0.02, "displacement": 2e-4, "force": 2000.0}
     train = make_record(eff, kind="random", level=1.0, seed=11, noise=noisy)
@@ -127,7 +129,7 @@ def test_own_stick_slip_at_esb2_with_noisy_sensors(factory: PlantFactory) -> Non
     assert error_fall(factory, d, test, ["ESB2_fx", "ESB2_fy"]) >= 3.0
 
 
-def test_own_added_mass_on_floor_2(factory: PlantFactory) -> None:
+def test_own_added_mass_on_floor_2(factory: BuildingFactory) -> None:
     truth = factory.with_theta({"m_F2": 19520.0 + 15000.0}).plant()  # 15 t of equipment
 
     def rec(kind: str, level: float, seed: int) -> Record:
@@ -151,7 +153,7 @@ def test_own_added_mass_on_floor_2(factory: PlantFactory) -> None:
     assert d.best.error_ratio >= 3.0
 
 
-def test_own_bouc_wen_hysteresis_at_rb1(factory: PlantFactory) -> None:
+def test_own_bouc_wen_hysteresis_at_rb1(factory: BuildingFactory) -> None:
     eff = [EffectSpec("RB1", "bouc_wen", {"uy": 0.02, "alpha": 0.3})]
     train = make_record(eff, kind="random", level=1.0, seed=15)
     test = make_record(eff, kind="earthquake", level=3.5, seed=16)

@@ -18,12 +18,12 @@ import pytest
 from modal_twin.diagnosis.fitting import simulate_record
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
 from modal_twin.diagnosis.record import Record, record_from_blocks
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import load_model
 from modal_twin.models.ride import psd_band_error, sperling_index
 from modal_twin.models.track import random_profile, wheelset_inputs
-from modal_twin.rig.config import EffectSpec
 from modal_twin.rig.truth import TruthRig
 from modal_twin.signal_block import SignalBlock
-from modal_twin.twin.plants import factory_for
 
 ROOT = Path(__file__).resolve().parents[2]
 VEHICLE = ROOT / "config" / "vehicles" / "trailer_car.yaml"
@@ -46,7 +46,7 @@ def make_record(factory, effects: list[EffectSpec], *, speed_kmh: float, seed: i
 
 @pytest.fixture(scope="module")
 def case():
-    factory = factory_for(VEHICLE)
+    factory = load_model(VEHICLE)
     train = make_record(factory, [MOUNT], speed_kmh=300.0, seed=21)
     test = make_record(factory, [MOUNT], speed_kmh=350.0, seed=22)
     return factory, train, test, diagnose(factory, train, test, n_fit=2)

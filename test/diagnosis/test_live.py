@@ -8,17 +8,17 @@ import pytest
 from modal_twin.diagnosis.live import live_diagnosis
 from modal_twin.errors import SignalError
 from modal_twin.excitation import signals
-from modal_twin.rig.config import EffectSpec
+from modal_twin.models.building_factory import INPUTS_6DOF, BuildingFactory
+from modal_twin.models.effects import EffectSpec
 from modal_twin.rig.truth import TruthRig
 from modal_twin.signal_block import SignalBlock
-from modal_twin.twin.plants import INPUTS_6DOF, PlantFactory
 from modal_twin.twin.runner import TwinRunner
 
 BUILDING = Path(__file__).resolve().parents[2] / "config" / "structures" / "building.yaml"
 
 
 def stream(effects: list[EffectSpec]) -> tuple[list[SignalBlock], list[SignalBlock], dict]:
-    f = PlantFactory(BUILDING)
+    f = BuildingFactory(BUILDING)
     rig = TruthRig(f.plant(effects), 1e-3, noise_rms={"acceleration": 0.002}, seed=1)
     twin = TwinRunner(f.plant(), 1000.0)
     rng = np.random.default_rng(1)

@@ -11,14 +11,14 @@ from modal_twin.diagnosis.fitting import fit_effect
 from modal_twin.diagnosis.pipeline import diagnose
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import OptionError, ShapeError, SignalError
-from modal_twin.twin.plants import INPUTS_6DOF, PlantFactory
+from modal_twin.models.building_factory import INPUTS_6DOF, BuildingFactory
 
 BUILDING = Path(__file__).resolve().parents[2] / "config" / "structures" / "building.yaml"
 
 
 @pytest.fixture(scope="module")
-def factory() -> PlantFactory:
-    return PlantFactory(BUILDING)
+def factory() -> BuildingFactory:
+    return BuildingFactory(BUILDING)
 
 
 def record(n: int, channels: tuple[str, ...], fs: float = 1000.0, seed: int = 0) -> Record:
@@ -40,7 +40,7 @@ def test_record_checks() -> None:
         record(100, ("a",)).channels(["zz"])
 
 
-def test_unknown_channels_are_skipped_with_reasons(factory: PlantFactory) -> None:
+def test_unknown_channels_are_skipped_with_reasons(factory: BuildingFactory) -> None:
     ch = ("F0_C1_x", "F0_C1_y", "not_in_model")
     d = diagnose(factory, record(4000, ch, seed=1), record(4000, ch, seed=2), n_fit=1)
     assert any("not_in_model" in s and "not in the model" in s for s in d.skipped)
@@ -48,13 +48,13 @@ def test_unknown_channels_are_skipped_with_reasons(factory: PlantFactory) -> Non
     assert d.where.nmse_pct.shape == (2,)
 
 
-def test_too_little_data_is_refused(factory: PlantFactory) -> None:
+def test_too_little_data_is_refused(factory: BuildingFactory) -> None:
     ch = ("F0_C1_x",)
     with pytest.raises(SignalError, match="too short"):
         diagnose(factory, record(300, ch, seed=1), record(300, ch, seed=2))
 
 
-def test_candidate_errors(factory: PlantFactory) -> None:
+def test_candidate_errors(factory: BuildingFactory) -> None:
     ch = ("ESB1_dx", "ESB1_dy", "ESB1_fx", "ESB1_fy")
     rec = record(2000, ch)
     with pytest.raises(OptionError, match="unknown component 'ESB7'"):

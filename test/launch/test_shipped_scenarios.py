@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from modal_twin.excitation.drive import ExcitationConfig, make_drive
+from modal_twin.models.loading import load_model
 from modal_twin.paths import resolve_config
 from modal_twin.rig.config import load_rig
 from modal_twin.scenario import load_scenario
-from modal_twin.twin.plants import load_model, load_plant
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((ROOT / "config" / "scenarios").glob("*.yaml"))
@@ -36,11 +36,11 @@ def test_shipped_scenario_is_consistent(path: Path) -> None:
     rig_plant = None
     if "rig" in nodes:
         rig = load_rig(resolve_config(nodes["rig"]["rig_file"]))
-        rig_plant = load_plant(rig.structure, theta=rig.theta or None, effects=rig.effects)
+        rig_plant = load_model(rig.structure, theta=rig.theta or None).plant(rig.effects)
         if inputs:
             assert set(rig_plant.input_names) <= set(inputs), path.name
     if "twin" in nodes:
-        twin = load_model(resolve_config(nodes["twin"]["model_file"]))
+        twin = load_model(resolve_config(nodes["twin"]["model_file"])).plant()
         if rig_plant is not None:
             assert twin.channel_names == rig_plant.channel_names
             assert twin.input_names == rig_plant.input_names

@@ -9,10 +9,12 @@ import pytest
 
 from modal_twin.errors import ConfigError, OptionError, SignalError
 from modal_twin.excitation import signals
-from modal_twin.rig.config import EffectSpec, load_rig
+from modal_twin.models.building_factory import INPUTS_6DOF
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import load_model
+from modal_twin.rig.config import load_rig
 from modal_twin.rig.truth import TruthRig, rig_channels
 from modal_twin.signal_block import SignalBlock
-from modal_twin.twin.plants import INPUTS_6DOF, load_plant
 from modal_twin.twin.runner import TwinRunner
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,8 +30,8 @@ def drive(scale: float, seconds: float = 20.0, seed: int = 0) -> np.ndarray:
 
 def run(truth_effects: list[EffectSpec], ag: np.ndarray, noise: dict[str, float] | None = None
         ) -> TwinRunner:
-    truth = TruthRig(load_plant(BUILDING, effects=truth_effects), 1e-3, noise_rms=noise)
-    twin = TwinRunner(load_plant(BUILDING), 1000.0, window_s=ag.shape[1] / 1000.0)
+    truth = TruthRig(load_model(BUILDING).plant(truth_effects), 1e-3, noise_rms=noise)
+    twin = TwinRunner(load_model(BUILDING).plant(), 1000.0, window_s=ag.shape[1] / 1000.0)
     for k in range(0, ag.shape[1], 100):
         twin.step(truth.process(SignalBlock(INPUTS_6DOF, 1000.0, k, ag[:, k:k + 100])))
     return twin
@@ -74,15 +76,15 @@ def test_channel_map_and_bad_input(tmp_path: Path) -> None:
         "acceleration", "m/s^2", "F0_C1", "x")
     assert acc.sensitivity == pytest.approx(0.10197)
     with pytest.raises(OptionError, match="unknown component 'ESB9'"):
-        load_plant(BUILDING, effects=[EffectSpec("ESB9", "stick_slip", {})])
+        load_model(BUILDING).plant([EffectSpec("ESB9", "stick_slip", {})])
     with pytest.raises(OptionError, match="unknown effect law 'magic'"):
-        load_plant(BUILDING, effects=[EffectSpec("RB1", "magic", {})])
+        load_model(BUILDING).plant([EffectSpec("RB1", "magic", {})])
     with pytest.raises(OptionError, match=r"unknown parameters \['colour'\]"):
-        load_plant(BUILDING, effects=[EffectSpec("RB1", "bilinear", {"colour": 1.0})])
-    truth = TruthRig(load_plant(BUILDING), 1e-3)
+        load_model(BUILDING).plant([EffectSpec("RB1", "bilinear", {"colour": 1.0})])
+    truth = TruthRig(load_model(BUILDING).plant(), 1e-3)
     with pytest.raises(SignalError, match=r"lacks channels \['arz'\]"):
         truth.process(SignalBlock(INPUTS_6DOF[:5], 1000.0, 0, np.zeros((5, 10))))
-    twin = TwinRunner(load_plant(BUILDING), 1000.0)
+    twin = TwinRunner(load_model(BUILDING).plant(), 1000.0)
     with pytest.raises(SignalError, match="lacks the input channels"):
         twin.step(SignalBlock(("x",), 1000.0, 0, np.zeros((1, 10))))
     bad = tmp_path / "rig.yaml"

@@ -16,7 +16,8 @@ from modal_twin.models.devices import (
     table10_rubber_bearing,
     table10_sdp,
 )
-from modal_twin.twin.simulator import DeviceAttachment, ReducedSystem, Simulator, simulate
+from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
+from modal_twin.twin.simulator import Simulator, simulate
 
 
 def _linear_system(rng: np.random.Generator) -> tuple[ReducedSystem, np.ndarray, np.ndarray]:

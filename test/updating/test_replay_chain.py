@@ -37,9 +37,9 @@ twin:
 def _bag(path: Path) -> None:
     from conftest import write_frames_bag
 
-    from modal_twin.twin.plants import load_plant
+    from modal_twin.models.loading import load_model
 
-    write_frames_bag(path, load_plant(BUILDING, theta=TRUTH), seconds=100.0,
+    write_frames_bag(path, load_model(BUILDING, theta=TRUTH).plant(), seconds=100.0,
                      scale=(0.4, 0.4, 0.2, 0, 0, 0), seed=5, block=250,
                      noise_rms={"acceleration": 0.002, "displacement": 1e-5, "force": 100.0})
 

@@ -12,7 +12,7 @@ from modal_twin.errors import OptionError, ShapeError, SignalError
 from modal_twin.identification import n4sid, select_modes, stabilization_diagram
 from modal_twin.models.building import DEFAULT_BUILDING_YAML, build_building
 from modal_twin.models.fe import solve_modes
-from modal_twin.twin.plants import load_plant
+from modal_twin.models.loading import load_model
 from modal_twin.twin.simulator import simulate
 from modal_twin.updating.device_ls import device_kc, fit_devices, kc_bounds, kc_nominal
 from modal_twin.updating.problem import ModeTargets
@@ -43,7 +43,7 @@ def truth_run(bld):
     for n in par.names:
         if n.startswith("k_"):
             truth[n] = par.theta0[par.index(n)] * 1.06
-    plant = load_plant(DEFAULT_BUILDING_YAML, theta=truth, n_modes=16)
+    plant = load_model(DEFAULT_BUILDING_YAML, theta=truth, n_modes=16).plant()
     ag = table_input(int(200 * FS), 1)
     res = simulate(plant.system, ag, 1.0 / FS)
     return truth, plant, ag, res

@@ -9,8 +9,9 @@ import scipy.signal as sig
 
 from modal_twin.identification import n4sid, select_modes, stabilization_diagram
 from modal_twin.models.building import DEFAULT_BUILDING_YAML
+from modal_twin.models.building_factory import INPUTS_6DOF
+from modal_twin.models.loading import load_model
 from modal_twin.signal_block import SignalBlock
-from modal_twin.twin.plants import INPUTS_6DOF, load_model, load_plant
 from modal_twin.twin.runner import TwinRunner
 from modal_twin.twin.simulator import simulate
 from modal_twin.updating.run import update_model
@@ -20,7 +21,7 @@ FS = 50.0
 
 def test_identify_update_and_the_twin_error_falls(tmp_path: Path) -> None:
     truth = {"E_Fc36": 3.278e10 * 0.85, "E_Fc27": 2.915e10 * 1.12, "E_Fc21": 2.585e10 * 0.88}
-    plant = load_plant(DEFAULT_BUILDING_YAML, theta=truth)
+    plant = load_model(DEFAULT_BUILDING_YAML, theta=truth).plant()
     rng = np.random.default_rng(4)
     b, a = sig.butter(4, 20.0, fs=FS)
     ag = np.zeros((6, int(200 * FS)))
@@ -34,7 +35,7 @@ def test_identify_update_and_the_twin_error_falls(tmp_path: Path) -> None:
     assert upd.version.version == 1
 
     def twin_error(model: Path) -> float:
-        twin = TwinRunner(load_model(model), FS, window_s=200.0)
+        twin = TwinRunner(load_model(model).plant(), FS, window_s=200.0)
         frame = SignalBlock((*(f"table_{n}" for n in INPUTS_6DOF), *plant.channel_names[:42]),
                             FS, 0, np.vstack([ag, acc]))
         twin.step(frame)

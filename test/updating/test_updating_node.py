@@ -17,10 +17,10 @@ FS = 50.0
 def _identified(truth: dict[str, float]):  # type: ignore[no-untyped-def]
     from modal_twin.identification import n4sid, select_modes, stabilization_diagram
     from modal_twin.models.building import DEFAULT_BUILDING_YAML
-    from modal_twin.twin.plants import load_plant
+    from modal_twin.models.loading import load_model
     from modal_twin.twin.simulator import simulate
 
-    plant = load_plant(DEFAULT_BUILDING_YAML, theta=truth, n_modes=16)
+    plant = load_model(DEFAULT_BUILDING_YAML, theta=truth, n_modes=16).plant()
     rng = np.random.default_rng(1)
     b, a = sig.butter(4, 20.0, fs=FS)
     ag = np.zeros((6, int(200 * FS)))

@@ -1,31 +1,26 @@
-"""Plants from structure files: the reduced system, its inputs and measured channels."""
+"""Plants of a building structure file: the reduced system, its inputs and measured channels."""
 
 from __future__ import annotations
 
 import copy
 from collections.abc import Iterable, Mapping
-from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError
 from modal_twin.models.building import build_building, modal_reduction
 from modal_twin.models.devices import Device
-from modal_twin.models.effects import effect_device
-from modal_twin.rig.config import EffectSpec
-from modal_twin.twin.plant import Plant, Source
+from modal_twin.models.effects import EffectSpec, effect_device
+from modal_twin.models.loading import merge_effects
+from modal_twin.models.plant import Plant, Source
 
-if TYPE_CHECKING:
-    from modal_twin.twin.vehicle_plants import VehicleFactory
-
-__all__ = ["INPUTS_6DOF", "PlantFactory", "factory_for", "load_model", "load_plant"]
+__all__ = ["INPUTS_6DOF", "BuildingFactory"]
 
 INPUTS_6DOF = ("ax", "ay", "az", "arx", "ary", "arz")
 _QUANTITIES_6DOF = ("acceleration",) * 3 + ("angular_acceleration",) * 3
 
 
-class PlantFactory:
+class BuildingFactory:
     """Build plants of one structure with different effects, reusing its modal reduction.
 
     Every device is its nominal linear spring-dashpot (Table 6 of [004]) unless an effect
@@ -44,6 +39,8 @@ class PlantFactory:
 
     # parameters the diagnosis screens as candidates (masses, moduli); the isolators' k and
     # c are screened as device laws at their components
+    base_effects: tuple[EffectSpec, ...] = ()  # a version's effects, kept in every plant
+    label: str = ""  # the version's label, part of every plant's name
     parameter_prefixes = ("m_", "E_")
 
     def __init__(self, structure_file: str | Path, *, theta: Mapping[str, float] | None = None,
@@ -56,7 +53,7 @@ class PlantFactory:
         self.weights = self.bld.gravity_loads()
         self.sites = {d.name: d for d in self.bld.spec.devices}
 
-    def with_theta(self, changes: Mapping[str, float]) -> PlantFactory:
+    def with_theta(self, changes: Mapping[str, float]) -> BuildingFactory:
         """A factory of the same structure with some parameter values changed: the assembly
         is shared (K(theta) is parametric), only the modal reduction is redone."""
         new = copy.copy(self)
@@ -82,7 +79,7 @@ class PlantFactory:
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
         """The plant with ``effects`` placed at their components."""
         bld = self.bld
-        effects = tuple(effects)
+        effects = merge_effects(self.base_effects, effects)
         devices: dict[str, Device] = {}
         for e in effects:
             if e.component not in bld.device_names:
@@ -110,39 +107,6 @@ class PlantFactory:
                     sources.append(("y", y_index[name]) if name in y_index
                                    else ("force", f_rows.index(name)))
         label = ",".join(f"{e.component}:{e.law}" for e in effects) or "nominal"
+        version = f"#{self.label}" if self.label else ""
         return Plant(system, INPUTS_6DOF, _QUANTITIES_6DOF, tuple(channels), tuple(sources),
-                     name=f"{bld.spec.name}@{label}")
-
-
-def factory_for(model_file: str | Path, *, theta: Mapping[str, float] | None = None,
-                n_modes: int | None = None) -> PlantFactory | VehicleFactory:
-    """The factory of a structure file (building) or of a vehicle file (trailer car)."""
-    from modal_twin.models.vehicle_spec import is_vehicle_file
-
-    if is_vehicle_file(model_file):
-        from modal_twin.twin.vehicle_plants import VehicleFactory
-
-        return VehicleFactory(model_file, theta=theta)
-    return PlantFactory(model_file, theta=theta, n_modes=n_modes)
-
-
-def load_plant(
-    structure_file: str | Path,
-    *,
-    theta: Mapping[str, float] | None = None,
-    effects: Iterable[EffectSpec] = (),
-    n_modes: int | None = None,
-) -> Plant:
-    """Build the plant of a structure file (see :class:`PlantFactory`)."""
-    return factory_for(structure_file, theta=theta, n_modes=n_modes).plant(effects)
-
-
-def load_model(model_file: str | Path, *, theta: Mapping[str, float] | None = None) -> Plant:
-    """Plant of a model file: a structure file or a version file (structure, parameter
-    values and added effects, :mod:`modal_twin.models.versions`); ``theta`` overrides."""
-    from modal_twin.models.versions import read_version
-
-    mv = read_version(model_file)
-    th = {**mv.theta, **(theta or {})}
-    plant = factory_for(mv.structure, theta=th or None).plant(mv.effects)
-    return replace(plant, name=f"{plant.name}#{mv.label}")
+                     name=f"{bld.spec.name}@{label}{version}")

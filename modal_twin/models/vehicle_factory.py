@@ -1,20 +1,24 @@
 """Plants of a vehicle file: the trailer car with parameter values and elastic mounts.
 
-The vehicle counterpart of :class:`modal_twin.twin.plants.PlantFactory`, with the same
-interface the diagnosis and updating use (``plant``, ``with_theta``, ``parameters``,
-``attachments``, ``sites``). The vehicle has no device sites (its suspensions are linear);
-its candidate effects are parameter changes (``EI_carbody``, ``m_<equipment>``) and
-elastic mounts of the rigidly bolted equipment (``elastic_mount``, Fig. 3b of [002]).
+The vehicle counterpart of :class:`~modal_twin.models.building_factory.BuildingFactory`,
+with the protocol :class:`~modal_twin.models.loading.ModelFactory` that the diagnosis and
+updating use (``plant``, ``with_theta``, ``parameters``, ``attachments``, ``sites``). The
+vehicle has no device sites (its suspensions are linear); its candidate effects are
+parameter changes (``EI_carbody``, ``m_<equipment>``) and elastic mounts of the rigidly
+bolted equipment (``elastic_mount``, Fig. 3b of [002]).
 """
 
 from __future__ import annotations
 
 import copy
 from collections.abc import Iterable, Mapping
+from dataclasses import replace
 from pathlib import Path
 
 from modal_twin.errors import OptionError
-from modal_twin.models.effects import MOUNT_LAW
+from modal_twin.models.effects import MOUNT_LAW, EffectSpec
+from modal_twin.models.loading import merge_effects
+from modal_twin.models.plant import Plant
 from modal_twin.models.vehicle import build_vehicle
 from modal_twin.models.vehicle_spec import (
     VehicleSpec,
@@ -24,8 +28,6 @@ from modal_twin.models.vehicle_spec import (
     parameter_value,
     theta_names,
 )
-from modal_twin.rig.config import EffectSpec
-from modal_twin.twin.plant import Plant
 
 __all__ = ["VehicleFactory"]
 
@@ -43,6 +45,8 @@ class VehicleFactory:
 
     # parameters the diagnosis screens as candidates: equipment masses, carbody bending
     # stiffness, primary and secondary suspension stiffness and damping
+    base_effects: tuple[EffectSpec, ...] = ()  # a version's effects, kept in every plant
+    label: str = ""  # the version's label, part of every plant's name
     parameter_prefixes = ("m_", "EI_", "k_", "c_")
 
     def __init__(self, vehicle_file: str | Path, *,
@@ -83,6 +87,7 @@ class VehicleFactory:
             An effect other than ``elastic_mount``, or at an unknown / already elastic item.
         """
         spec = self.spec
+        effects = merge_effects(self.base_effects, effects)
         for e in effects:
             if e.law != MOUNT_LAW:
                 msg = (f"effect {e.law!r} at {e.component!r}: a vehicle takes "
@@ -95,4 +100,5 @@ class VehicleFactory:
                 raise OptionError(msg)
             spec = equipment_mounted(spec, e.component, float(e.params["f_hz"]),
                                      float(e.params.get("zeta", 0.05)))
-        return build_vehicle(spec, theta=self.theta or None)
+        plant = build_vehicle(spec, theta=self.theta or None)
+        return replace(plant, name=f"{plant.name}#{self.label}") if self.label else plant

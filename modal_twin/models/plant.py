@@ -17,7 +17,7 @@ import numpy as np
 from modal_twin._types import FloatArray
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ShapeError
-from modal_twin.twin.simulator import ReducedSystem, SimResult
+from modal_twin.models.reduced import ReducedSystem, SimResult
 
 __all__ = ["Plant"]
 

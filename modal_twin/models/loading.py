@@ -1,0 +1,118 @@
+"""One way to load a model: a file in, a :class:`ModelFactory` out.
+
+A model file is a building structure file (``config/structures/*.yaml``), a vehicle file
+(``config/vehicles/*.yaml``) or a model version file (:mod:`modal_twin.models.versions`:
+a structure with parameter values and the effects added so far). Every kind gives a
+factory with one protocol, so the twin, updating and the diagnosis never ask which kind
+they hold::
+
+    factory = load_model("config/structures/building.yaml")
+    plant = factory.plant()                                  # nominal
+    plant = factory.plant([EffectSpec("ESB1", "stick_slip", {"Fs": 1e5, "Fk": 7e4})])
+
+A version's effects stay in every plant its factory builds; an effect given to
+:meth:`ModelFactory.plant` at a component that already carries one replaces it (so a
+joint refit passes all effects again).
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.plant import Plant
+
+__all__ = ["ModelFactory", "load_model", "merge_effects"]
+
+
+@runtime_checkable
+class ModelFactory(Protocol):
+    """What every model kind offers: plants with effects, parameters, candidate sites."""
+
+    structure_file: Path
+    theta: dict[str, float]
+    sites: Mapping[str, Any]
+    parameter_prefixes: tuple[str, ...]
+    base_effects: tuple[EffectSpec, ...]
+    label: str
+
+    def with_theta(self, changes: Mapping[str, float]) -> ModelFactory:
+        """The same model with some parameter values changed."""
+        ...
+
+    def parameters(self) -> dict[str, float]:
+        """Current value of every parameter."""
+        ...
+
+    def attachments(self) -> tuple[str, ...]:
+        """Rigidly attached masses that could hang on elastic mounts."""
+        ...
+
+    def weight(self, component: str) -> float:
+        """Weight carried by a component, N."""
+        ...
+
+    def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
+        """The plant with the base effects and ``effects`` in place."""
+        ...
+
+
+def merge_effects(base: Iterable[EffectSpec], new: Iterable[EffectSpec]) -> tuple[EffectSpec, ...]:
+    """``base`` with every effect of ``new`` added; a new effect at a component that already
+    carries a device law replaces it (parameter and mount effects stay side by side)."""
+    new = tuple(new)
+    taken = {(e.component, _slot(e.law)) for e in new}
+    return (*(e for e in base if (e.component, _slot(e.law)) not in taken), *new)
+
+
+def _slot(law: str) -> str:
+    # one device law per component; mounts and parameter laws are slots of their own
+    from modal_twin.models.effects import MOUNT_LAW
+
+    return law if law == MOUNT_LAW else "device"
+
+
+def _factory_of(structure: str | Path, theta: Mapping[str, float] | None,
+                n_modes: int | None) -> ModelFactory:
+    from modal_twin.models.vehicle_spec import is_vehicle_file
+
+    if is_vehicle_file(structure):
+        from modal_twin.models.vehicle_factory import VehicleFactory
+
+        return VehicleFactory(structure, theta=theta)
+    from modal_twin.models.building_factory import BuildingFactory
+
+    return BuildingFactory(structure, theta=theta, n_modes=n_modes)
+
+
+def load_model(model_file: str | Path, *, theta: Mapping[str, float] | None = None,
+               n_modes: int | None = None) -> ModelFactory:
+    """The factory of a structure, vehicle or version file.
+
+    Parameters
+    ----------
+    model_file : path
+    theta : mapping, optional
+        Parameter values overriding the file's.
+    n_modes : int, optional
+        Modes kept by a building's reduction (the file's ``n_modes`` by default).
+
+    Raises
+    ------
+    ConfigError, ModelError, OptionError
+        The file is not a model of a known kind, or its content is invalid.
+    """
+    from modal_twin.models.versions import read_version
+
+    mv = read_version(model_file)
+    th = {**mv.theta, **(theta or {})}
+    factory = _factory_of(mv.structure, th or None, n_modes)
+    if mv.effects:
+        factory = copy.copy(factory)
+        factory.base_effects = tuple(mv.effects)
+    if mv.path is not None:
+        factory.label = mv.label
+    return factory
