@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from modal_twin.errors import ModalTwinError
+from modal_twin.exit_codes import ExitCode
 from modal_twin.runtime import THREAD_ENV
 
 # one BLAS thread (modal_twin.runtime), set before numpy loads (neither import above does)
@@ -121,7 +122,8 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
     from modal_twin.io.records import record_from_bag
 
     train, test = record_from_bag(a.train), record_from_bag(a.test)
-    d = diagnose_model(a.model, train, test, n_fit=a.n_fit,
+    levels = [record_from_bag(b) for b in a.level or []]
+    d = diagnose_model(a.model, train, test, levels=levels, n_fit=a.n_fit,
                        progress=lambda s: print(f"  {s}", file=sys.stderr))
     print(d.format())
     if a.plots:
@@ -129,68 +131,52 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
         for png in force_state_plots(a.model, d, train, a.plots):
             print(f"force-state map: {png}")
-    return 0
+    return ExitCode.OK
 
 
 def _cmd_effects(a: argparse.Namespace) -> int:
-    from modal_twin.diagnosis.workflow import add_effect, diagnose_model
+    from modal_twin.diagnosis.workflow import (
+        add_diagnosed,
+        add_effect,
+        choose_start,
+        diagnose_model,
+    )
     from modal_twin.io.records import record_from_bag
+    from modal_twin.models.loading import load_model
     from modal_twin.models.versions import history
     from modal_twin.viz.error_history import plot_error_history
 
     if a.effects_cmd == "history":
         for v in history(a.folder):
             mean = sum(v.errors.values()) / max(len(v.errors), 1)
-            print(f"{v.label:>5}  mean held-out NMSE {mean:8.3f} %  {v.note}")
+            print(f"{v.label:>5}  mean held-out NRMSE {mean:8.3f} %  {v.note}")
         if a.png:
             print(f"plot: {plot_error_history(a.folder, a.png)}")
-        return 0
+        return ExitCode.OK
     train, test = record_from_bag(a.train), record_from_bag(a.test)
+    levels = [record_from_bag(b) for b in a.level or []]
     if a.auto:
-        d = diagnose_model(a.model, train, test)
-        if d.best is None:
+        d = diagnose_model(a.model, train, test, levels=levels)
+        mv = add_diagnosed(a.model, d, test, a.out)
+        if mv is None:
             print(f"nothing to add: {d.summary}")
-            return 1
-        component, law, start = d.best.effect.component, d.best.effect.law, d.best.effect.params
-    else:
-        if not (a.component and a.law):
-            print("modal-twin effects add: give --component and --law, or --auto",
-                  file=sys.stderr)
-            return 2
-        component, law, start = a.component, a.law, _start_params(a)
-    mv, fitted = add_effect(a.model, component, law, dict(start), train, test, a.out)
-    print(f"wrote {mv.path}: {mv.note}")
-    print(f"held-out NMSE {fitted.test_nmse_nominal_pct:.3f} % -> {fitted.test_nmse_pct:.3f} %"
-          f" ({fitted.error_ratio:.1f}x), parameters {fitted.effect.params}")
-    return 0
-
-
-def _start_params(a: argparse.Namespace) -> dict[str, float]:
-    from modal_twin.diagnosis.screening import parameter_grid
-    from modal_twin.io.records import record_from_bag
-    from modal_twin.models.effects import MOUNT_LAW
-    from modal_twin.models.loading import load_model
-
-    out: dict[str, float] = {}
+            return ExitCode.OK
+        print(f"wrote {mv.path}: {mv.note}")
+        return ExitCode.OK
+    if not (a.component and a.law):
+        print("modal-twin effects add: give --component and --law, or --auto", file=sys.stderr)
+        return ExitCode.USAGE
+    start: dict[str, float] = {}
     for item in a.param or []:
         key, _, value = item.partition("=")
-        out[key] = float(value)
-    if out:
-        return out
-    rec = record_from_bag(a.train)
-    if a.law == MOUNT_LAW:  # start at the best mount frequency of the screening grid
-        from modal_twin.diagnosis.attachments import screen_attachments
-
-        best = [c for c in screen_attachments(load_model(a.model), rec)
-                if c.component == a.component]
-        return {"f_hz": best[0].f_hz if best else 10.0, "zeta": 0.05}
-    f = load_model(a.model)
-    u = rec.channels([f"{a.component}_dx", f"{a.component}_dy"])
-    fo = rec.channels([f"{a.component}_fx", f"{a.component}_fy"])
-    spec = f.sites[a.component]
-    grid = parameter_grid(a.law, float(abs(u).max()), float(abs(fo).max()),
-                          float(spec.k.mean()), f.weight(a.component))
-    return grid[len(grid) // 2]
+        start[key] = float(value)
+    if not start:
+        start = choose_start(load_model(a.model), a.component, a.law, train)
+    mv, fitted = add_effect(a.model, a.component, a.law, start, train, test, a.out,
+                            levels=levels)
+    print(f"wrote {mv.path}: {mv.note}")
+    print(f"parameters {fitted.parameter_text()}")
+    return ExitCode.OK
 
 
 def _cmd_demo(a: argparse.Namespace) -> int:
@@ -235,6 +221,8 @@ def _parser() -> argparse.ArgumentParser:
     dg.add_argument("model", type=Path, help="structure or model version file")
     dg.add_argument("--train", type=Path, required=True, help="bag to fit candidates on")
     dg.add_argument("--test", type=Path, required=True, help="bag held out for ranking")
+    dg.add_argument("--level", type=Path, action="append",
+                    help="another record (e.g. low level) no effect may make worse; repeatable")
     dg.add_argument("--n-fit", type=int, default=3, help="candidates fitted by simulation")
     dg.add_argument("--plots", type=Path, default=None, help="folder for force-state maps")
     dg.set_defaults(func=_cmd_diagnose)
@@ -245,7 +233,10 @@ def _parser() -> argparse.ArgumentParser:
     ea.add_argument("--train", type=Path, required=True)
     ea.add_argument("--test", type=Path, required=True)
     ea.add_argument("--out", type=Path, required=True, help="model version folder")
-    ea.add_argument("--auto", action="store_true", help="take the diagnosis's top candidate")
+    ea.add_argument("--level", type=Path, action="append",
+                    help="another record no effect may make worse; repeatable")
+    ea.add_argument("--auto", action="store_true",
+                    help="write every effect the diagnosis finds (accepted, unflagged)")
     ea.add_argument("--component")
     ea.add_argument("--law")
     ea.add_argument("--param", action="append", help="starting value, name=value")
@@ -277,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(a.func(a))
     except ModalTwinError as err:
         print(f"modal-twin {a.cmd}: {err}", file=sys.stderr)
-        return 2
+        return ExitCode.USAGE
 
 
 if __name__ == "__main__":

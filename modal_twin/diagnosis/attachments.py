@@ -26,6 +26,7 @@ from scipy.optimize import least_squares
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.fitting import (
     FittedEffect,
+    Records,
     SimulationObjective,
     _parameter_std,
     judge_fit,
@@ -85,7 +86,7 @@ def screen_attachments(factory: Any, train: Record, *, freqs_hz: FloatArray | No
     return sorted(out, key=lambda c: -c.gain)
 
 
-def fit_attachment(factory: Any, component: str, start: dict[str, float], train: Record,
+def fit_attachment(factory: Any, component: str, start: dict[str, float], train: Records,
                    test: Record, *, decimate: int = 5, max_nfev: int = 30) -> FittedEffect:
     """Fit the mount frequency and damping ratio of ``component`` on ``train``.
 
@@ -113,7 +114,7 @@ def fit_attachment(factory: Any, component: str, start: dict[str, float], train:
     objective = SimulationObjective(
         lambda x: factory.plant([_mount(component, **to_params(x))]), train, decimate)
     lo = np.array([np.log(0.2), _ZETA_BOUNDS[0]])
-    hi = np.array([np.log(min(200.0, train.fs_hz / 2.0)), _ZETA_BOUNDS[1]])
+    hi = np.array([np.log(min(200.0, objective.rec.fs_hz / 2.0)), _ZETA_BOUNDS[1]])
     x0 = np.clip([np.log(f0), z0], lo + 1e-9, hi - 1e-9)
     sol = least_squares(objective, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
                         x_scale=[0.1, 0.02])

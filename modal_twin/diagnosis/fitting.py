@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -48,6 +48,28 @@ class FittedEffect:
     seconds: float
     message: str = ""
     std: dict[str, float] = field(default_factory=dict)  # 1-sigma of each parameter
+    at_bound: tuple[str, ...] = ()  # fitted parameters that ended on a bound
+    # filled by the diagnosis's judgement (diagnosis.judge)
+    family: str = ""
+    place: str = ""
+    flags: tuple[str, ...] = ()  # why --auto must not write it (bound, implausible value)
+    rejected: str = ""  # the record it made worse, when it did
+    records: tuple[tuple[str, float, float, float], ...] = ()  # (record, NRMSE before,
+    # after, after / noise floor), NRMSE as the RMS over channels
+
+    def parameter_text(self) -> str:
+        """``name=value ±std`` per parameter; "not determined" where the data do not fix
+        it (no finite standard deviation, or one larger than the value)."""
+        out = []
+        for k, v in self.effect.params.items():
+            s = self.std.get(k)
+            if s is None:
+                out.append(f"{k}={v:.4g}")
+            elif np.isfinite(s) and s <= abs(v):
+                out.append(f"{k}={v:.4g}±{s:.2g}")
+            else:
+                out.append(f"{k}={v:.4g} (not determined)")
+        return ", ".join(out)
 
     @property
     def error_ratio(self) -> float:
@@ -89,41 +111,57 @@ def normalised_residual(plant: Plant, rec: Record, decimate: int, scale: FloatAr
     return ((pred[:, rec.skip:] - rec.scored) / scale)[:, ::decimate].ravel()
 
 
+Records = Record | Sequence[Record]
+
+
+def as_records(rec: Records) -> tuple[Record, ...]:
+    """One record or several as a tuple (the first is the training record proper)."""
+    return (rec,) if isinstance(rec, Record) else tuple(rec)
+
+
 class SimulationObjective:
     """The vector ``least_squares`` minimises: :func:`normalised_residual` of the plant
-    ``build(x)`` on the training record. A trial that fails to simulate (unstable, no
-    convergence) returns a large penalty instead of stopping the fit; ``n`` counts the
-    simulations."""
+    ``build(x)`` on the training record(s), concatenated (each record's channels divided by
+    their own RMS, so a low-level record weighs like a strong one). A trial that fails to
+    simulate (unstable, no convergence) returns a large penalty instead of stopping the fit;
+    ``n`` counts the simulations."""
 
-    def __init__(self, build: Callable[[FloatArray], Plant], rec: Record, decimate: int
+    def __init__(self, build: Callable[[FloatArray], Plant], rec: Records, decimate: int
                  ) -> None:
-        self.build, self.rec, self.decimate = build, rec, decimate
-        self.scale = np.maximum(np.std(rec.scored, axis=1), 1e-300)[:, None]
+        self.build, self.recs, self.decimate = build, as_records(rec), decimate
+        self.rec = self.recs[0]
+        self.scales = [np.maximum(np.std(r.scored, axis=1), 1e-300)[:, None] for r in self.recs]
+        self.size = sum(r.scored[:, ::decimate].size for r in self.recs)
         self.n = 0
 
     def __call__(self, x: FloatArray) -> FloatArray:
         self.n += 1
         try:
-            return normalised_residual(self.build(x), self.rec, self.decimate, self.scale)
+            plant = self.build(x)
+            return np.concatenate([normalised_residual(plant, r, self.decimate, s)
+                                   for r, s in zip(self.recs, self.scales, strict=True)])
         except ModalTwinError as err:
             log.debug("trial %s refused: %s", x, err)
-            return np.full(self.rec.scored[:, ::self.decimate].size, 1e3)
+            return np.full(self.size, 1e3)
 
 
 def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_params: int,
-              train: Record, test: Record, objective: SimulationObjective, t0: float,
+              train: Records, test: Record, objective: SimulationObjective, t0: float,
               std: dict[str, float]) -> FittedEffect:
     """The :class:`FittedEffect` of a finished fit: errors of the fitted and the nominal plant
     on both records and the BIC ``N ln(SSE / N) + p ln N`` of the training residual."""
+    train = as_records(train)[0]
     N = sol.fun.size
     sse = float(sol.fun @ sol.fun)
+    mask = np.asarray(getattr(sol, "active_mask", np.zeros(len(std))))
+    at_bound = tuple(n for n, a in zip(std, mask, strict=False) if a != 0)
     return FittedEffect(
         effect, n_params,
         float(np.mean(record_nmse(simulate_record(fitted, train), train))),
         float(np.mean(record_nmse(simulate_record(fitted, test), test))),
         float(np.mean(record_nmse(simulate_record(nominal, test), test))),
         float(N * np.log(max(sse, 1e-300) / N) + n_params * np.log(N)), objective.n + 3,
-        time.perf_counter() - t0, str(sol.message), std)
+        time.perf_counter() - t0, str(sol.message), std, at_bound)
 
 
 def _transform(law: str, start: dict[str, float], k: float) -> Transform:
@@ -164,7 +202,9 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
         return (["k", "ky", "c", "cy"],
                 lambda x: {"k": k * float(x[0]), "ky": k * float(x[1]),
                            "c": float(x[2]) * start["c0"], "cy": float(x[3]) * start["c0"]},
-                lambda p: np.array([1.0, 1.0, 1.0, 1.0]),
+                lambda p: np.array([p.get("k", k) / k, p.get("ky", k) / k,
+                                    p.get("c", start["c0"]) / start["c0"],
+                                    p.get("cy", start["c0"]) / start["c0"]]),
                 np.array([0.2, 0.2, 0.0, 0.0]), np.array([5.0, 5.0, 20.0, 20.0]))
     msg = f"no fit transform for law {law!r}"
     raise OptionError(msg)
@@ -175,7 +215,7 @@ def fit_effect(
     component: str,
     law: str,
     start: dict[str, float],
-    train: Record,
+    train: Records,
     test: Record,
     *,
     decimate: int = 5,

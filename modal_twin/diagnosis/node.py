@@ -20,7 +20,12 @@ from modal_twin.acquisition.continuity import StreamMonitor, Verdict
 from modal_twin.diagnosis.live import live_diagnosis
 from modal_twin.diagnosis.pipeline import Diagnosis
 from modal_twin.diagnosis.record import Record, record_from_blocks
-from modal_twin.diagnosis.workflow import add_effect, diagnose_model
+from modal_twin.diagnosis.workflow import (
+    add_diagnosed,
+    add_effect,
+    choose_start,
+    diagnose_model,
+)
 from modal_twin.errors import ModalTwinError
 from modal_twin.io.convert import block_from_msg
 from modal_twin.io.params import declare_config
@@ -145,24 +150,18 @@ class DiagnosisNode(Node):
     def _on_add(self, req: AddEffect.Request, res: AddEffect.Response):  # type: ignore[no-untyped-def]
         try:
             train, test = self._records(0.0)
+            model = resolve_config(self.cfg.model_file)
             if req.effect and req.component:
-                component, law, start = req.component, req.effect, {}
-                cand = [f for f in (self.last.fitted if self.last else ())
-                        if (f.effect.component, f.effect.law) == (component, law)]
-                start = dict(cand[0].effect.params) if cand else {}
-                if not start:
-                    msg = (f"no starting parameters for {law} at {component}: run the "
-                           "diagnosis first (it screens the parameters)")
-                    raise ModalTwinError(msg)
+                start = choose_start(load_model(model), req.component, req.effect, train)
+                mv, _ = add_effect(model, req.component, req.effect, start, train, test,
+                                   self.cfg.versions_dir)
             else:
                 d = self.last or self._diagnose(0.0)
-                if d.best is None:
+                written = add_diagnosed(model, d, test, self.cfg.versions_dir)
+                if written is None:
                     msg = f"nothing to add: {d.summary}"
                     raise ModalTwinError(msg)
-                component, law = d.best.effect.component, d.best.effect.law
-                start = dict(d.best.effect.params)
-            mv, _ = add_effect(resolve_config(self.cfg.model_file), component, law, start,
-                               train, test, self.cfg.versions_dir)
+                mv = written
             self.param_pub.publish(version_to_parameters_msg(mv, ModelParameters))
             res.success, res.model_version = True, mv.label
             res.message = f"{mv.note}; written to {mv.path}"

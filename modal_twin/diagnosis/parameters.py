@@ -21,6 +21,7 @@ from scipy.optimize import least_squares
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.fitting import (
     FittedEffect,
+    Records,
     SimulationObjective,
     _parameter_std,
     judge_fit,
@@ -91,7 +92,7 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
     return sorted(out, key=lambda c: -c.gain)
 
 
-def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Record,
+def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Records,
                   test: Record, *, decimate: int = 5, max_nfev: int = 30) -> FittedEffect:
     """Fit one parameter by simulation on ``train``, judge on ``test``.
 

@@ -1,96 +1,164 @@
-"""Whole-job helpers: diagnose a model file, add an effect as a new model version."""
+"""Whole-job helpers: diagnose a model file, choose an effect's start, write new versions.
+
+A model file is any version (:mod:`modal_twin.models.versions`): its effects stay in place
+while the diagnosis looks for the next one, and an effect added to it joins them. Nothing
+is written that makes any record given worse (:mod:`.judge`).
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
-from modal_twin.diagnosis.attachments import MOUNT_LAW, fit_attachment
-from modal_twin.diagnosis.fitting import (
-    FittedEffect,
-    fit_effect,
-    record_nmse,
-    simulate_record,
-)
-from modal_twin.diagnosis.parameters import (
-    PARAMETER_LAWS,
-    ParameterCandidate,
-    fit_parameter,
-)
+import numpy as np
+
+from modal_twin.diagnosis.attachments import MOUNT_LAW, fit_attachment, screen_attachments
+from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
+from modal_twin.diagnosis.judge import figures_on, judge
+from modal_twin.diagnosis.noise import noise_floor, nrmse
+from modal_twin.diagnosis.parameters import PARAMETER_LAWS, ParameterCandidate, fit_parameter
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
 from modal_twin.diagnosis.record import Record
+from modal_twin.diagnosis.screening import parameter_grid
 from modal_twin.errors import OptionError
-from modal_twin.models.loading import ModelFactory, load_model
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import ModelFactory, load_model, merge_effects
 from modal_twin.models.versions import ModelVersion, latest_version, read_version, write_version
 
 __all__ = [
+    "add_diagnosed",
     "add_effect",
     "channel_errors",
+    "choose_start",
     "diagnose_model",
 ]
 
 
 def _factory(mv: ModelVersion) -> ModelFactory:
+    """The factory of a version held in memory (its effects are passed to ``plant``)."""
     return load_model(mv.structure, theta=mv.theta or None)
 
 
 def channel_errors(mv: ModelVersion, rec: Record) -> dict[str, float]:
-    """Held-out NMSE (percent) per channel of a model version on a record."""
+    """Held-out NRMSE (percent) per channel of a model version on a record."""
     plant = _factory(mv).plant(mv.effects)
     keep = [c for c in rec.channel_names if c in plant.channel_names]
     sub = rec.with_channels(keep)
-    nmse = record_nmse(simulate_record(plant, sub), sub)
-    return dict(zip(keep, (float(v) for v in nmse), strict=True))
+    e = 100.0 * nrmse(simulate_record(plant, sub)[:, sub.skip:], sub.scored)
+    return dict(zip(keep, (float(v) for v in e), strict=True))
 
 
 def diagnose_model(model_file: str | Path, train: Record, test: Record,
                    **kwargs: object) -> Diagnosis:
-    """Diagnose a model file (structure or version) against two records."""
-    mv = read_version(model_file)
-    if mv.effects:
-        msg = (f"{model_file}: diagnosing a model that already has effects "
-               f"{[e.law for e in mv.effects]} is not supported yet; diagnose its parent")
+    """Diagnose a model file (structure or any version) against the records."""
+    return diagnose(load_model(model_file), train, test, **kwargs)  # type: ignore[arg-type]
+
+
+def choose_start(factory: ModelFactory, component: str, law: str, train: Record
+                 ) -> dict[str, float]:
+    """Starting parameters of ``law`` at ``component`` from the training record: the best
+    mount frequency of the screening grid, a parameter's current value, or the middle of a
+    device law's grid scaled to the measured drift and force. One rule for the command line
+    and the diagnosis node."""
+    if law == MOUNT_LAW:
+        best = [c for c in screen_attachments(factory, train) if c.component == component]
+        return {"f_hz": best[0].f_hz if best else 10.0, "zeta": 0.05}
+    if law in PARAMETER_LAWS:
+        values = factory.parameters()
+        if component not in values:
+            msg = f"{law}: unknown parameter {component!r}; parameters: {sorted(values)}"
+            raise OptionError(msg)
+        return {component: values[component]}
+    if component not in factory.sites:
+        msg = f"unknown component {component!r}; components: {sorted(factory.sites)}"
         raise OptionError(msg)
-    return diagnose(_factory(mv), train, test, **kwargs)  # type: ignore[arg-type]
+    cols = [f"{component}_d{a}" for a in "xy"] + [f"{component}_f{a}" for a in "xy"]
+    missing = [c for c in cols if c not in train.channel_names]
+    if missing:
+        msg = f"{law} at {component}: the training record lacks {missing}"
+        raise OptionError(msg)
+    u, f = train.channels(cols[:2]), train.channels(cols[2:])
+    spec = factory.sites[component]
+    grid = parameter_grid(law, float(np.abs(u).max()), float(np.abs(f).max()),
+                          float(np.mean(spec.k)), factory.weight(component))
+    return grid[len(grid) // 2]
 
 
-def add_effect(
-    model_file: str | Path,
-    component: str,
-    law: str,
-    start: dict[str, float],
-    train: Record,
-    test: Record,
-    folder: str | Path,
-) -> tuple[ModelVersion, FittedEffect]:
-    """Fit ``law`` at ``component`` on ``train`` and write it as the next model version in
-    ``folder`` (the nominal model becomes version 0 first if the folder is empty). Each
-    version stores its per-channel held-out NMSE, so the folder is the error history."""
-    base = read_version(model_file)
-    if latest_version(folder) is None:
-        write_version(folder, replace(base, note="nominal", errors=channel_errors(base, test)))
-    factory = _factory(base)
-    if law in PARAMETER_LAWS:  # a parameter value, not a device law
+def _fit(factory: ModelFactory, component: str, law: str, start: dict[str, float],
+         train: Record, test: Record) -> FittedEffect:
+    if law in PARAMETER_LAWS:
         values = factory.parameters()
         if component not in values:
             msg = f"{law}: unknown parameter {component!r}; parameters: {sorted(values)}"
             raise OptionError(msg)
         nominal = values[component]
-        cand = ParameterCandidate(component, law, nominal, float(start.get(component, nominal)),
-                                  0.0)
-        fitted = fit_parameter(factory, cand, train, test)
-        new = replace(base, theta={**base.theta, **fitted.effect.params},
-                      note=(f"{law}: {component} = {fitted.effect.params[component]:.6g} "
-                            f"(held-out NMSE {fitted.test_nmse_nominal_pct:.3f} % -> "
-                            f"{fitted.test_nmse_pct:.3f} %)"))
-        new = replace(new, errors=channel_errors(new, test))
-        return write_version(folder, new), fitted
+        cand = ParameterCandidate(component, law, nominal,
+                                  float(start.get(component, nominal)), 0.0)
+        return fit_parameter(factory, cand, train, test)
     if law == MOUNT_LAW:
-        fitted = fit_attachment(factory, component, start, train, test)
-    else:
-        fitted = fit_effect(factory, component, law, start, train, test)
-    new = replace(base, effects=(*base.effects, fitted.effect),
-                  note=(f"added {law} at {component} (held-out NMSE "
-                        f"{fitted.test_nmse_nominal_pct:.3f} % -> {fitted.test_nmse_pct:.3f} %)"))
-    new = replace(new, errors=channel_errors(new, test))
-    return write_version(folder, new), fitted
+        return fit_attachment(factory, component, start, train, test)
+    return fit_effect(factory, component, law, start, train, test)
+
+
+def _version_with(base: ModelVersion, found: Sequence[FittedEffect]) -> ModelVersion:
+    theta = dict(base.theta)
+    effects: tuple[EffectSpec, ...] = tuple(base.effects)
+    for f in found:
+        if f.effect.law in PARAMETER_LAWS:
+            theta.update(f.effect.params)
+        else:
+            effects = merge_effects(effects, [f.effect])
+    return replace(base, theta=theta, effects=effects)
+
+
+def _write(base: ModelVersion, found: Sequence[FittedEffect], test: Record,
+           folder: str | Path, note: str) -> ModelVersion:
+    if latest_version(folder) is None:
+        write_version(folder, replace(base, note="as given", errors=channel_errors(base, test)))
+    new = replace(_version_with(base, found), note=note)
+    return write_version(folder, replace(new, errors=channel_errors(new, test)))
+
+
+def add_effect(model_file: str | Path, component: str, law: str, start: dict[str, float],
+               train: Record, test: Record, folder: str | Path, *,
+               levels: Sequence[Record] = ()) -> tuple[ModelVersion, FittedEffect]:
+    """Fit ``law`` at ``component`` with the model's own effects in place and write the
+    result as the next version in ``folder`` (the model as given becomes the first version
+    if the folder is empty). Each version stores its per-channel held-out NRMSE.
+
+    Raises
+    ------
+    OptionError
+        Unknown component / law, or the fitted effect does not lower the error on the
+        training and held-out records or makes another record worse (nothing is written).
+    """
+    base = read_version(model_file)
+    factory = load_model(model_file)
+    fitted = _fit(factory, component, law, start, train, test)
+    records = [train, test, *levels]
+    noises = [noise_floor(r.scored, r.fs_hz) for r in records]
+    before = figures_on(factory.plant(), records, noises)
+    plant = (factory.with_theta(fitted.effect.params).plant() if law in PARAMETER_LAWS
+             else factory.plant([fitted.effect]))
+    fitted = judge(fitted, plant, before, records, noises)
+    if fitted.rejected:
+        msg = f"{law} at {component} not written: it {fitted.rejected}"
+        raise OptionError(msg)
+    b, a = fitted.records[1][1], fitted.records[1][2]
+    note = (f"added {law} at {component} (held-out NRMSE {100 * b:.3f} % -> {100 * a:.3f} %)")
+    return _write(base, [fitted], test, folder, note), fitted
+
+
+def add_diagnosed(model_file: str | Path, d: Diagnosis, test: Record, folder: str | Path
+                  ) -> ModelVersion | None:
+    """Write every effect the diagnosis ``d`` found (accepted, unflagged, jointly refitted)
+    as the next version; None when it found nothing to add."""
+    if not d.found:
+        return None
+    base = read_version(model_file)
+    names = ", ".join(f"{f.effect.law} at {f.effect.component}" for f in d.found)
+    b, a = d.before[1], d.after[1]
+    note = (f"added {names} (held-out NRMSE median {100 * b.median_nrmse:.3f} % -> "
+            f"{100 * a.median_nrmse:.3f} %)")
+    return _write(base, d.found, test, folder, note)

@@ -11,8 +11,8 @@ from modal_twin.errors import OptionError
 from modal_twin.models.building import build_building, modal_reduction
 from modal_twin.models.devices import Device
 from modal_twin.models.effects import EffectSpec, effect_device
-from modal_twin.models.loading import merge_effects
-from modal_twin.models.plant import Plant, Source
+from modal_twin.models.loading import merge_effects, split_sensor_effects
+from modal_twin.models.plant import Plant, Source, with_sensor_effects
 
 __all__ = ["INPUTS_6DOF", "BuildingFactory"]
 
@@ -79,7 +79,7 @@ class BuildingFactory:
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
         """The plant with ``effects`` placed at their components."""
         bld = self.bld
-        effects = merge_effects(self.base_effects, effects)
+        effects, sensors = split_sensor_effects(merge_effects(self.base_effects, effects))
         devices: dict[str, Device] = {}
         for e in effects:
             if e.component not in bld.device_names:
@@ -108,5 +108,6 @@ class BuildingFactory:
                                    else ("force", f_rows.index(name)))
         label = ",".join(f"{e.component}:{e.law}" for e in effects) or "nominal"
         version = f"#{self.label}" if self.label else ""
-        return Plant(system, INPUTS_6DOF, _QUANTITIES_6DOF, tuple(channels), tuple(sources),
-                     name=f"{bld.spec.name}@{label}{version}")
+        plant = Plant(system, INPUTS_6DOF, _QUANTITIES_6DOF, tuple(channels), tuple(sources),
+                      name=f"{bld.spec.name}@{label}{version}")
+        return with_sensor_effects(plant, sensors)

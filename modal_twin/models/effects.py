@@ -46,7 +46,7 @@ from modal_twin.models.devices import (
 )
 from modal_twin.models.structure_yaml import DEVICE_TYPES, DeviceSpec, make_device
 
-__all__ = ["EFFECT_LAWS", "MOUNT_LAW", "EffectSpec", "effect_device"]
+__all__ = ["EFFECT_LAWS", "MOUNT_LAW", "SENSOR_LAWS", "EffectSpec", "effect_device"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,6 +61,8 @@ class EffectSpec:
 # a rigidly attached mass hung on a spring-damper instead (f_hz, zeta): an effect that
 # changes the structure, not a device law (modal_twin.diagnosis.attachments)
 MOUNT_LAW = "elastic_mount"
+# what a sensor reports is off (a gain, an orientation about z): the component is a channel
+SENSOR_LAWS = ("sensor_gain", "sensor_angle")
 EFFECT_LAWS = ("linear", "stick_slip", "bilinear", "bilinear_hysteretic", "bouc_wen", "cubic",
                "gap")
 

@@ -22,10 +22,10 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
-from modal_twin.models.effects import EffectSpec
+from modal_twin.models.effects import MOUNT_LAW, SENSOR_LAWS, EffectSpec
 from modal_twin.models.plant import Plant
 
-__all__ = ["ModelFactory", "load_model", "merge_effects"]
+__all__ = ["ModelFactory", "load_model", "merge_effects", "split_sensor_effects", "with_effects"]
 
 
 @runtime_checkable
@@ -69,10 +69,23 @@ def merge_effects(base: Iterable[EffectSpec], new: Iterable[EffectSpec]) -> tupl
 
 
 def _slot(law: str) -> str:
-    # one device law per component; mounts and parameter laws are slots of their own
-    from modal_twin.models.effects import MOUNT_LAW
+    # one device law per component; mounts and sensor laws are slots of their own
+    return law if law == MOUNT_LAW or law in SENSOR_LAWS else "device"
 
-    return law if law == MOUNT_LAW else "device"
+
+def split_sensor_effects(effects: Iterable[EffectSpec]
+                         ) -> tuple[tuple[EffectSpec, ...], tuple[EffectSpec, ...]]:
+    """(structural effects, sensor effects) of a list of effects."""
+    effects = tuple(effects)
+    return (tuple(e for e in effects if e.law not in SENSOR_LAWS),
+            tuple(e for e in effects if e.law in SENSOR_LAWS))
+
+
+def with_effects(factory: ModelFactory, effects: Iterable[EffectSpec]) -> ModelFactory:
+    """A factory whose plants carry ``effects`` beside its own base effects."""
+    new = copy.copy(factory)
+    new.base_effects = merge_effects(factory.base_effects, effects)
+    return new
 
 
 def _factory_of(structure: str | Path, theta: Mapping[str, float] | None,

@@ -9,17 +9,19 @@ produce the same channels in the same order.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 
 from modal_twin._types import FloatArray
 from modal_twin.channels import ChannelSpec
-from modal_twin.errors import ShapeError
+from modal_twin.errors import OptionError, ShapeError
+from modal_twin.models.effects import EffectSpec
 from modal_twin.models.reduced import ReducedSystem, SimResult
 
-__all__ = ["Plant"]
+__all__ = ["Plant", "with_sensor_effects"]
 
 Source = tuple[Literal["y", "force"], int]
 
@@ -43,6 +45,10 @@ class Plant:
         device forces.
     name : str
         Model name and version (e.g. ``building@nominal``).
+    readout : (n_channels, n_channels) array, optional
+        What the sensors report of the true channel values (identity when None): a
+        sensor gain error scales a diagonal entry, an orientation error mixes the two
+        horizontal channels of a location (:func:`with_sensor_effects`).
     """
 
     system: ReducedSystem
@@ -51,6 +57,7 @@ class Plant:
     channels: tuple[ChannelSpec, ...]
     sources: tuple[Source, ...]
     name: str = ""
+    readout: FloatArray | None = None
 
     def __post_init__(self) -> None:
         if len(self.sources) != len(self.channels):
@@ -80,4 +87,40 @@ class Plant:
             out[y_rows] = res.y[[self.sources[i][1] for i in y_rows]]
         if f_rows:
             out[f_rows] = res.force[[self.sources[i][1] for i in f_rows]]
-        return out
+        return out if self.readout is None else self.readout @ out
+
+
+def with_sensor_effects(plant: Plant, effects: Iterable[EffectSpec]) -> Plant:
+    """The plant seen through sensors with gain (``sensor_gain``: ``gain``) or orientation
+    (``sensor_angle``: ``angle_deg``, turning the channel's ``_x`` / ``_y`` pair about z)
+    errors. The component of such an effect is a channel name.
+
+    Raises
+    ------
+    OptionError
+        An unknown channel, or an angle on a channel without its horizontal partner.
+    """
+    effects = tuple(effects)
+    if not effects:
+        return plant
+    names = plant.channel_names
+    R = np.eye(len(names)) if plant.readout is None else plant.readout.copy()
+    for e in effects:
+        if e.component not in names:
+            msg = f"{e.law}: unknown channel {e.component!r}; channels: {list(names)[:8]} ..."
+            raise OptionError(msg)
+        i = names.index(e.component)
+        if e.law == "sensor_gain":
+            R[i] *= float(e.params.get("gain", 1.0))
+            continue
+        stem, _, axis = e.component.rpartition("_")
+        partner = f"{stem}_{'y' if axis == 'x' else 'x'}"
+        if axis not in ("x", "y") or partner not in names:
+            msg = f"sensor_angle at {e.component!r}: needs the horizontal pair {partner!r}"
+            raise OptionError(msg)
+        j = names.index(partner)
+        a = np.deg2rad(float(e.params.get("angle_deg", 0.0)))
+        row_i, row_j = R[i].copy(), R[j].copy()
+        s = 1.0 if axis == "x" else -1.0
+        R[i] = np.cos(a) * row_i + s * np.sin(a) * row_j
+    return replace(plant, readout=R, name=f"{plant.name}+sensors")

@@ -17,8 +17,8 @@ from pathlib import Path
 
 from modal_twin.errors import OptionError
 from modal_twin.models.effects import MOUNT_LAW, EffectSpec
-from modal_twin.models.loading import merge_effects
-from modal_twin.models.plant import Plant
+from modal_twin.models.loading import merge_effects, split_sensor_effects
+from modal_twin.models.plant import Plant, with_sensor_effects
 from modal_twin.models.vehicle import build_vehicle
 from modal_twin.models.vehicle_spec import (
     VehicleSpec,
@@ -87,7 +87,7 @@ class VehicleFactory:
             An effect other than ``elastic_mount``, or at an unknown / already elastic item.
         """
         spec = self.spec
-        effects = merge_effects(self.base_effects, effects)
+        effects, sensors = split_sensor_effects(merge_effects(self.base_effects, effects))
         for e in effects:
             if e.law != MOUNT_LAW:
                 msg = (f"effect {e.law!r} at {e.component!r}: a vehicle takes "
@@ -101,4 +101,5 @@ class VehicleFactory:
             spec = equipment_mounted(spec, e.component, float(e.params["f_hz"]),
                                      float(e.params.get("zeta", 0.05)))
         plant = build_vehicle(spec, theta=self.theta or None)
-        return replace(plant, name=f"{plant.name}#{self.label}") if self.label else plant
+        plant = replace(plant, name=f"{plant.name}#{self.label}") if self.label else plant
+        return with_sensor_effects(plant, sensors)

@@ -1,0 +1,114 @@
+"""Decisions a test engineer can trust: every candidate judged on every record given.
+
+- The figure is the normalised RMS of the residual (:mod:`.noise`), per channel, pooled as
+  the RMS over the channels, on every record (training, held-out, and any other level).
+- A candidate must **lower** the error on the training and the held-out record (by 1 %
+  at least) and must **not raise** it on any other record (by more than 1 %: a record at a
+  level where the effect does not engage, such as a low-level record for a friction
+  effect, cannot be improved); otherwise it is rejected, naming the record it failed on.
+- A fit that ends on a bound of its parameters, or with an implausible value (an added mass
+  below 1 % of the floor mass it joins, or negative), is flagged; flagged candidates are
+  reported but never chosen (nor written by ``effects add --auto``).
+- Ranking: accepted and unflagged first; among them, those whose held-out error is within
+  5 % of the best are ranked by the Bayesian information criterion (simpler wins), with the
+  family the evidence named at that place preferred; the rest follow by held-out error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from modal_twin.diagnosis.families import family_of, place_of
+from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
+from modal_twin.diagnosis.noise import ErrorFigures, error_figures
+from modal_twin.diagnosis.record import Record
+from modal_twin.errors import ModalTwinError
+from modal_twin.models.plant import Plant
+
+__all__ = ["figures_on", "judge", "rank"]
+
+LOWER_BY = 0.01  # training and held-out: at least 1 % lower
+WORSE_BY = 0.01  # other records: at most 1 % higher
+TIED = 0.05  # held-out errors within 5 % of the best are ranked by BIC
+
+
+def figures_on(plant: Plant, records: Sequence[Record], noises: Sequence[np.ndarray]
+               ) -> tuple[ErrorFigures, ...]:
+    """:class:`ErrorFigures` of ``plant`` on each record (scored samples)."""
+    out = []
+    for rec, nz in zip(records, noises, strict=True):
+        pred = simulate_record(plant, rec)[:, rec.skip:]
+        out.append(error_figures(pred, rec.scored, rec.channel_names, nz, rec.source))
+    return tuple(out)
+
+
+def _flags(f: FittedEffect, nominal: Mapping[str, float], floor_mass: Mapping[str, float]
+           ) -> tuple[str, ...]:
+    flags = [f"{n} at its bound" for n in f.at_bound]
+    if f.effect.law == "added_mass":
+        name = f.effect.component
+        added = f.effect.params[name] - nominal.get(name, 0.0)
+        ref = floor_mass.get(name, nominal.get(name, 0.0))
+        if added < 0:
+            flags.append(f"implausible: {name} loses {-added:.4g} kg (an added mass cannot "
+                         "be negative)")
+        elif ref > 0 and added < 0.01 * ref:
+            flags.append(f"implausible: added mass {added:.4g} kg is below 1 % of the "
+                         f"{ref:.4g} kg it joins")
+    return tuple(flags)
+
+
+def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
+          records: Sequence[Record], noises: Sequence[np.ndarray], *,
+          nominal_values: Mapping[str, float] | None = None,
+          floor_mass: Mapping[str, float] | None = None,
+          nominal_k: float | None = None, nominal_c: float | None = None) -> FittedEffect:
+    """``f`` with its family, place, per-record errors, flags and rejection filled in.
+
+    ``records[0]`` is the training record and ``records[1]`` the held-out one.
+    """
+    try:
+        after = figures_on(plant, records, noises)
+    except ModalTwinError as err:
+        return replace(f, rejected=f"does not simulate: {err}")
+    rows = tuple((b.record, b.total, a.total, a.median_over_noise)
+                 for b, a in zip(before, after, strict=True))
+    rejected = ""
+    for i, (b, a) in enumerate(zip(before, after, strict=True)):
+        must_lower = i < 2
+        if must_lower and not a.total < (1 - LOWER_BY) * b.total:
+            rejected = (f"does not lower the error on {b.record or f'record {i}'} "
+                        f"({100 * b.total:.2f} % -> {100 * a.total:.2f} %)")
+            break
+        if not must_lower and a.total > (1 + WORSE_BY) * b.total:
+            rejected = (f"makes {b.record or f'record {i}'} worse "
+                        f"({100 * b.total:.2f} % -> {100 * a.total:.2f} %)")
+            break
+    return replace(f, family=family_of(f.effect, nominal_k=nominal_k, nominal_c=nominal_c),
+                   place=place_of(f.effect), records=rows, rejected=rejected,
+                   flags=_flags(f, nominal_values or {}, floor_mass or {}))
+
+
+def held_out(f: FittedEffect) -> float:
+    """Held-out NRMSE after (RMS over channels); inf when not judged."""
+    return f.records[1][2] if len(f.records) > 1 else float("inf")
+
+
+def rank(fits: Sequence[FittedEffect], evidence_family: Mapping[str, str] | None = None
+         ) -> list[FittedEffect]:
+    """Order of the module docstring: usable first, then ties on held-out error by BIC."""
+    ev = evidence_family or {}
+    usable = [f for f in fits if not f.rejected and not f.flags]
+    rest = [f for f in fits if f.rejected or f.flags]
+    best = min((held_out(f) for f in usable), default=float("inf"))
+
+    def key(f: FittedEffect) -> tuple[float, ...]:
+        h = held_out(f)
+        tied = h <= (1 + TIED) * best
+        mismatch = float(ev.get(f.place, f.family) != f.family)
+        return (0.0, mismatch, f.bic, h) if tied else (1.0, h, 0.0, f.bic)
+
+    return sorted(usable, key=key) + sorted(rest, key=held_out)

@@ -1,0 +1,94 @@
+"""Sensor candidates: a channel whose error is its own reading scaled or turned.
+
+A gain error ``g`` on a channel makes its residual ``y - y_hat = (g - 1) y_hat`` (plus
+noise); an orientation error ``a`` about z mixes in the horizontal partner,
+``y_x = cos(a) y_hat_x + sin(a) y_hat_y``. Both are fitted in closed form (least squares
+on the training record) and kept as candidates only for channels whose error is
+significant while the other channels at the same place are not: a structural effect
+shows at every channel of a place, a sensor fault at one.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from modal_twin._types import FloatArray
+from modal_twin.diagnosis.fitting import FittedEffect, record_nmse, simulate_record
+from modal_twin.diagnosis.record import Record
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import ModelFactory
+
+__all__ = ["SensorCandidate", "fit_sensor", "screen_sensors"]
+
+
+@dataclass(frozen=True, slots=True)
+class SensorCandidate:
+    """A channel whose residual a gain or an orientation explains."""
+
+    channel: str
+    law: str  # sensor_gain | sensor_angle
+    value: float  # gain, or angle in degrees
+    gain: float  # share of the channel's residual energy removed (training record)
+    std: float = float("nan")  # 1-sigma of value (white residual assumed)
+
+
+def screen_sensors(names: Sequence[str], measured: FloatArray, predicted: FloatArray,
+                   significant: Sequence[str], *, min_share: float = 0.6
+                   ) -> list[SensorCandidate]:
+    """Sensor candidates among ``significant`` channels (module docstring), best first."""
+    idx = {n: i for i, n in enumerate(names)}
+    sig = set(significant)
+    out: list[SensorCandidate] = []
+    for ch in significant:
+        place = ch.rpartition("_")[0]
+        mates = [n for n in names if n != ch and n.rpartition("_")[0] == place]
+        if any(m in sig for m in mates):
+            continue  # the whole place is off: structural, not one sensor
+        i = idx[ch]
+        y, p = measured[i], predicted[i]
+        e0 = float(np.sum((y - p) ** 2))
+        pp = float(p @ p)
+        if e0 <= 0 or pp <= 0:
+            continue
+        g = float(y @ p) / pp
+        e1 = float(np.sum((y - g * p) ** 2))
+        share = 1.0 - e1 / e0
+        best = SensorCandidate(ch, "sensor_gain", g, share,
+                               float(np.sqrt(e1 / max(y.size - 1, 1) / pp)))
+        stem, _, axis = ch.rpartition("_")
+        partner = f"{stem}_{'y' if axis == 'x' else 'x'}"
+        if axis in ("x", "y") and partner in idx:
+            q = predicted[idx[partner]] * (1.0 if axis == "x" else -1.0)
+            A = np.column_stack([p, q])
+            (c, s), *_ = np.linalg.lstsq(A, y, rcond=None)
+            ang = float(np.degrees(np.arctan2(s, c)))
+            sh = 1.0 - float(np.sum((y - A @ np.array([c, s])) ** 2)) / e0
+            if sh > share + 0.1 and abs(np.hypot(c, s) - 1.0) < 0.05:
+                best = SensorCandidate(ch, "sensor_angle", ang, sh)
+        if best.gain >= min_share:
+            out.append(best)
+    return sorted(out, key=lambda c: -c.gain)
+
+
+def fit_sensor(factory: ModelFactory, cand: SensorCandidate, train: Record, test: Record
+               ) -> FittedEffect:
+    """The sensor effect of ``cand`` as a fitted candidate (errors on both records)."""
+    t0 = time.perf_counter()
+    key = "gain" if cand.law == "sensor_gain" else "angle_deg"
+    effect = EffectSpec(cand.channel, cand.law, {key: cand.value})
+    plant, nominal = factory.plant([effect]), factory.plant()
+    pred_train = simulate_record(plant, train)
+    scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
+    fun = ((pred_train[:, train.skip:] - train.scored) / scale)[:, ::5].ravel()
+    n = fun.size
+    sse = float(fun @ fun)
+    return FittedEffect(
+        effect, 1, float(np.mean(record_nmse(pred_train, train))),
+        float(np.mean(record_nmse(simulate_record(plant, test), test))),
+        float(np.mean(record_nmse(simulate_record(nominal, test), test))),
+        float(n * np.log(max(sse, 1e-300) / n) + np.log(n)), 3, time.perf_counter() - t0,
+        "closed form", {key: cand.std})
