@@ -30,7 +30,7 @@ def harmonic(amps: list[float], f_hz: float = 0.5, cycles: int = 3) -> tuple[np.
     return u, v, w
 
 
-def test_coulomb_loop_dissipates_4FA_per_cycle() -> None:
+def test_coulomb_loop_dissipates_4_f_a_per_cycle() -> None:
     F = 5.0e4
     u, v, _ = harmonic([0.05, 0.1, 0.2])
     f = K * u + F * np.tanh(v / 1e-5)
@@ -42,7 +42,7 @@ def test_coulomb_loop_dissipates_4FA_per_cycle() -> None:
     assert e_slope == pytest.approx(1.0, abs=0.05)
 
 
-def test_viscous_change_dissipates_pi_dc_w_A2() -> None:
+def test_viscous_change_dissipates_pi_dc_w_a2() -> None:
     dc = 2.0e4
     u, v, w = harmonic([0.05, 0.1, 0.2])
     f = K * u + (C + dc) * v
