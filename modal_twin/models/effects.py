@@ -25,6 +25,7 @@ from modal_twin.models.devices.registry import (
     LAWS,
     Site,
     build_effect_device,
+    canonical_law,
     law_names,
 )
 from modal_twin.models.structure_yaml import DeviceSpec
@@ -34,11 +35,20 @@ __all__ = ["EFFECT_LAWS", "MOUNT_LAW", "EffectSpec", "effect_device"]
 
 @dataclass(frozen=True, slots=True)
 class EffectSpec:
-    """A physical effect placed at a model component, with its parameters."""
+    """A physical effect placed at a model component, with its parameters.
+
+    A deprecated law name (:data:`~modal_twin.models.devices.registry.ALIASES`) is replaced
+    by its canonical name, so that every stage downstream sees one name per law.
+    """
 
     component: str
     law: str
     params: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        """Replace an alias by the canonical law name (logs a deprecation note once)."""
+        if self.law in ALIASES:
+            object.__setattr__(self, "law", canonical_law(self.law))
 
 
 # a rigidly attached mass hung on a spring-damper instead (f_hz, zeta): an effect that

@@ -55,7 +55,7 @@ import numpy as np
 from modal_twin._types import FloatArray
 from modal_twin.errors import ConfigError, ModelError
 from modal_twin.models.devices import Device
-from modal_twin.models.devices.registry import ALIASES, LAWS, Site, build_device
+from modal_twin.models.devices.registry import ALIASES, LAWS, Site, build_device, canonical_law
 from modal_twin.models.fe import FEModel, NodeId
 from modal_twin.yaml_files import read_yaml
 
@@ -98,7 +98,8 @@ class DeviceSpec:
     kz : float
         Vertical stiffness, N/m (0: the device carries no vertical load).
     type : str
-        Nonlinear law, one of :data:`DEVICE_TYPES`.
+        Nonlinear law, one of :data:`DEVICE_TYPES` (a parsed file's aliases are replaced by
+        the canonical name).
     params : dict
         Keyword parameters of the law (SI).
     """
@@ -449,7 +450,7 @@ def _devices(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> tuple[DeviceSpec
             n, None, k={"ux": k[0], "uy": k[1], "uz": kz}, c={"ux": c[0], "uy": c[1]},
             k_params={"ux": f"k_{nm}_x", "uy": f"k_{nm}_y"},
             c_params={"ux": f"c_{nm}_x", "uy": f"c_{nm}_y"}))
-        spec = DeviceSpec(name=name, node=node, k=k, c=c, kz=kz, type=dtype,
+        spec = DeviceSpec(name=name, node=node, k=k, c=c, kz=kz, type=canonical_law(dtype),
                           params=dict(params))
         try:
             make_device(spec, weight=1.0)  # validate the law's parameters now

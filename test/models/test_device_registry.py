@@ -25,7 +25,7 @@ from modal_twin.models.devices.registry import (
     law_names,
     markdown_table,
 )
-from modal_twin.models.effects import EFFECT_LAWS, effect_device
+from modal_twin.models.effects import EFFECT_LAWS, EffectSpec, effect_device
 from modal_twin.models.structure_yaml import DeviceSpec, make_device, parse_structure
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -151,7 +151,10 @@ def test_alias_builds_the_same_device_with_one_deprecation_note(
     notes = [r.getMessage() for r in caplog.records if "deprecated" in r.getMessage()]
     assert notes == [f"device law {alias!r} is deprecated: use {canonical!r} (same law)"]
     assert law_entry(alias) is LAWS[canonical]
-    parse_structure(_doc(alias, params))  # a structure file may still name it
+    # a structure file and an effect may still name it; downstream sees the canonical name
+    assert parse_structure(_doc(alias, params)).devices[0].type == canonical
+    assert EffectSpec("D1", alias, {}).law == canonical
+    assert EffectSpec("D1", "elastic_mount", {}).law == "elastic_mount"  # not a device law
 
 
 def test_kind_codes_equal_the_dispatch() -> None:
