@@ -43,6 +43,7 @@ from numba import njit
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError, OptionError, ShapeError, SignalError
+from modal_twin.models.devices.bouc_wen import bouc_wen_history
 
 __all__ = [
     "CLASSES",
@@ -170,26 +171,6 @@ def state_derivatives(
     return x_f, v, a
 
 
-@njit(cache=True)
-def _bw_state(y, a, b, nu, nsub):  # pragma: no cover - jitted
-    w = np.empty_like(y)
-    w[0] = 0.0
-    s = 0.0
-    for i in range(1, y.size):
-        h = (y[i] - y[i - 1]) / nsub
-        for _ in range(nsub):
-            k1 = h - a * abs(h) * abs(s) ** (nu - 1.0) * s - b * h * abs(s) ** nu
-            s2 = s + 0.5 * k1
-            k2 = h - a * abs(h) * abs(s2) ** (nu - 1.0) * s2 - b * h * abs(s2) ** nu
-            s3 = s + 0.5 * k2
-            k3 = h - a * abs(h) * abs(s3) ** (nu - 1.0) * s3 - b * h * abs(s3) ** nu
-            s4 = s + k3
-            k4 = h - a * abs(h) * abs(s4) ** (nu - 1.0) * s4 - b * h * abs(s4) ** nu
-            s += (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
-        w[i] = s
-    return w
-
-
 def bouc_wen_state(
     y: FloatArray, a: float, b: float, *, nu: float = 1.0, n_sub: int = 4
 ) -> FloatArray:
@@ -198,7 +179,9 @@ def bouc_wen_state(
     ``w' = y' - a |y'| |w|^(nu - 1) w - b y' |w|^nu``: the hysteretic variable of Eq. (10)
     of [004] in its uniaxial form with unit initial slope (the force is ``z = alpha w``).
     Rate independent, so it is integrated along the displacement path (RK4, ``n_sub``
-    sub-steps per sample).
+    sub-steps per sample) by the one Bouc-Wen integrator,
+    :func:`modal_twin.models.devices.bouc_wen.bouc_wen_history` (A = 1, beta = a,
+    gamma = b).
 
     Parameters
     ----------
@@ -216,11 +199,7 @@ def bouc_wen_state(
     FloatArray
         Shape (nt,), m.
     """
-    if not nu >= 1.0:
-        msg = f"nu: expected nu >= 1, got {nu!r}"
-        raise OptionError(msg)
-    return _bw_state(np.ascontiguousarray(y, dtype=float), float(a), float(b), float(nu),
-                     int(n_sub))
+    return bouc_wen_history(y, beta=a, gamma=b, A=1.0, nu=nu, n_sub=n_sub)
 
 
 @njit(cache=True)
@@ -444,7 +423,7 @@ def _library(rf: RestoringForceMap) -> tuple[FloatArray, dict[str, list[FloatArr
     lin = np.column_stack([_unit(y), _unit(v), _unit(rf.a), np.ones_like(y)])
     hyst = [_unit(stop_operator(yc, q * sy))[:, None] for q in _STOP_LEVELS]
     for ga, gb in _BW_GRID:
-        w = _bw_state(yc, ga / ymax, gb / ymax, 1.0, 2)
+        w = bouc_wen_history(yc, beta=ga / ymax, gamma=gb / ymax, A=1.0, nu=1.0, n_sub=2)
         if np.all(np.isfinite(w)) and np.max(np.abs(w)) < 50 * ymax:
             hyst.append(_unit(w)[:, None])
     groups = {

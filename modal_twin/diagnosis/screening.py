@@ -26,7 +26,7 @@ import numpy as np
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.restoring_force import state_derivatives
 from modal_twin.errors import ModalTwinError
-from modal_twin.models.effects import effect_device
+from modal_twin.models.effects import EFFECT_LAWS, effect_device
 from modal_twin.models.structure_yaml import DeviceSpec
 
 __all__ = ["ScreenedCandidate", "drift_velocity", "parameter_grid", "screen_components"]
@@ -65,7 +65,8 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
     return [{}]
 
 
-SCREEN_LAWS = ("stick_slip", "bilinear", "bilinear_hysteretic", "bouc_wen", "cubic", "gap")
+# the registry's laws with a relative form, but the nominal law itself
+SCREEN_LAWS = tuple(law for law in EFFECT_LAWS if law != "linear")
 
 
 def drift_velocity(u: FloatArray, fs_hz: float, cutoff_hz: float) -> FloatArray:

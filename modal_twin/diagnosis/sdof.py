@@ -40,6 +40,7 @@ from modal_twin.diagnosis.restoring_force import (
     state_derivatives,
 )
 from modal_twin.errors import ModelError, OptionError
+from modal_twin.models.devices.bouc_wen import bw_rate_uniaxial
 
 __all__ = [
     "BoucWenSDOF",
@@ -152,12 +153,7 @@ class SDOFFit:
 @njit(cache=True)
 def _rhs(y, v, z, u, m, c, k, al, a, b, nu):  # pragma: no cover - jitted
     acc = (u - c * v - k * y - z) / m  # Eq. (1)
-    az = abs(z)
-    if nu == 1.0:
-        dz = al * v - a * abs(v) * z - b * v * az  # Eq. (2), nu = 1
-    else:
-        dz = al * v - a * abs(v) * az ** (nu - 1.0) * z - b * v * az**nu  # Eq. (2)
-    return acc, dz
+    return acc, bw_rate_uniaxial(al, a, b, nu, z, v)  # Eq. (2)
 
 
 @njit(cache=True)

@@ -6,56 +6,49 @@ expressed relative to what the component already has (its nominal stiffness ``k`
 The rig uses it to build truths the nominal model lacks; the diagnosis uses it to add a
 candidate effect to the model.
 
-========================  ======================================================  ==========
-law                       device and parameters (defaults)                        source
-========================  ======================================================  ==========
-``linear``                k-c spring-dashpot (``k``, ``c`` nominal)               Eq. (1) [004]
-``stick_slip``            Coulomb friction in series with the nominal stiffness:  Sec. 6 [004]
-                          static ``mu_s`` and kinetic ``mu_k`` coefficients times
-                          ``W`` (or forces ``Fs``, ``Fk`` in N), ``kt_factor`` 1
-``bilinear``              elastic bilinear (Eq. (9) of [004]): post-yield         Eq. (9) [004]
-                          ``ratio`` = kb / k (0.75) above ``ub`` (0.03 m)
-``bilinear_hysteretic``   the same with kinematic hardening (dissipative)         [004]
-``bouc_wen``              bidirectional Bouc-Wen hysteresis (Eqs. 10, 11b):       Eqs. 10-11 [004]
-                          initial stiffness ``k`` (nominal), post-yield ratio
-                          ``alpha`` (0.3), yield drift ``uy`` (0.03 m)
-``cubic``                 k u + ``k3`` u^3 (N/m^3; < 0 softening)                 Eq. (2) [003]
-``gap``                   spring ``k`` (nominal) acting beyond a gap ``g`` (m)
-others                    any type of :data:`~modal_twin.models.structure_yaml.DEVICE_TYPES`
-                          with explicit parameters
-========================  ======================================================  ==========
+The laws, their families, parameters and defaults are those of the one device registry,
+:mod:`modal_twin.models.devices.registry` (the README renders it as a table):
+:data:`EFFECT_LAWS` are the laws with a relative form (``linear``, ``stick_slip``,
+``bilinear``, ``bilinear_hysteretic``, ``bouc_wen``, ``cubic``, ``gap``); every other law
+(``bouc_wen_esb``, ``prandtl``) and any law given its absolute parameters (``kb`` of
+``bilinear``, ``A`` of ``bouc_wen`` ...) is built as in a structure file.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from typing import Any
-
-import numpy as np
+from dataclasses import dataclass, field
 
 from modal_twin.errors import OptionError
-from modal_twin.models.devices import (
-    BilinearElastic,
-    BilinearHysteretic,
-    BoucWenSDP,
-    CoulombFriction,
-    CubicSpring,
-    Device,
-    GapSpring,
-    LinearDevice,
+from modal_twin.models.devices import Device
+from modal_twin.models.devices.registry import (
+    ALIASES,
+    LAWS,
+    Site,
+    build_effect_device,
+    canonical_law,
+    law_names,
 )
-from modal_twin.models.structure_yaml import DEVICE_TYPES, DeviceSpec, make_device
+from modal_twin.models.structure_yaml import DeviceSpec
 
 __all__ = ["EFFECT_LAWS", "MOUNT_LAW", "SENSOR_LAWS", "EffectSpec", "effect_device"]
 
 
 @dataclass(frozen=True, slots=True)
 class EffectSpec:
-    """A physical effect placed at a model component, with its parameters."""
+    """A physical effect placed at a model component, with its parameters.
+
+    A deprecated law name (:data:`~modal_twin.models.devices.registry.ALIASES`) is replaced
+    by its canonical name, so that every stage downstream sees one name per law.
+    """
 
     component: str
     law: str
     params: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        """Replace an alias by the canonical law name (logs a deprecation note once)."""
+        if self.law in ALIASES:
+            object.__setattr__(self, "law", canonical_law(self.law))
 
 
 # a rigidly attached mass hung on a spring-damper instead (f_hz, zeta): an effect that
@@ -63,62 +56,32 @@ class EffectSpec:
 MOUNT_LAW = "elastic_mount"
 # what a sensor reports is off (a gain, an orientation about z): the component is a channel
 SENSOR_LAWS = ("sensor_gain", "sensor_angle")
-EFFECT_LAWS = ("linear", "stick_slip", "bilinear", "bilinear_hysteretic", "bouc_wen", "cubic",
-               "gap")
-
-
-def _take(p: dict[str, Any], key: str, default: float) -> float:
-    return float(p.pop(key, default))
+EFFECT_LAWS: tuple[str, ...] = law_names(relative=True)
+"""Laws that build from parameters relative to a component's nominal k, c, W."""
 
 
 def effect_device(spec: DeviceSpec, law: str, params: dict[str, float], *,
                   weight: float = 0.0) -> Device:
-    """Device with law ``law`` at component ``spec`` (named ``spec.name``, bidirectional).
+    """Device with law ``law`` at component ``spec`` (named ``spec.name``).
+
+    Parameters
+    ----------
+    spec : DeviceSpec
+        The component (its nominal ``k``, ``c``).
+    law : str
+        A law of :mod:`modal_twin.models.devices.registry` (aliases accepted with a
+        deprecation note).
+    params : dict
+        Relative (or absolute) parameters, see the registry.
+    weight : float
+        Vertical load carried by the component, N.
 
     Raises
     ------
     OptionError
         Unknown law (lists the valid ones), unknown parameters, or friction without weight.
     """
-    p: dict[str, Any] = dict(params)
-    k = float(np.mean(spec.k))
-    c = [float(v) for v in spec.c]
-    name = spec.name
-    dev: Device
-    if law == "linear":
-        dev = LinearDevice([_take(p, "k", spec.k[0]), _take(p, "ky", spec.k[1])],
-                           [_take(p, "c", c[0]), _take(p, "cy", c[1])], name=name)
-    elif law == "stick_slip":
-        if "Fs" in p or "Fk" in p:
-            Fs, Fk = _take(p, "Fs", 0.0), _take(p, "Fk", 0.0)
-        else:
-            if weight <= 0:
-                msg = f"stick_slip at {name}: mu_s / mu_k need the carried weight; give Fs, Fk"
-                raise OptionError(msg)
-            Fs, Fk = _take(p, "mu_s", 0.09) * weight, _take(p, "mu_k", 0.06) * weight
-        dev = CoulombFriction(Fs, Fk, k * _take(p, "kt_factor", 1.0), float(np.mean(c)),
-                              n_dir=2, name=name)
-    elif law in ("bilinear", "bilinear_hysteretic"):
-        cls = BilinearElastic if law == "bilinear" else BilinearHysteretic
-        k1 = _take(p, "k", k)
-        dev = cls(k1, _take(p, "ratio", 0.75) * k1, _take(p, "ub", 0.03), c, name=name)
-    elif law == "bouc_wen":  # z saturates at sqrt(A / (beta + gamma)) = uy with A = 1
-        scale = _take(p, "k", k) / k
-        uy = _take(p, "uy", 0.03)
-        b = 0.5 / uy**2
-        dev = BoucWenSDP(1.0, b, b, np.diag(scale * np.asarray(spec.k, float)),
-                         _take(p, "alpha", 0.3), c, name=name)
-    elif law == "cubic":
-        dev = CubicSpring(_take(p, "k", k), _take(p, "k3", 0.0), c, name=name)
-    elif law == "gap":
-        dev = GapSpring(_take(p, "k", k), _take(p, "g", 0.01), float(np.mean(c)), n_dir=2,
-                        name=name)
-    elif law in DEVICE_TYPES:
-        return make_device(replace(spec, type=law, params=dict(params)), weight=weight)
-    else:
-        msg = f"unknown effect law {law!r}; valid: {sorted({*EFFECT_LAWS, *DEVICE_TYPES})}"
+    if law not in LAWS and law not in ALIASES:
+        msg = f"unknown effect law {law!r}; valid: {list(LAWS)} (aliases: {list(ALIASES)})"
         raise OptionError(msg)
-    if p:
-        msg = f"effect {law} at {name}: unknown parameters {sorted(p)}"
-        raise OptionError(msg)
-    return dev
+    return build_effect_device(law, params, Site(spec.name, spec.k, spec.c, weight))

@@ -54,15 +54,8 @@ import numpy as np
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ConfigError, ModelError
-from modal_twin.models.devices import (
-    BilinearElastic,
-    BilinearHysteretic,
-    BoucWenESB,
-    BoucWenSDP,
-    CubicSpring,
-    Device,
-    LinearDevice,
-)
+from modal_twin.models.devices import Device
+from modal_twin.models.devices.registry import ALIASES, LAWS, Site, build_device, canonical_law
 from modal_twin.models.fe import FEModel, NodeId
 from modal_twin.yaml_files import read_yaml
 
@@ -78,11 +71,9 @@ __all__ = [
     "parse_structure",
 ]
 
-DEVICE_TYPES: tuple[str, ...] = (
-    "linear", "bilinear_elastic", "bilinear_hysteretic", "bouc_wen_esb", "bouc_wen_sdp",
-    "cubic",
-)
-"""Device laws a structure file may name (see :mod:`modal_twin.models.devices`)."""
+DEVICE_TYPES: tuple[str, ...] = tuple(LAWS)
+"""Device laws a structure file may name: the registry's canonical names
+(:mod:`modal_twin.models.devices.registry`; its deprecated aliases are accepted too)."""
 
 _TOP_KEYS = ("name", "description", "source", "gravity", "materials", "sections", "nodes",
              "frames", "masses", "diaphragms", "supports", "devices", "sensors", "input",
@@ -107,7 +98,8 @@ class DeviceSpec:
     kz : float
         Vertical stiffness, N/m (0: the device carries no vertical load).
     type : str
-        Nonlinear law, one of :data:`DEVICE_TYPES`.
+        Nonlinear law, one of :data:`DEVICE_TYPES` (a parsed file's aliases are replaced by
+        the canonical name).
     params : dict
         Keyword parameters of the law (SI).
     """
@@ -439,7 +431,7 @@ def _devices(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> tuple[DeviceSpec
         where = f"devices[{i}] ({name})"
         node = cx.get(d, "node", where)
         dtype = cx.get(d, "type", where)
-        if dtype not in DEVICE_TYPES:
+        if dtype not in DEVICE_TYPES and dtype not in ALIASES:
             raise cx.config(at=f"{where}.type", what=
                             f"unknown device type {dtype!r}; valid: {list(DEVICE_TYPES)}")
         k = cx.vector(cx.get(d, "k", where), 2, f"{where}.k")
@@ -458,7 +450,7 @@ def _devices(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> tuple[DeviceSpec
             n, None, k={"ux": k[0], "uy": k[1], "uz": kz}, c={"ux": c[0], "uy": c[1]},
             k_params={"ux": f"k_{nm}_x", "uy": f"k_{nm}_y"},
             c_params={"ux": f"c_{nm}_x", "uy": f"c_{nm}_y"}))
-        spec = DeviceSpec(name=name, node=node, k=k, c=c, kz=kz, type=dtype,
+        spec = DeviceSpec(name=name, node=node, k=k, c=c, kz=kz, type=canonical_law(dtype),
                           params=dict(params))
         try:
             make_device(spec, weight=1.0)  # validate the law's parameters now
@@ -510,8 +502,10 @@ def make_device(spec: DeviceSpec, *, weight: float | None = None) -> Device:
     Parameters
     ----------
     spec : DeviceSpec
-        Device; ``spec.params`` are the law's keyword arguments. A ``linear`` law defaults
-        to the nominal ``k`` and ``c``; ``c`` of every law defaults to the nominal ``c``.
+        Device; ``spec.type`` a law of the registry
+        (:mod:`modal_twin.models.devices.registry`, aliases accepted with a deprecation
+        note) and ``spec.params`` its absolute parameters. A ``linear`` law defaults to the
+        nominal ``k`` and ``c``; ``c`` of every law defaults to the nominal ``c``.
     weight : float, optional
         Vertical load on the device, N: used by ``bouc_wen_esb`` when ``params.W`` is absent
         or ``"auto"`` (Eq. (11a) of [004] needs the weight carried).
@@ -519,7 +513,7 @@ def make_device(spec: DeviceSpec, *, weight: float | None = None) -> Device:
     Returns
     -------
     Device
-        A bidirectional law named ``spec.name``.
+        A bidirectional law named ``spec.name`` (``prandtl``: uniaxial, x).
 
     Raises
     ------
@@ -528,30 +522,7 @@ def make_device(spec: DeviceSpec, *, weight: float | None = None) -> Device:
     ModelError
         Parameters the law refuses.
     """
-    p = dict(spec.params)
-    c = [float(v) for v in p.pop("c", spec.c)]
-    name = spec.name
-    kind = spec.type
-    if kind == "linear":
-        k = [float(v) for v in p.pop("k", spec.k)]
-        return LinearDevice(k, c, name=name, **p)
-    if kind in ("bilinear_elastic", "bilinear_hysteretic"):
-        cls = BilinearElastic if kind == "bilinear_elastic" else BilinearHysteretic
-        return cls(float(p.pop("k")), float(p.pop("kb")), float(p.pop("ub")), c, name=name, **p)
-    if kind == "bouc_wen_esb":
-        W = p.pop("W", "auto")
-        if W == "auto":
-            if weight is None:
-                msg = f"device {name}: params.W is 'auto' and no weight was given"
-                raise ConfigError(msg)
-            W = weight
-        return BoucWenESB(float(p.pop("A")), float(p.pop("beta")), float(p.pop("gamma")), c,
-                          W=float(W), name=name, **p)
-    if kind == "bouc_wen_sdp":
-        K = np.asarray(p.pop("K"), dtype=float)
-        return BoucWenSDP(float(p.pop("A")), float(p.pop("beta")), float(p.pop("gamma")), K,
-                          float(p.pop("alpha")), c, name=name, **p)
-    if kind == "cubic":
-        return CubicSpring(float(p.pop("k1")), float(p.pop("k3")), c, name=name, **p)
-    msg = f"device {name}: unknown type {kind!r}; valid: {list(DEVICE_TYPES)}"
-    raise ConfigError(msg)
+    if spec.type not in DEVICE_TYPES and spec.type not in ALIASES:
+        msg = f"device {spec.name}: unknown type {spec.type!r}; valid: {list(DEVICE_TYPES)}"
+        raise ConfigError(msg)
+    return build_device(spec.type, spec.params, Site(spec.name, spec.k, spec.c, weight))

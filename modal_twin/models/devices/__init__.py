@@ -1,4 +1,7 @@
-"""Nonlinear device laws (one law per module, each a numba function the twin also calls)."""
+"""Nonlinear device laws (one law per module, each a numba function the twin also calls).
+
+Their names, kind codes, builders, defaults and families: :mod:`.registry`.
+"""
 
 from __future__ import annotations
 

@@ -5,6 +5,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from modal_twin.models.devices.base import (
+    KIND_BILINEAR_ELASTIC,
+    KIND_BILINEAR_HYSTERETIC,
+    KIND_BW_ESB,
+    KIND_BW_SDP,
+    KIND_COULOMB,
+    KIND_CUBIC,
+    KIND_GAP,
+    KIND_LINEAR,
+    KIND_PRANDTL,
+)
 from modal_twin.models.devices.bilinear import law_bilinear_elastic, law_bilinear_hysteretic
 from modal_twin.models.devices.bouc_wen import law_bw_esb, law_bw_sdp
 from modal_twin.models.devices.coulomb import law_coulomb
@@ -18,24 +29,29 @@ __all__ = ["drive_law", "evaluate_law"]
 
 @njit(cache=True)
 def evaluate_law(kind, p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
-    """Call the law of ``kind`` (see base.KIND_*); outputs written in place."""
-    if kind == 0:
+    """Call the law of ``kind`` (base.KIND_*); outputs written in place.
+
+    The KIND_* are module-level ints, which numba freezes as compile-time constants: the
+    comparisons compile to the same code as literals. numba's disk cache is keyed on this
+    file only: after changing a code in base.py, touch this file (and twin/kernels.py).
+    """
+    if kind == KIND_LINEAR:
         law_linear(p, s, u, v, f, Kt, Ct, s_new)
-    elif kind == 1:
+    elif kind == KIND_BILINEAR_ELASTIC:
         law_bilinear_elastic(p, s, u, v, f, Kt, Ct, s_new)
-    elif kind == 2:
+    elif kind == KIND_BILINEAR_HYSTERETIC:
         law_bilinear_hysteretic(p, s, u, v, f, Kt, Ct, s_new)
-    elif kind == 3:
+    elif kind == KIND_BW_ESB:
         law_bw_esb(p, s, u, v, f, Kt, Ct, s_new)
-    elif kind == 4:
+    elif kind == KIND_BW_SDP:
         law_bw_sdp(p, s, u, v, f, Kt, Ct, s_new)
-    elif kind == 5:
+    elif kind == KIND_PRANDTL:
         law_prandtl(p, s, u, v, f, Kt, Ct, s_new)
-    elif kind == 6:
+    elif kind == KIND_CUBIC:
         law_cubic(p, s, u, v, f, Kt, Ct, s_new)
-    elif kind == 7:
+    elif kind == KIND_COULOMB:
         law_coulomb(p, s, u, v, f, Kt, Ct, s_new)
-    elif kind == 8:
+    elif kind == KIND_GAP:
         law_gap(p, s, u, v, f, Kt, Ct, s_new)
     else:
         msg = "unknown device kind"
