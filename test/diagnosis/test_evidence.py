@@ -38,7 +38,7 @@ def test_coulomb_loop_dissipates_4_f_a_per_cycle() -> None:
     # cycles at each amplitude: E = 4 F A (closed form of a rigid-plastic loop)
     assert cf.amplitude.size >= 6
     np.testing.assert_allclose(cf.energy_excess, 4 * F * cf.amplitude, rtol=0.02)
-    e_slope, k_slope = cf.slopes()
+    e_slope, _ = cf.slopes()
     assert e_slope == pytest.approx(1.0, abs=0.05)
 
 
