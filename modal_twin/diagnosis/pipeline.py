@@ -4,8 +4,8 @@ One round (:func:`diagnose_round`) on a model (any version: its effects stay in 
 
 1. **Compare** on every record given (training, held-out, other levels): the normalised
    RMS of the residual per channel against the noise floor estimated from each record
-   (:mod:`.noise`). The model fails where a channel's error exceeds 1.5x its floor (an
-   error beyond noise of about the noise itself); nothing else is significant.
+   (:mod:`.noise`). The model fails where a channel's error exceeds twice its floor (an
+   error beyond noise of 1.7x the noise itself); nothing else is significant.
 2. **Where**: the held-out residual by place, direction, quantity, band and level
    (:mod:`.where`), and the modal view (:mod:`.modal_view`).
 3. **Evidence before fits** (:mod:`.evidence`): at every component with measured drift and
@@ -224,7 +224,10 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
         return Diagnosis(False, summary, where, (), (), (), tuple(skipped), modal,
                          before=before, after=before)
     say("gathering evidence at the devices (force-state maps, cycles)")
-    drifts, forces = _device_data(train, factory.sites)
+    # a component that already carries an effect is refined by the joint refit, not
+    # screened again
+    carried = {e.component for e in factory.base_effects}
+    drifts, forces = _device_data(train, [s for s in factory.sites if s not in carried])
     if not drifts and factory.sites:
         skipped.append("evidence: no component has measured drift and force")
     tr_noise = dict(zip(train.channel_names, noises[0], strict=True))
