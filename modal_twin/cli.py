@@ -19,6 +19,7 @@ import os
 import sys
 from pathlib import Path
 
+from modal_twin.commands import campaign
 from modal_twin.errors import ModalTwinError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.runtime import THREAD_ENV
@@ -247,6 +248,7 @@ def _parser() -> argparse.ArgumentParser:
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)
+    campaign.register(sub)
     return p
 
 

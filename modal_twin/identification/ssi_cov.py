@@ -56,6 +56,25 @@ def correlations(y: FloatArray, y_ref: FloatArray, n_lags: int) -> FloatArray:
     return R
 
 
+def _whole_record(Ys: FloatArray, ref: FloatArray | None, Rb: list[FloatArray],
+                  edges: FloatArray, n_lags: int) -> FloatArray:
+    """Unbiased correlations of the whole record from those of its consecutive blocks.
+
+    ``sum_s y_{s+k} y_ref,s^T`` over the record is the blocks' sums (``R_b (n_b - k)``)
+    plus the products whose two samples lie in neighbouring blocks (``k`` per edge).
+    """
+    n = Ys.shape[1]
+    k = np.arange(n_lags)
+    S = sum(R * (int(b - a) - k)[:, None, None]
+            for R, (a, b) in zip(Rb, itertools.pairwise(edges), strict=True))
+    Yr = Ys if ref is None else Ys[ref]
+    for e in edges[1:-1]:
+        for d in range(1, n_lags):
+            S[d] += Ys[:, e:e + d] @ Yr[:, e - d:e].T  # y_{s+d} y_ref,s^T, s in [e-d, e)
+    out: FloatArray = S / (n - k)[:, None, None]
+    return out
+
+
 def _toeplitz(R: FloatArray, i: int) -> FloatArray:
     l, r = R.shape[1:]
     T = np.empty((l * i, r * i))
@@ -162,9 +181,11 @@ def ssi_cov(
 
     if nb:
         edges = np.linspace(0, n, nb + 1).astype(int)
-        Tb = [_toeplitz(corr(a, b), i) for a, b in itertools.pairwise(edges)]
-        w = np.diff(edges) / n
-        T = sum(wk * Tk for wk, Tk in zip(w, Tb, strict=True))
+        Rb = [corr(a, b) for a, b in itertools.pairwise(edges)]
+        Tb = [_toeplitz(R, i) for R in Rb]
+        # the point estimate from the whole record's correlations, as without blocks: the
+        # blocks' lag sums plus the pairs that straddle their edges (a few per lag)
+        T = _toeplitz(_whole_record(Ys, None if all_ref else ref, Rb, edges, n_lags), i)
     else:
         Tb = []
         T = _toeplitz(corr(0, n), i)

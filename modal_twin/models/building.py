@@ -304,11 +304,15 @@ def build_building(path: str | Path | None = None, *, spec: StructureSpec | None
     asm = spec.model.assemble()
     check_stability(spec, asm)
     P = asm.rigid_body_modes(spec.input_origin)  # Eq. (12) of [004]: influence matrix P
-    T = asm.T.toarray()
+    Tc = asm.T.tocsr()  # rows of T only: a dense T is (n_full, n), 85 GB at 100k DOF
+
+    def t_row(i: int) -> FloatArray:
+        return Tc[[i]].toarray().ravel()
+
     rows, names, xyz = [], [], []
     for s in spec.sensors:
         for d in s.directions:
-            rows.append(T[asm.full_dof_index(s.node, "u" + d)])
+            rows.append(t_row(asm.full_dof_index(s.node, "u" + d)))
             names.append(f"{s.name}_{d}")
             xyz.append(spec.model.xyz(s.node))
     n = asm.n_dof
@@ -317,9 +321,9 @@ def build_building(path: str | Path | None = None, *, spec: StructureSpec | None
     G = np.zeros((nd, 2, n))
     Gz = np.zeros((nd, n))
     for d, dev in enumerate(spec.devices):
-        G[d, 0] = T[asm.full_dof_index(dev.node, "ux")]
-        G[d, 1] = T[asm.full_dof_index(dev.node, "uy")]
-        Gz[d] = T[asm.full_dof_index(dev.node, "uz")]
+        G[d, 0] = t_row(asm.full_dof_index(dev.node, "ux"))
+        G[d, 1] = t_row(asm.full_dof_index(dev.node, "uy"))
+        Gz[d] = t_row(asm.full_dof_index(dev.node, "uz"))
     return BuildingModel(
         spec=spec, assembly=asm, P=P, S=S, S_P=S @ P, channel_names=tuple(names),
         channel_xyz=np.array(xyz).reshape(-1, 3),

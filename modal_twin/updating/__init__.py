@@ -12,7 +12,7 @@ from modal_twin.updating.objectives import (
     fom_000,
     relaxed_cost,
 )
-from modal_twin.updating.optimize import global_search, refine, update
+from modal_twin.updating.optimize import global_search, multi_start, refine, update
 from modal_twin.updating.problem import PENALTY, ModeTargets, UpdatingProblem, real_shapes
 from modal_twin.updating.reduced_basis import reduced_problem
 from modal_twin.updating.results import UpdateResult
@@ -54,6 +54,7 @@ __all__ = [
     "kc_nominal",
     "lhs_spearman",
     "match_modes",
+    "multi_start",
     "pair_costs",
     "parameter_covariance",
     "real_shapes",

@@ -3,9 +3,11 @@
 The global stage plays the role of the genetic algorithm of [002] and [004] (Sec. 5.2 of
 [004]: the matched cost is piecewise discontinuous, so a population search goes first): it
 minimises Eq. (3) of [004] with ``scipy.optimize.differential_evolution``. Its population
-is evaluated through ``workers``: an int (1 = serial, -1 = all cores, as scipy), any
-``map``-like callable, or a :class:`concurrent.futures.Executor` (its ``map`` is used),
-so a process pool here or a Dask / Ray executor on a cluster runs it unchanged.
+is evaluated through an ``executor`` (:func:`modal_twin.executors.make_executor`: serial, a
+process pool, a Dask cluster or any ``concurrent.futures.Executor``), always with deferred
+updating, so a seeded search gives the same result on every executor. A multi-start stage
+(``n_starts``) refines from the global estimate and from Latin-hypercube starts in parallel
+on the same executor and keeps the best.
 
 The refinement minimises the least-squares residual of
 :class:`~modal_twin.updating.problem.UpdatingProblem` with
@@ -19,24 +21,27 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Iterable
-from concurrent.futures import Executor
-from typing import Any
 
 import numpy as np
 import scipy.optimize as so
+from scipy.stats import qmc
 
 from modal_twin._types import FloatArray
-from modal_twin.errors import OptionError
+from modal_twin.executors import (
+    ExecutorSpec,
+    SerialExecutor,
+    make_executor,
+    map_ordered,
+    mapper,
+)
 from modal_twin.updating.problem import UpdatingProblem
 from modal_twin.updating.reduced_basis import reduced_problem
 from modal_twin.updating.results import UpdateResult
 from modal_twin.updating.uncertainty import parameter_covariance
 
-__all__ = ["global_search", "refine", "update"]
+__all__ = ["global_search", "multi_start", "refine", "update"]
 
 _log = logging.getLogger(__name__)
-Workers = int | Executor | Callable[[Callable[[Any], Any], Iterable[Any]], Iterable[Any]]
 
 
 class _ScaledCost:
@@ -54,18 +59,9 @@ class _ScaledCost:
         return self.problem.cost(self.theta(x))
 
 
-def _map_of(workers: Workers) -> int | Callable[..., Any]:
-    if isinstance(workers, Executor):
-        return workers.map
-    if isinstance(workers, bool) or not (isinstance(workers, int) or callable(workers)):
-        msg = f"workers: expected an int, an Executor or a map-like callable, got {workers!r}"
-        raise OptionError(msg)
-    return workers
-
-
 def global_search(
     problem: UpdatingProblem, *, maxiter: int = 30, popsize: int = 10, seed: int | None = 0,
-    workers: Workers = 1, tol: float = 1e-3, x0: FloatArray | None = None,
+    executor: ExecutorSpec = 1, tol: float = 1e-3, x0: FloatArray | None = None,
 ) -> tuple[FloatArray, float, int]:
     """Minimise Eq. (3) of [004] by differential evolution within the bounds.
 
@@ -76,8 +72,9 @@ def global_search(
         ``differential_evolution`` controls (population = ``popsize * p``).
     seed : int, optional
         Seed of the population (reproducible runs).
-    workers : int, Executor or map-like callable
-        Where the population is evaluated (module docstring).
+    executor : ExecutorSpec
+        Where the population is evaluated (:func:`~modal_twin.executors.make_executor`);
+        the result does not depend on it.
     x0 : (p,) float array, optional
         A starting member (parameter units), e.g. the nominal model.
 
@@ -88,13 +85,13 @@ def global_search(
     nfev : int
     """
     f = _ScaledCost(problem)
-    mapper = _map_of(workers)
     p = problem.theta0.size
     start = None if x0 is None else np.clip((np.asarray(x0) - f.lo) / f.rng, 0.0, 1.0)
-    res = so.differential_evolution(
-        f, [(0.0, 1.0)] * p, maxiter=maxiter, popsize=popsize, tol=tol, seed=seed,
-        workers=mapper, updating="immediate" if mapper == 1 else "deferred", polish=False,
-        x0=start, init="latinhypercube")
+    with make_executor(executor) as ex:
+        res = so.differential_evolution(
+            f, [(0.0, 1.0)] * p, maxiter=maxiter, popsize=popsize, tol=tol, seed=seed,
+            workers=mapper(ex), updating="deferred", polish=False, x0=start,
+            init="latinhypercube")
     return f.theta(res.x), float(res.fun), int(res.nfev)
 
 
@@ -119,11 +116,72 @@ def refine(problem: UpdatingProblem, theta_start: FloatArray, *, max_nfev: int =
     return res
 
 
+def _reduced_refine(problem: UpdatingProblem, search: UpdatingProblem, theta: FloatArray,
+                    max_nfev: int, seed: int | None) -> tuple[FloatArray, int]:
+    """Refine on the Ritz model, enrich its basis there, refine again; best of the three.
+
+    Returns the estimate and the small eigen-solves spent (``search`` counts its own,
+    including those of a serial global search before).
+    """
+    r1 = refine(search, theta, max_nfev=max_nfev)
+    rom2 = reduced_problem(problem, seed=0 if seed is None else seed, n_samples=0,
+                           extra_points=[r1.x, theta])
+    r2 = refine(rom2, r1.x, max_nfev=max_nfev)
+    best = min((r1.x, r2.x, theta), key=problem.objective)
+    return best, search.n_eigen_solves + rom2.n_eigen_solves
+
+
+class _RefineTask:
+    """Picklable ``start -> (theta, objective, nfev, status)`` of :func:`refine`."""
+
+    def __init__(self, problem: UpdatingProblem, max_nfev: int) -> None:
+        self.problem = problem
+        self.max_nfev = max_nfev
+
+    def __call__(self, start: FloatArray) -> tuple[FloatArray, float, int, int]:
+        r = refine(self.problem, start, max_nfev=self.max_nfev)
+        return r.x, float(self.problem.objective(r.x)), int(r.nfev), int(r.status)
+
+
+def multi_start(
+    problem: UpdatingProblem, starts: FloatArray, *, n_random: int = 0, seed: int | None = 0,
+    executor: ExecutorSpec = 1, max_nfev: int = 60,
+) -> tuple[FloatArray, float, int]:
+    """Refine from several starts in parallel and keep the lowest least-squares objective.
+
+    Parameters
+    ----------
+    problem : UpdatingProblem
+    starts : (n, p) float array
+        Given starts (parameter units), e.g. the global-search estimate.
+    n_random : int
+        Further Latin-hypercube starts within the bounds (``scipy.stats.qmc``, ``seed``).
+    executor : ExecutorSpec
+        Where the refinements run; the result does not depend on it (ties go to the first
+        start).
+
+    Returns
+    -------
+    theta : (p,) float array
+    objective : float
+    nfev : int
+        Residual evaluations over all starts.
+    """
+    x = np.atleast_2d(np.asarray(starts, dtype=float))
+    if n_random > 0:
+        u = qmc.LatinHypercube(d=problem.theta0.size, seed=seed).random(n_random)
+        x = np.vstack([x, qmc.scale(u, problem.lower, problem.upper)])
+    with make_executor(executor) as ex:
+        out = map_ordered(ex, _RefineTask(problem, max_nfev), list(x))
+    k = int(np.argmin([o[1] for o in out]))
+    return out[k][0], out[k][1], sum(o[2] for o in out)
+
+
 def update(
     problem: UpdatingProblem, *, theta_start: FloatArray | None = None,
     global_stage: bool = True, maxiter: int = 30, popsize: int = 10, seed: int | None = 0,
-    workers: Workers = 1, max_nfev: int = 60, fraction: float = 0.1,
-    reduced: bool = False, full_nfev: int = 8,
+    executor: ExecutorSpec = 1, max_nfev: int = 60, fraction: float = 0.1,
+    reduced: bool = False, full_nfev: int = 8, n_starts: int = 0,
 ) -> UpdateResult:
     """Update the parameters: global search (optional), gradient refinement, uncertainty.
 
@@ -134,8 +192,11 @@ def update(
         Start (default ``problem.theta0``, clipped into the bounds).
     global_stage : bool
         Run :func:`global_search` first (the nominal model is one member of its population).
-    maxiter, popsize, seed, workers
+    maxiter, popsize, seed
         Global-search controls.
+    executor : ExecutorSpec
+        Where the global-search population and the multi-start refinements run
+        (:func:`~modal_twin.executors.make_executor`); the result does not depend on it.
     max_nfev : int
         Refinement evaluations.
     fraction : float
@@ -144,6 +205,9 @@ def update(
         Run the global search and a first refinement on a Ritz reduced model
         (:func:`~modal_twin.updating.reduced_basis.reduced_problem`), enrich its basis at that
         estimate, refine again, then finish with at most ``full_nfev`` full-model steps.
+    n_starts : int
+        Latin-hypercube starts refined beside the best estimate so far (:func:`multi_start`,
+        on the full model, before the final refinement); 0 = none.
 
     Returns
     -------
@@ -158,28 +222,29 @@ def update(
     start = np.clip(start, problem.lower, problem.upper)
     cost0 = problem.cost(start)
     pair0 = problem.pairing(start) if cost0 < 10.0 * problem.targets.n_modes else None
-    theta, n_glob, msg = start.copy(), 0, ""
-    search = problem
-    n_rom = 0
-    if reduced:
-        search = reduced_problem(problem, seed=0 if seed is None else seed)
-    if global_stage:
-        th_g, c_g, n_glob = global_search(search, maxiter=maxiter, popsize=popsize,
-                                          seed=seed, workers=workers, x0=start)
-        if problem.cost(th_g) < cost0:
-            theta = th_g
-        msg = f"global: cost {cost0:.4g} -> {c_g:.4g} in {n_glob} evaluations; "
-    if reduced:
-        r1 = refine(search, theta, max_nfev=max_nfev)
-        n_rom += search.n_eigen_solves
-        rom2 = reduced_problem(problem, seed=0 if seed is None else seed, n_samples=0,
-                               extra_points=[r1.x, theta])
-        r2 = refine(rom2, r1.x, max_nfev=max_nfev)
-        n_rom += rom2.n_eigen_solves
-        cand = min((r1.x, r2.x, theta), key=problem.objective)
-        theta = cand
-        msg += f"reduced model: {n_rom} small eigen-solves; "
-        max_nfev = full_nfev
+    theta, msg, n_other = start.copy(), "", 0
+    n_glob = n_in_process = 0
+    search = reduced_problem(problem, seed=0 if seed is None else seed) if reduced else problem
+    with make_executor(executor) as ex:
+        if global_stage:
+            n_before = search.n_eigen_solves
+            th_g, c_g, n_glob = global_search(search, maxiter=maxiter, popsize=popsize,
+                                              seed=seed, executor=ex, x0=start)
+            n_in_process = search.n_eigen_solves - n_before
+            if problem.cost(th_g) < cost0:
+                theta = th_g
+            msg = f"global: cost {cost0:.4g} -> {c_g:.4g} in {n_glob} evaluations; "
+        if reduced:
+            theta, n_rom = _reduced_refine(problem, search, theta, max_nfev, seed)
+            n_other += n_rom
+            msg += f"reduced model: {n_rom} small eigen-solves; "
+            max_nfev = full_nfev
+        if n_starts > 0:
+            theta, _, n_ms = multi_start(problem, theta[None, :], n_random=n_starts, seed=seed,
+                                         executor=ex, max_nfev=max_nfev)
+            n_other += n_ms if not isinstance(ex, SerialExecutor) else 0
+            msg += f"multi-start: {n_starts + 1} starts, {n_ms} evaluations; "
+    n_other += n_glob - n_in_process  # those in this process are counted by the problems
     res = refine(problem, theta, max_nfev=max_nfev)
     # candidates are compared on what the refinement minimises (residuals + prior)
     best = res.x if problem.objective(res.x) <= problem.objective(theta) else theta
@@ -200,8 +265,7 @@ def update(
         upper=problem.upper.copy(), f_id=problem.targets.f_hz.copy(),
         pairing_before=pair0 if pair0 is not None else pair1, pairing_after=pair1,
         cost_before=cost0, cost_after=cost1,
-        n_eigen_solves=problem.n_eigen_solves - n0 + n_rom
-        + (n_glob if (workers != 1 or reduced) else 0),
+        n_eigen_solves=problem.n_eigen_solves - n0 + n_other,
         n_global_evals=n_glob, seconds=time.perf_counter() - t0,
         converged=bool(res.status > 0), message=msg,
         at_bounds=tuple(n for n, b in zip(problem.names, near, strict=True) if b),

@@ -18,8 +18,9 @@ import numpy as np
 
 from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import OptionError
+from modal_twin.executors import ExecutorSpec, make_executor
 from modal_twin.models.fe import ParametricMatrices
-from modal_twin.updating.optimize import Workers, update
+from modal_twin.updating.optimize import update
 from modal_twin.updating.problem import Matrix, ModeTargets, UpdatingProblem
 from modal_twin.updating.results import UpdateResult
 
@@ -113,12 +114,29 @@ def _f_scale(t: ModeTargets, use_std: bool) -> FloatArray:
     return np.where(ok, s, fill)
 
 
+def _stage_problem(
+    par: ParametricMatrices, S: Matrix | IntArray, targets: ModeTargets, st: Stage,
+    th: FloatArray, *, n_modes: int | None, r_f: float, r_mac: float,
+) -> UpdatingProblem:
+    """The updating problem of one stage at the current estimate ``th``."""
+    if not st.parameters:
+        msg = f"stage {st.name!r}: expected at least one parameter, got none"
+        raise OptionError(msg)
+    sub = _select(targets, st.f_range_hz, st.name)
+    n_below = int(np.count_nonzero(targets.f_hz < sub.f_hz.min()))
+    nm = n_modes if n_modes is not None else max(2 * sub.n_modes, sub.n_modes + 6) + n_below
+    return UpdatingProblem.from_parametric(
+        par, S, sub, names=st.parameters, bounds=st.bounds, rel_bounds=st.rel_bounds,
+        theta=th, n_modes=nm, w_mac=st.w_mac, prior_weight=st.prior_weight, r_f=r_f,
+        r_mac=r_mac, f_scale=_f_scale(sub, st.use_std))
+
+
 def staged_update(
     par: ParametricMatrices, S: Matrix | IntArray, targets: ModeTargets,
     stages: Sequence[Stage], *, theta: Mapping[str, float] | FloatArray | None = None,
-    workers: Workers = 1, seed: int | None = 0, maxiter: int = 30, popsize: int = 10,
+    executor: ExecutorSpec = 1, seed: int | None = 0, maxiter: int = 30, popsize: int = 10,
     max_nfev: int = 60, n_modes: int | None = None, r_f: float = 0.10, r_mac: float = 0.15,
-    reduced: bool = False,
+    reduced: bool = False, n_starts: int = 0,
 ) -> StagedResult:
     """Run the stages in order, each from the previous estimate (module docstring).
 
@@ -133,8 +151,9 @@ def staged_update(
     stages : sequence of Stage
     theta : mapping or array, optional
         Start (default the nominal ``par.theta0``).
-    workers, seed, maxiter, popsize, max_nfev, reduced
-        :func:`~modal_twin.updating.optimize.update` controls.
+    executor, seed, maxiter, popsize, max_nfev, reduced, n_starts
+        :func:`~modal_twin.updating.optimize.update` controls (``executor``:
+        :func:`~modal_twin.executors.make_executor`, entered once for all stages).
     n_modes, r_f, r_mac
         :class:`~modal_twin.updating.problem.UpdatingProblem` options (``n_modes`` default:
         enough FEM modes for every target of the stage plus the modes below them).
@@ -156,23 +175,16 @@ def staged_update(
     start = th.copy()
     out: list[UpdateResult] = []
     n_solves = 0
-    for st in stages:
-        if not st.parameters:
-            msg = f"stage {st.name!r}: expected at least one parameter, got none"
-            raise OptionError(msg)
-        sub = _select(targets, st.f_range_hz, st.name)
-        n_below = int(np.count_nonzero(targets.f_hz < sub.f_hz.min()))
-        nm = n_modes if n_modes is not None else max(2 * sub.n_modes, sub.n_modes + 6) + n_below
-        pr = UpdatingProblem.from_parametric(
-            par, S, sub, names=st.parameters, bounds=st.bounds, rel_bounds=st.rel_bounds,
-            theta=th, n_modes=nm, w_mac=st.w_mac, prior_weight=st.prior_weight, r_f=r_f,
-            r_mac=r_mac, f_scale=_f_scale(sub, st.use_std))
-        res = update(pr, global_stage=st.global_stage, maxiter=maxiter, popsize=popsize,
-                     seed=seed, workers=workers, max_nfev=max_nfev, reduced=reduced)
-        for nme, val in zip(res.names, res.theta, strict=True):
-            th[par.index(nme)] = val
-        out.append(res)
-        n_solves += res.n_eigen_solves
+    with make_executor(executor) as ex:  # one pool for every stage
+        for st in stages:
+            pr = _stage_problem(par, S, targets, st, th, n_modes=n_modes, r_f=r_f, r_mac=r_mac)
+            res = update(pr, global_stage=st.global_stage, maxiter=maxiter, popsize=popsize,
+                         seed=seed, executor=ex, max_nfev=max_nfev, reduced=reduced,
+                         n_starts=n_starts)
+            for nme, val in zip(res.names, res.theta, strict=True):
+                th[par.index(nme)] = val
+            out.append(res)
+            n_solves += res.n_eigen_solves
     return StagedResult(names=par.names, theta_start=start, theta=th, stages=tuple(out),
                         stage_names=tuple(s.name for s in stages),
                         seconds=time.perf_counter() - t0, n_eigen_solves=n_solves)

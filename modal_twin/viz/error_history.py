@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from modal_twin.models.versions import history
+from modal_twin.viz._png import save_png
 
 __all__ = ["plot_error_history"]
 
@@ -37,8 +38,4 @@ def plot_error_history(folder: str | Path, out_png: str | Path) -> Path:
     ax.set_title("error history per channel group")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, ncol=3)
-    fig.tight_layout()
-    out = Path(out_png)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_png(fig, out_png)

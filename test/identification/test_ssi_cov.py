@@ -85,3 +85,19 @@ def test_bad_input(data: tuple) -> None:
         ssi_cov(y[:, :5000], fs, orders=[4], ref_channels=[7])
     with pytest.raises(OptionError, match="block_rows: expected an integer >= 2"):
         ssi_cov(y[:, :5000], fs, orders=[2], block_rows=1)
+
+
+@pytest.mark.parametrize("ref", [None, [0, 2]])
+def test_point_estimate_does_not_depend_on_the_std_blocks(ref) -> None:
+    """The poles come from the whole record's correlations with or without std blocks."""
+    rng = np.random.default_rng(0)
+    y = sig.lfilter([1.0], [1.0, -1.6, 0.9], rng.standard_normal((5, 6000)), axis=1)
+    y += 0.3 * rng.standard_normal(y.shape)
+    plain = ssi_cov(y, 50.0, orders=[4, 6], block_rows=8, n_blocks_std=0, ref_channels=ref)
+    for nb in (3, 8):
+        blocks = ssi_cov(y, 50.0, orders=[4, 6], block_rows=8, n_blocks_std=nb,
+                         ref_channels=ref)
+        for p, q in zip(plain.poles, blocks.poles, strict=True):
+            np.testing.assert_allclose(q.f_hz, p.f_hz, rtol=1e-10)
+            np.testing.assert_allclose(q.zeta, p.zeta, rtol=1e-8)
+            assert np.all(np.isfinite(q.std_f_hz)) and np.all(q.std_f_hz > 0)

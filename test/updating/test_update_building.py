@@ -82,7 +82,6 @@ def test_a_truth_parameters_from_identified_modes(bld, truth_run):
     for ax in "xy":
         idx = [par.index(n) for n in par.names if n.startswith("k_") and n.endswith(ax)]
         assert out.theta[idx].sum() == pytest.approx(tv[idx].sum(), rel=0.02)
-    assert out.seconds < 10.0
 
 
 def test_b_004_like_nominal_far_off(bld):
@@ -117,7 +116,6 @@ def test_b_004_like_nominal_far_off(bld):
     # base beams only, is weakly determined)
     for nm in ("E_Fc27", "E_Fc21"):
         assert out.theta[par.index(nm)] == pytest.approx(th[par.index(nm)], rel=0.02)
-    assert out.seconds < 20.0
 
 
 def test_stage_errors(bld):

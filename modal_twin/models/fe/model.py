@@ -187,11 +187,23 @@ class FEModel:
         ModelError
             Unknown node, zero length, a non-positive property, a bad orientation.
         """
+        k_unit, m_unit = self._frame_units(
+            n1, n2, E=E, G=G, A=A, Iy=Iy, Iz=Iz, J=J, rho=rho, orientation=orientation,
+            Asy=Asy, Asz=Asz, mass=mass, E_param=E_param, rho_param=rho_param)
+        return self._record_frame(n1, n2, k_unit, m_unit, E=E, rho=rho, E_param=E_param,
+                                  rho_param=rho_param)
+
+    def _frame_units(
+        self, n1: NodeId, n2: NodeId, *, E: float, G: float, A: float, Iy: float, Iz: float,
+        J: float, rho: float, orientation: Sequence[float] | None, Asy: float | None,
+        Asz: float | None, mass: MassKind, E_param: str | None, rho_param: str | None,
+    ) -> tuple[FloatArray, FloatArray]:
+        """Validated global ``k / E`` and ``m / rho`` (12 x 12) of a frame ``n1``-``n2``."""
         label = f"frame {self.n_frames} ({n1!r}-{n2!r})"
         section_check(label, E=E, G=G, A=A, Iy=Iy, Iz=Iz, J=J, rho=rho, Asy=Asy, Asz=Asz)
         _check_param_name("E_param", E_param)
         _check_param_name("rho_param", rho_param)
-        d1, d2 = self._node_dofs(n1), self._node_dofs(n2)
+        self._node_dofs(n1), self._node_dofs(n2)  # unknown nodes raise here
         if n1 == n2:
             msg = f"{label} length: expected two distinct nodes, got {n1!r} twice"
             raise ModelError(msg)
@@ -205,10 +217,16 @@ class FEModel:
         k_loc, m_loc = frame_local_matrices(
             E=E, G=G, A=A, Iy=Iy, Iz=Iz, J=J, rho=rho, length=length, Asy=Asy, Asz=Asz,
             mass=mass)
-        dofs = np.concatenate([d1, d2])
-        self._add("K", dofs, rotate_to_global(k_loc, r) / E, E, E_param)
+        m_unit = rotate_to_global(m_loc, r) / rho if rho > 0.0 else np.zeros((12, 12))
+        return rotate_to_global(k_loc, r) / E, m_unit
+
+    def _record_frame(self, n1: NodeId, n2: NodeId, k_unit: FloatArray, m_unit: FloatArray,
+                      *, E: float, rho: float, E_param: str | None, rho_param: str | None,
+                      ) -> int:
+        dofs = np.concatenate([self._node_dofs(n1), self._node_dofs(n2)])
+        self._add("K", dofs, k_unit, E, E_param)
         if rho > 0.0:
-            self._add("M", dofs, rotate_to_global(m_loc, r) / rho, rho, rho_param)
+            self._add("M", dofs, m_unit, rho, rho_param)
         self.n_frames += 1
         return self.n_frames - 1
 
@@ -231,8 +249,14 @@ class FEModel:
         for j in range(1, n_elements):
             chain.append(self.add_node(f"{n1}-{n2}:{j}", p1 + (p2 - p1) * j / n_elements))
         chain.append(n2)
+        # equal elements of one straight member: one rotation and one pair of element
+        # matrices for all of them (a 100k-DOF mesh has ~18,000 elements)
+        opts = {"orientation": None, "Asy": None, "Asz": None, "mass": "consistent",
+                "E_param": None, "rho_param": None, **frame}
+        k_unit, m_unit = self._frame_units(chain[0], chain[1], **opts)  # type: ignore[arg-type]
         for a, b in itertools.pairwise(chain):
-            self.add_frame(a, b, **frame)  # type: ignore[arg-type]
+            self._record_frame(a, b, k_unit, m_unit, E=opts["E"], rho=opts["rho"],  # type: ignore[arg-type]
+                               E_param=opts["E_param"], rho_param=opts["rho_param"])  # type: ignore[arg-type]
         return chain
 
     def _six_by_six(self, arg: str, val: Mapping[str, float] | Sequence[float] | FloatArray

@@ -1,0 +1,115 @@
+"""``modal-twin campaign BAG...``: identify every window of many bags; modes against time."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from pathlib import Path
+
+from modal_twin.errors import OptionError
+from modal_twin.exit_codes import ExitCode
+
+__all__ = ["register", "run"]
+
+HELP = "identify every window of many bags (or parts); modal frequencies and damping vs time"
+
+
+def _floats(text: str, name: str, n: int) -> list[float]:
+    try:
+        vals = [float(v) for v in text.replace(":", ",").split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) != n:
+        msg = f"{name}: expected {n} numbers separated by ',', got {text!r}"
+        raise OptionError(msg)
+    return vals
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Add the ``campaign`` parser."""
+    p = sub.add_parser("campaign", help=HELP, description=HELP)
+    p.add_argument("bags", type=Path, nargs="+", help="bags or folders of rotated parts")
+    p.add_argument("--window", type=float, default=600.0, help="window length, s")
+    p.add_argument("--topic", default="/measurement/frames")
+    p.add_argument("--channels", default=None, help="outputs, name,name,... (default all)")
+    p.add_argument("--inputs", default=None,
+                   help="measured inputs, name,name,... (then N4SID; default SSI-cov)")
+    p.add_argument("--orders", default="8:40:2", help="model orders first:last:step")
+    p.add_argument("--f-range", default="0.3,20", help="band of modes kept, Hz: low,high")
+    p.add_argument("--executor", default=None,
+                   help="dask://HOST:PORT for a cluster (default: local processes)")
+    p.add_argument("--jobs", default=None, help="local processes (1 = serial; default auto)")
+    p.add_argument("--out", type=Path, default=Path("campaign"), help="output folder")
+    p.set_defaults(func=run)
+
+
+def _windows(a: argparse.Namespace) -> tuple[list, tuple[str, ...]]:  # type: ignore[type-arg]
+    from modal_twin.identification.campaign import split_windows
+    from modal_twin.io.bag import read_blocks
+    from modal_twin.signal_block import concatenate_blocks
+
+    windows, outputs = [], None
+    inputs = tuple(a.inputs.split(",")) if a.inputs else ()
+    for bag in a.bags:
+        blocks = read_blocks(bag, a.topic)
+        if not blocks:
+            msg = f"{bag}: expected blocks on {a.topic}, got none"
+            raise OptionError(msg)
+        rec = concatenate_blocks(blocks)
+        names = tuple(a.channels.split(",")) if a.channels else tuple(
+            c for c in rec.channel_names if c not in inputs)
+        if outputs is not None and names != outputs:
+            msg = f"{bag}: expected the channels of {a.bags[0]} {list(outputs)}, got {list(names)}"
+            raise OptionError(msg)
+        outputs = names
+        windows += split_windows(rec, a.window, outputs=names, inputs=inputs, source=str(bag))
+    return windows, outputs or ()
+
+
+def _write(result, out: Path) -> list[Path]:  # type: ignore[no-untyped-def]
+    from modal_twin.viz.campaign import plot_campaign
+
+    out.mkdir(parents=True, exist_ok=True)
+    rows = result.rows()
+    fields = ["source", "window", "t_start_s", "duration_s", "track", "f_hz", "zeta",
+              "mac_to_track"]
+    with (out / "campaign.csv").open("w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=fields)
+        w.writeheader()
+        w.writerows(rows)
+    doc = {"channels": list(result.channel_names), "n_windows": len(result.windows),
+           "n_tracks": result.n_tracks, "modes": rows,
+           "failed_windows": [{"source": x.source, "window": x.index, "error": x.error}
+                              for x in result.windows if x.error]}
+    (out / "campaign.json").write_text(json.dumps(doc, indent=1), encoding="utf-8")
+    return [out / "campaign.csv", out / "campaign.json", plot_campaign(result,
+                                                                        out / "campaign.png")]
+
+
+def run(a: argparse.Namespace) -> int:
+    """Run the campaign and write campaign.csv / .json / .png into ``--out``."""
+    from modal_twin.executors import make_executor
+    from modal_twin.identification.campaign import WindowIdentifier, run_campaign
+
+    if a.executor and a.jobs:
+        msg = "give --executor or --jobs, not both"
+        raise OptionError(msg)
+    lo, hi = _floats(a.f_range, "--f-range", 2)
+    first, last, step = (int(v) for v in _floats(a.orders, "--orders", 3))
+    ident = WindowIdentifier(method="n4sid" if a.inputs else "ssi_cov",
+                             orders=tuple(range(first, last + 1, step)), f_range_hz=(lo, hi))
+    with make_executor(a.executor or a.jobs) as ex:  # a bad spec fails before the reading
+        windows, outputs = _windows(a)
+        res = run_campaign(windows, outputs, identifier=ident, executor=ex,
+                           progress=lambda s: print(f"  {s}", file=sys.stderr))
+    for path in _write(res, a.out):
+        print(f"wrote {path}")
+    n_failed = sum(1 for x in res.windows if x.error)
+    print(f"{len(res.windows)} windows ({n_failed} failed), {res.n_tracks} mode tracks")
+    for k in range(res.n_tracks):
+        t, f, z = res.track_series(k)
+        print(f"  track {k}: {t.size} windows, f {f.min():.4g}-{f.max():.4g} Hz, "
+              f"zeta {100 * z.min():.2f}-{100 * z.max():.2f} %")
+    return ExitCode.OK

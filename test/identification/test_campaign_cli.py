@@ -1,0 +1,76 @@
+"""``modal-twin campaign``: two bags in, a table, a JSON and a plot of the tracks out."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from modal_twin.io.bag import BagWriter
+from modal_twin.io.convert import block_to_rosbags
+from modal_twin.io.typestore import typestore
+from modal_twin.signal_block import SignalBlock
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_campaign import CH, FS, modal_response  # noqa: E402
+
+TOPIC, SB = "/measurement/frames", "modal_twin_msgs/msg/SignalBlock"
+
+
+def write_bag(path: Path, y: np.ndarray, t0_s: float) -> None:
+    """``y`` as 10 s blocks on /measurement/frames, clock starting at ``t0_s``."""
+    st = typestore()
+    n = int(10 * FS)
+    with BagWriter(path, {TOPIC: SB}) as w:
+        for k in range(y.shape[1] // n):
+            stamp = int((t0_s + k * 10) * 1e9)
+            blk = SignalBlock(CH, FS, k * n, y[:, k * n:(k + 1) * n], stamp_ns=stamp)
+            w.write(TOPIC, stamp, st.serialize_cdr(block_to_rosbags(blk, st), SB))
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "modal_twin.cli", "campaign", *args],
+                          capture_output=True, text=True, timeout=300, cwd=ROOT)
+
+
+def test_campaign_over_two_bags(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    n = int(400 * FS)
+    write_bag(tmp_path / "day1", modal_response((1.5, 4.0), n, rng), 1000.0)
+    write_bag(tmp_path / "day2", modal_response((1.41, 4.0), n, rng), 90000.0)
+    out = _cli(str(tmp_path / "day2"), str(tmp_path / "day1"), "--window", "200",
+               "--f-range", "0.5,10", "--jobs", "1", "--out", str(tmp_path / "out"))
+    assert out.returncode == 0, out.stderr
+    assert "4 windows (0 failed), 2 mode tracks" in out.stdout
+    with (tmp_path / "out" / "campaign.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 8
+    track0 = [r for r in rows if r["track"] == "0"]
+    assert [float(r["t_start_s"]) for r in track0] == [1000.0, 1200.0, 90000.0, 90200.0]
+    f = np.array([float(r["f_hz"]) for r in track0])
+    np.testing.assert_allclose(f, [1.5, 1.5, 1.41, 1.41], rtol=0.01)
+    doc = json.loads((tmp_path / "out" / "campaign.json").read_text())
+    assert doc["n_windows"] == 4
+    assert doc["channels"] == list(CH)
+    assert (tmp_path / "out" / "campaign.png").stat().st_size > 10_000
+
+
+def test_campaign_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
+    rng = np.random.default_rng(4)
+    write_bag(tmp_path / "short", modal_response((1.5, 4.0), int(20 * FS), rng), 0.0)
+    out = _cli(str(tmp_path / "short"), "--window", "100", "--jobs", "1")
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines() == [
+        f"modal-twin campaign: window_s: expected at most the record's 20 s "
+        f"({tmp_path / 'short'}), got 100.0"]
+    out = _cli(str(tmp_path / "short"), "--orders", "8:40")
+    assert out.returncode == 2
+    assert "--orders: expected 3 numbers" in out.stderr
+    out = _cli(str(tmp_path / "short"), "--jobs", "0")
+    assert out.returncode == 2
+    assert "executor: expected None, 'auto', 'serial', N >= 1" in out.stderr
