@@ -19,6 +19,7 @@ import os
 import sys
 from pathlib import Path
 
+from modal_twin.commands import export, identify, import_, update
 from modal_twin.errors import ModalTwinError
 from modal_twin.runtime import THREAD_ENV
 
@@ -255,6 +256,8 @@ def _parser() -> argparse.ArgumentParser:
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)
+    for mod in (import_, identify, export, update):
+        mod.register(sub)
     return p
 
 
