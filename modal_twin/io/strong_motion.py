@@ -44,6 +44,9 @@ __all__ = [
 _UNIT_TO_SI = {"cm/sec2": 0.01, "cm/sec/sec": 0.01, "cm/s2": 0.01, "m/sec2": 1.0,
                "g": 9.80665, "mm/sec2": 0.001}
 
+_CHAN = r"^Chan\s+(\d+):\s+(\S+)(?:\s+Deg)?\s+(?:\(Sta Chn:\s*(\d+)\))?\s*Location"
+"""CSMIP channel line: number, orientation (Up / Long / Tran / azimuth), station channel."""
+
 
 @dataclass(frozen=True, slots=True)
 class StrongMotionChannel:
@@ -131,8 +134,7 @@ def read_v2(text: str, name: str = "v2") -> StrongMotionChannel:
         A header line is missing, the unit is unknown, or samples are missing / malformed.
     """
     lines = text.splitlines()
-    ch = _search(r"^Chan\s+(\d+):\s+(\S+)(?:\s+Deg)?\s+(?:\(Sta Chn:\s*(\d+)\))?\s*Location:\s*(.*?)\s*$",
-                 text, "channel ('Chan n: ... Location:')", name)
+    ch = _search(_CHAN + r":\s*(.*?)\s*$", text, "channel ('Chan n: ... Location:')", name)
     sta = _search(r"Station No\.\s+(\d+)", text, "station ('Station No.')", name).group(1)
     start = re.search(r"Start time:\s*(.*?)\s*$", text, flags=re.MULTILINE)
     acc = _search(
@@ -221,8 +223,7 @@ def read_v3(text: str, name: str = "v3") -> dict[str, object]:
     SignalError
         No channel line in the header.
     """
-    ch = _search(r"^Chan\s+(\d+):\s+(\S+)(?:\s+Deg)?\s+(?:\(Sta Chn:\s*(\d+)\))?\s*Location",
-                 text, "channel ('Chan n: ... Location:')", name)
+    ch = _search(_CHAN, text, "channel ('Chan n: ... Location:')", name)
     sta = _search(r"Station No\.\s+(\d+)", text, "station ('Station No.')", name).group(1)
     st_ch = int(ch.group(3)) if ch.group(3) else int(ch.group(1))
     rng = re.search(r"periods,\s*([\d.]+)\s*-\s*([\d.]+)\s*sec", text)

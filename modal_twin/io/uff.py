@@ -196,7 +196,7 @@ def write_uff55(path: str | Path, f_hz: FloatArray, zeta: FloatArray, shapes: Co
         sets.append(pyuff.prepare_55(
             model_type=1, id1="modal_twin modes", id2=f"mode {m + 1}", id3="NONE",
             id4="NONE", id5="NONE", analysis_type=3, data_ch=3, spec_data_type=12,
-            data_type=5, n_data_per_node=3, node_nums=np.array(un, dtype=float),
+            data_type=5, n_data_per_node=3, node_nums=np.array(un, dtype=int),
             r1=r[:, 0], r2=r[:, 1], r3=r[:, 2], load_case=1, mode_n=m + 1,
             eig=lam, modal_a=0.0 + 0j, modal_b=0.0 + 0j, return_full_dict=True))
     u.write_sets(sets, mode="overwrite")
