@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from modal_twin.commands import export, identify, import_, update
+from modal_twin.commands.model_matrix import check_model_kind, matrix_info
 from modal_twin.errors import ModalTwinError
 from modal_twin.runtime import THREAD_ENV
 
@@ -89,6 +90,8 @@ def _cmd_model(a: argparse.Namespace) -> int:
     from modal_twin.models.model_info import model_info
     from modal_twin.models.vehicle_spec import is_vehicle_file
 
+    if check_model_kind(a.file) == "matrix":  # .mat / .npz from the user's FE tool
+        return matrix_info(a)
     if is_vehicle_file(a.file):  # config/vehicles
         return _vehicle_info(a)
     bld = build_building(a.file)
@@ -226,7 +229,8 @@ def _parser() -> argparse.ArgumentParser:
     msub = mo.add_subparsers(dest="model_cmd", required=True)
     mi = msub.add_parser("info", help="DOF count, total mass, lowest modes")
     mi.add_argument("file", type=Path,
-                    help="structure or vehicle YAML (config/structures/..., config/vehicles/...)")
+                    help="structure or vehicle YAML (config/structures/..., config/vehicles/...)"
+                         " or M, K (K_j, C) matrices in a .mat / .npz file")
     mi.add_argument("--json", action="store_true")
     mi.add_argument("--modes", type=int, default=None, help="modes to compute")
     mi.add_argument("--show", type=int, default=12, help="modes to list")

@@ -198,7 +198,8 @@ def write_uff55(path: str | Path, f_hz: FloatArray, zeta: FloatArray, shapes: Co
             id4="NONE", id5="NONE", analysis_type=3, data_ch=3, spec_data_type=12,
             data_type=5, n_data_per_node=3, node_nums=np.array(un, dtype=int),
             r1=r[:, 0], r2=r[:, 1], r3=r[:, 2], load_case=1, mode_n=m + 1,
-            eig=lam, modal_a=0.0 + 0j, modal_b=0.0 + 0j, return_full_dict=True))
+            eig=lam, modal_a=0.0 + 0j, modal_b=0.0 + 0j))  # not the full dict: its None
+        # r4..r6 would make pyuff write 6 values per node, which it cannot read back
     u.write_sets(sets, mode="overwrite")
     return p
 
@@ -257,9 +258,19 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
         for i, (qn, qd) in enumerate(ref):
             sets.append(pyuff.prepare_58(
                 binary=0, id1=f"FRF {rn}{_DIRS.get(rd, '')}/{qn}{_DIRS.get(qd, '')}",
-                func_type=4, rsp_node=rn, rsp_dir=rd, ref_node=qn, ref_dir=qd,
-                ord_data_type=6, abscissa_spacing=1, abscissa_min=float(f_hz[0]),
-                abscissa_inc=float(f_hz[1] - f_hz[0]), abscissa_spec_data_type=18,
+                id2="modal_twin H1", id3="NONE", id4="NONE", id5="NONE",
+                func_type=4, ver_num=0, load_case_id=0, rsp_ent_name=f"N{rn}", rsp_node=rn,
+                rsp_dir=rd, ref_ent_name=f"N{qn}", ref_node=qn, ref_dir=qd,
+                ord_data_type=6, num_pts=len(f_hz), abscissa_spacing=1,
+                abscissa_min=float(f_hz[0]), abscissa_inc=float(f_hz[1] - f_hz[0]),
+                z_axis_value=0.0, abscissa_spec_data_type=18, abscissa_len_unit_exp=0,
+                abscissa_force_unit_exp=0, abscissa_temp_unit_exp=0,
+                abscissa_axis_units_lab="Hz", ordinate_spec_data_type=12,
+                ordinate_len_unit_exp=0, ordinate_force_unit_exp=0, ordinate_temp_unit_exp=0,
+                ordinate_axis_units_lab="SI", orddenom_spec_data_type=12,
+                orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
+                orddenom_axis_units_lab="SI", z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
+                z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE",
                 data=np.asarray(H[o, i], dtype=complex), x=np.asarray(f_hz, dtype=float),
                 return_full_dict=True))
     u.write_sets(sets, mode="overwrite")
