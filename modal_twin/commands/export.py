@@ -14,7 +14,6 @@ Every output is written to a temporary file and renamed: nothing half-written.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +22,7 @@ import numpy as np
 from modal_twin.errors import ConfigError
 from modal_twin.exit_codes import ExitCode
 
-__all__ = ["modes_from_json", "register", "run", "structure_arrays"]
+__all__ = ["register", "run", "structure_arrays"]
 
 _AXIS = {"x": 1, "y": 2, "z": 3, "-x": -1, "-y": -2, "-z": -3}
 
@@ -35,31 +34,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("src", type=Path, help="modes JSON, bag, or model file")
     p.add_argument("--out", type=Path, required=True, help="file to write (.uff / .npz)")
     p.set_defaults(func=run)
-
-
-def modes_from_json(path: Path) -> dict[str, Any]:
-    """``f_hz``, ``zeta``, ``std_f_hz``, ``shapes`` (complex, n_ch x m), ``dofs`` of a JSON.
-
-    Raises
-    ------
-    ConfigError
-        Not an ``identify`` modes JSON.
-    """
-    try:
-        d = json.loads(path.read_text())
-        modes = d["modes"]
-        out = {"f_hz": np.array([m["f_hz"] for m in modes], dtype=float),
-               "zeta": np.array([m["zeta"] for m in modes], dtype=float),
-               "std_f_hz": np.array([np.nan if m.get("std_f_hz") is None else m["std_f_hz"]
-                                     for m in modes], dtype=float),
-               "shapes": np.array([np.asarray(m["shape_re"]) + 1j * np.asarray(m["shape_im"])
-                                   for m in modes]).T.reshape(len(d["dofs"]), len(modes)),
-               "dofs": d["dofs"]}
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError,
-            ValueError) as err:
-        msg = f"{path}: expected a modes JSON written by `modal-twin identify` ({err!r})"
-        raise ConfigError(msg) from err
-    return out
 
 
 def structure_arrays(path: Path) -> dict[str, Any]:
@@ -103,14 +77,18 @@ def _save_npz(out: Path, arrays: dict[str, Any]) -> None:
 
 def _modes(src: Path, out: Path) -> str:
     from modal_twin.io.imported import atomic_file
+    from modal_twin.io.modes_file import read_modes
     from modal_twin.io.uff import write_uff55
 
-    m = modes_from_json(src)
+    if src.suffix.lower() != ".json":
+        msg = f"{src}: expected a modes JSON written by `modal-twin identify`"
+        raise ConfigError(msg)
+    m = read_modes(src)
     with atomic_file(out) as tmp:
         tmp.unlink()
-        write_uff55(tmp, m["f_hz"], m["zeta"], m["shapes"], [d["node"] for d in m["dofs"]],
-                    [_AXIS.get(d["direction"], 1) for d in m["dofs"]])
-    return f"{m['f_hz'].size} modes at {len(m['dofs'])} DOFs"
+        write_uff55(tmp, m.f_hz, m.zeta, m.shapes, [int(d["node"]) for d in m.dofs],
+                    [_AXIS.get(d["direction"], 1) for d in m.dofs])
+    return f"{m.f_hz.size} modes at {len(m.dofs)} DOFs"
 
 
 def _frf(src: Path, out: Path) -> str:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.io as sio
@@ -33,6 +34,9 @@ class ModesFile:
     std_shapes : (n_ch, m) float array (NaN where unknown)
     measured_dofs : (n_ch,) int array, 0-based model DOFs, or None when the file does
         not say.
+    dofs : tuple of dict
+        Per shape entry, ``{"channel", "node", "direction"}`` where the file says (identify
+        JSON), else empty.
     """
 
     f_hz: FloatArray
@@ -41,6 +45,7 @@ class ModesFile:
     shapes: ComplexArray
     std_shapes: FloatArray
     measured_dofs: IntArray | None
+    dofs: tuple[dict[str, Any], ...] = ()
 
 
 def _json(p: Path) -> ModesFile:
@@ -58,7 +63,7 @@ def _json(p: Path) -> ModesFile:
         msg = f"{p}: expected a modes JSON written by `modal-twin identify` ({err!r})"
         raise ConfigError(msg) from err
     meas = np.array(md, dtype=np.int64) if all(v is not None for v in md) and md else None
-    return ModesFile(f, z, sf, S, np.full(S.shape, np.nan), meas)
+    return ModesFile(f, z, sf, S, np.full(S.shape, np.nan), meas, tuple(d["dofs"]))
 
 
 def _mat(p: Path) -> ModesFile:
