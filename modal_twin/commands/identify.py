@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from modal_twin.channels import ChannelSpec
-from modal_twin.errors import OptionError
+from modal_twin.errors import OptionError, SignalError
 from modal_twin.exit_codes import ExitCode
 
 __all__ = ["register", "run"]
@@ -75,6 +75,15 @@ def _corners(channels: list[ChannelSpec]) -> tuple[float, float]:
 
 
 def _sweep(method: str, u: np.ndarray, y: np.ndarray, fs: float, s: Any) -> Any:
+    try:
+        return _run_method(method, u, y, fs, s)
+    except np.linalg.LinAlgError as err:
+        msg = (f"{method}: the data are rank-deficient at these settings ({err}); noise-free "
+               f"or duplicated channels? Try fewer channels or a lower --f-max")
+        raise SignalError(msg) from err
+
+
+def _run_method(method: str, u: np.ndarray, y: np.ndarray, fs: float, s: Any) -> Any:
     from modal_twin.identification import n4sid, polymax, ssi_cov
 
     with warnings.catch_warnings():

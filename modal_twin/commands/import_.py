@@ -27,6 +27,8 @@ __all__ = ["register", "run"]
 
 UFF = (".uff", ".unv")
 STRONG_MOTION = (".zip", ".v1", ".v2", ".smc")
+LARGE_MB = 2.0
+"""Files and records from this size on get progress lines (stderr)."""
 GROUND = re.compile(r"grnd|ground|basement|free.?field|^abutment", re.IGNORECASE)
 """Sensor locations that measure the structure's input (base motion)."""
 
@@ -97,6 +99,10 @@ def _uff(path: Path, extra: dict[str, Any]) -> Part | None:
             **{f"data_{k}": s["data"] for k, s in enumerate(u.spectra)}}
     if u.skipped:
         _progress(f"{path.name}: dataset types {sorted(set(u.skipped))} not read")
+    if not (u.time or u.spectra or extra):
+        msg = (f"{path}: no supported UFF dataset (found types {sorted(set(u.skipped))}; "
+               f"import reads 58 / 58b, 15, 18, 82, 151, 164, 2411, 2420)")
+        raise ConfigError(msg)
     if not u.time:
         return None
     fs = {round(t[1], 9) for t in u.time}
@@ -155,7 +161,8 @@ def run(a: argparse.Namespace) -> int:
     parts = []
     for k, f in enumerate(a.files):
         size = f.stat().st_size / 1e6 if f.is_file() else 0.0
-        _progress(f"[{k + 1}/{len(a.files)}] reading {f} ({size:.1f} MB)")
+        if size >= LARGE_MB:
+            _progress(f"[{k + 1}/{len(a.files)}] reading {f} ({size:.1f} MB)")
         part = _read(f, a, meta, extra)
         if part is not None:
             parts.append((f, part))
@@ -172,8 +179,10 @@ def run(a: argparse.Namespace) -> int:
         msg = f"{a.files[0]}: channels {bad} hold NaN or Inf samples"
         raise SignalError(msg)
     block = SignalBlock(tuple(c.name for c in chans), fs, 0, X, source=a.files[0].name)
+    large = X.nbytes / 1e6 >= LARGE_MB
     out = write_imported(a.out, block, chans, extra_files=extra, record_meta=meta,
-                         progress=lambda q: _progress(f"writing {a.out}: {100 * q:.0f} %"))
+                         progress=(lambda q: _progress(f"writing {a.out}: {100 * q:.0f} %"))
+                         if large else None)
     roles: dict[str, int] = {}
     for c in chans:
         roles[c.effective_role] = roles.get(c.effective_role, 0) + 1

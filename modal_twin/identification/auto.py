@@ -4,8 +4,9 @@ Nothing here is a fixed frequency: the band comes from the record's spectrum (an
 anti-alias / band-pass corners the file states), the horizon from the lowest frequency
 of that band, the orders from the number of outputs and the horizon.
 
-- **Band** ``(f_lo, f_hi)``: ``f_hi`` is the frequency below which ``energy`` (80 %) of
-  the summed output PSD (Welch, mean removed) lies, at most 0.8 x Nyquist and the
+- **Band** ``(f_lo, f_hi)``: ``f_hi`` is ``margin`` (1.25) x the frequency below which
+  ``energy`` (80 %) of the summed, channel-normalised output PSD (Welch, mean removed)
+  lies (a weaker mode just above it stays in), at most 0.8 x Nyquist and the
   stated low-pass corner; ``f_lo`` is the larger of the stated high-pass corner and
   ``n_cycles / T`` (20 cycles of the lowest mode in the record, so that its correlations
   are estimated at all).
@@ -73,7 +74,8 @@ def _energy_band(y: FloatArray, fs_hz: float, energy: float) -> float:
 
 def choose_settings(y: FloatArray, fs_hz: float, n_in: int, *,
                     f_max_hz: float | None = None, corners_hz: tuple[float, float] | None
-                    = None, energy: float = 0.8, n_cycles: float = 20.0) -> AutoSettings:
+                    = None, energy: float = 0.8, margin: float = 1.25, n_cycles: float = 20.0
+                    ) -> AutoSettings:
     """Band, decimation, block rows and orders for a record (module docstring).
 
     Parameters
@@ -90,7 +92,7 @@ def choose_settings(y: FloatArray, fs_hz: float, n_in: int, *,
     n_out, n = y.shape
     T = n / fs_hz
     lo_c, hi_c = corners_hz if corners_hz is not None else (math.nan, math.nan)
-    f_hi = f_max_hz if f_max_hz is not None else _energy_band(y, fs_hz, energy)
+    f_hi = f_max_hz if f_max_hz is not None else margin * _energy_band(y, fs_hz, energy)
     f_hi = min(f_hi, 0.8 * fs_hz / 2, hi_c if math.isfinite(hi_c) else math.inf)
     f_lo = max(n_cycles / T, lo_c if math.isfinite(lo_c) else 0.0)
     f_hi = max(f_hi, 2.0 * f_lo)
