@@ -8,6 +8,10 @@
     modal-twin diagnose MODEL --train BAG --test BAG
     modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
     modal-twin effects history DIR [--png FILE]
+    modal-twin import FILE... --out BAG [--map MAP.yaml]       (UFF, CSMIP / SMC, CSV, NPZ)
+    modal-twin identify BAG [--method n4sid|ssi-cov|polymax] [--out DIR]
+    modal-twin update MODEL.mat|.npz --modes FILE [--out DIR]
+    modal-twin export modes|frf|model SRC --out FILE
     modal-twin demo
 """
 
