@@ -94,6 +94,15 @@ def test_import_identify_known_frame(frame: dict[str, Path], capsys: pytest.Capt
         assert (frame["modes"].parent / png).stat().st_size > 1000
 
 
+def test_polymax_and_ssi_cov_on_the_frame(frame: dict[str, Path], tmp_path: Path) -> None:
+    for method, tol in (("polymax", 0.01), ("ssi-cov", 0.01)):
+        out = tmp_path / method
+        assert main(["identify", str(frame["bag"]), "--method", method, "--out", str(out)]) == 0
+        doc = json.loads((out / "modes.json").read_text())
+        f = np.array([m["f_hz"] for m in doc["modes"]])
+        np.testing.assert_allclose(f, exact_f_hz(), rtol=tol)  # measured 0.4 % / 0.6 %
+
+
 def test_export_modes_and_model_round_trip(frame: dict[str, Path], tmp_path: Path) -> None:
     import pyuff
 

@@ -95,8 +95,13 @@ def _run_method(method: str, u: np.ndarray, y: np.ndarray, fs: float, s: Any) ->
         from modal_twin.acquisition.frf import frf
 
         est = frf(u, y, fs, nperseg=min(y.shape[1], max(256, y.shape[1] // 8)))
-        p_max = max(4, math.ceil(s.orders[-1] / max(u.shape[0], 1)))
-        return polymax(est.H1, est.f_hz, orders=range(2, p_max + 1), band_hz=s.band_hz)
+        return polymax(est.H1, est.f_hz, orders=range(2, _p_max(s, u.shape[0]) + 1),
+                       band_hz=s.band_hz)
+
+
+def _p_max(s: Any, n_in: int) -> int:
+    """Highest PolyMAX polynomial order: as many poles as the subspace methods' top order."""
+    return max(4, math.ceil(s.orders[-1] / max(n_in, 1)))
 
 
 def _modes(sweep: Any, band: tuple[float, float]) -> tuple[Any, Any, str]:
@@ -136,7 +141,9 @@ def run(a: argparse.Namespace) -> int:
                         corners_hz=_corners(outs + ins))
     print(f"identify: {a.method} on {len(ins)} inputs, {len(outs)} outputs, "
           f"{block.n_samples / block.fs_hz:.1f} s at {block.fs_hz:g} Hz")
-    print(f"identify: {s.describe()} (from the record; --f-max to change the band)")
+    print(f"identify: {s.describe()} (from the record; --f-max to change the band)"
+          + (f"; PolyMAX polynomial orders 2..{_p_max(s, len(ins))}, the block rows unused"
+             if a.method == "polymax" else ""))
     if a.method == "ssi-cov" and (r := rms_spread(y)) > NONSTATIONARY:
         print(f"warning: output-only SSI on a non-stationary record: window RMS varies by "
               f"x{r:.1f} (> x{NONSTATIONARY:g}); its modes assume stationary excitation -- "
