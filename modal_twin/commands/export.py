@@ -24,9 +24,6 @@ from modal_twin.exit_codes import ExitCode
 
 __all__ = ["register", "run", "structure_arrays"]
 
-_AXIS = {"x": 1, "y": 2, "z": 3, "-x": -1, "-y": -2, "-z": -3}
-
-
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Add ``export`` to the sub-commands."""
     p = sub.add_parser("export", help="modes to UFF 55, FRFs to UFF 58, a model to NPZ")
@@ -78,7 +75,7 @@ def _save_npz(out: Path, arrays: dict[str, Any]) -> None:
 def _modes(src: Path, out: Path) -> str:
     from modal_twin.io.imported import atomic_file
     from modal_twin.io.modes_file import read_modes
-    from modal_twin.io.uff import write_uff55
+    from modal_twin.io.uff import AXIS_CODES, write_uff55
 
     if src.suffix.lower() != ".json":
         msg = f"{src}: expected a modes JSON written by `modal-twin identify`"
@@ -87,14 +84,14 @@ def _modes(src: Path, out: Path) -> str:
     with atomic_file(out) as tmp:
         tmp.unlink()
         write_uff55(tmp, m.f_hz, m.zeta, m.shapes, [int(d["node"]) for d in m.dofs],
-                    [_AXIS.get(d["direction"], 1) for d in m.dofs])
+                    [AXIS_CODES.get(d["direction"], 1) for d in m.dofs])
     return f"{m.f_hz.size} modes at {len(m.dofs)} DOFs"
 
 
 def _frf(src: Path, out: Path) -> str:
     from modal_twin.acquisition.frf import frf
     from modal_twin.io.imported import atomic_file, read_imported
-    from modal_twin.io.uff import write_uff58_frf
+    from modal_twin.io.uff import AXIS_CODES, write_uff58_frf
 
     block, chans = read_imported(src)
     ins = [c for c in chans if c.effective_role == "input"]
@@ -107,7 +104,7 @@ def _frf(src: Path, out: Path) -> str:
     nodes = sorted({c.node or c.name for c in chans})
 
     def dof(c: Any) -> tuple[int, int]:
-        return nodes.index(c.node or c.name) + 1, _AXIS.get(c.direction, 1)
+        return nodes.index(c.node or c.name) + 1, AXIS_CODES.get(c.direction, 1)
 
     H = np.nan_to_num(est.H1)
     with atomic_file(out) as tmp:

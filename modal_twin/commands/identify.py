@@ -188,7 +188,7 @@ def _write(out: Path, method: str, outs: list[ChannelSpec], ins: list[ChannelSpe
            diag: Any, mm: Any, mp: np.ndarray, cx: np.ndarray) -> None:
     from modal_twin.identification import automac
     from modal_twin.io.imported import atomic_file
-    from modal_twin.io.uff import write_uff55
+    from modal_twin.io.uff import AXIS_CODES, write_uff55
     from modal_twin.viz.mac import save_mac
     from modal_twin.viz.stabilization import save_stabilization
 
@@ -212,11 +212,10 @@ def _write(out: Path, method: str, outs: list[ChannelSpec], ins: list[ChannelSpe
     text = json.dumps(doc, indent=1).replace("NaN", "null")
     with atomic_file(out / "modes.json") as tmp:
         tmp.write_text(text)
-    axis = {"x": 1, "y": 2, "z": 3, "-x": -1, "-y": -2, "-z": -3}
     with atomic_file(out / "modes.uff") as tmp:
         tmp.unlink()
-        write_uff55(tmp, mm.f_hz, mm.zeta, mm.shapes, [d["node"] for d in dofs],
-                    [axis.get(d["direction"], 1) for d in dofs])
+        write_uff55(tmp, mm.f_hz, mm.zeta, mm.shapes, [int(str(d["node"])) for d in dofs],
+                    [AXIS_CODES.get(str(d["direction"]), 1) for d in dofs])
     save_stabilization(out / "stabilization.png", list(diag.orders),
                        [p.f_hz for p in diag.poles], list(diag.stable), selected_hz=mm.f_hz,
                        band_hz=s.band_hz, title=f"stabilization diagram ({method})")

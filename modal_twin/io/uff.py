@@ -26,10 +26,12 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
 
-__all__ = ["UffContents", "read_uff", "read_uff55", "write_uff55", "write_uff58_frf"]
+__all__ = ["AXIS_CODES", "UffContents", "read_uff", "read_uff55", "write_uff55", "write_uff58_frf"]
 
 log = logging.getLogger(__name__)
 
+AXIS_CODES = {"x": 1, "y": 2, "z": 3, "-x": -1, "-y": -2, "-z": -3}
+"""Direction label -> UFF direction code (58 ``rsp_dir``, 55 column)."""
 _DIRS = {1: "x", 2: "y", 3: "z", -1: "-x", -2: "-y", -3: "-z", 4: "rx", 5: "ry", 6: "rz",
          -4: "-rx", -5: "-ry", -6: "-rz"}
 # UFF specific data type codes of the ordinate (dataset 58, record 8) -> quantity
@@ -151,7 +153,9 @@ def read_uff(path: str | Path) -> UffContents:
     """
     p = Path(path)
     sets = _sets(p)
-    time, spectra, skipped = [], [], []
+    time: list[tuple[ChannelSpec, float, float, FloatArray]] = []
+    spectra: list[dict[str, Any]] = []
+    skipped: list[int] = []
     for k, s in enumerate(sets):
         if s.get("_skipped"):
             skipped.append(int(s["type"]))
