@@ -270,7 +270,13 @@ def test_berkeley_building_with_azimuths(shared_dir: Path, tmp_path: Path) -> No
 def test_uff58b_record_gives_modes(shared_dir: Path, tmp_path: Path,
                                    capsys: pytest.CaptureFixture) -> None:
     u = _real(shared_dir, "uff", "accel_4ch_3200hz_uff58b.uff")
-    assert main(["import", str(u), "--out", str(tmp_path / "b")]) == 0
+    geo = _real(shared_dir, "uff", "geometry_testlab_15_18_82_161_164.uff")
+    assert main(["import", str(u), str(geo), "--out", str(tmp_path / "b")]) == 0
+    cmap = json.loads((tmp_path / "b" / "channel_map.json").read_text())
+    nodes = json.loads((tmp_path / "b" / f"geometry_{geo.stem}.json").read_text())["nodes"]
+    c0 = cmap["channels"][0]
+    assert (c0["node"], c0["direction"]) == ("1", "z")
+    assert c0["position_m"] == nodes["1"]  # the sensor placed on the test geometry
     f = _first_modes(tmp_path / "b", tmp_path / "id", "--f-max", "400")
     assert f.size >= 1
     assert "ssi-cov on 0 inputs, 4 outputs" in capsys.readouterr().out

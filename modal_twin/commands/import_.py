@@ -150,6 +150,16 @@ def _join(parts: list[tuple[Path, Part]]) -> Part:
     return chans, parts[0][1][1], np.concatenate([p[2] for _, p in parts], axis=0)
 
 
+def _positions(chans: list[ChannelSpec], extra: dict[str, Any]) -> list[ChannelSpec]:
+    """Sensor positions from imported UFF geometry (a channel's node among its nodes)."""
+    nodes: dict[str, list[float]] = {}
+    for name, obj in extra.items():
+        if name.startswith("geometry_"):
+            nodes.update(obj.get("nodes", {}))
+    return [replace(c, position_m=tuple(nodes[c.node])) if c.node in nodes else c
+            for c in chans]
+
+
 def run(a: argparse.Namespace) -> int:
     """Import the files (module docstring)."""
     from modal_twin.io.channel_map import apply_map, map_keys, read_channel_map
@@ -172,6 +182,7 @@ def run(a: argparse.Namespace) -> int:
               f"{sorted(extra)} into {out}")
         return ExitCode.OK
     chans, fs, X = _join(parts)
+    chans = _positions(chans, extra)
     if a.map is not None:
         chans = apply_map(chans, read_channel_map(a.map), map_keys(a.map), str(a.map))
     bad = [c.name for c, x in zip(chans, X, strict=True) if not np.all(np.isfinite(x))]
