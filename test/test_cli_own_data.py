@@ -54,13 +54,15 @@ def shear_frame_csv(path: Path, fs: float = 100.0, seconds: float = 120.0) -> Pa
     return path
 
 
-def matrix_model_npz(path: Path, scale: float = 0.85) -> Path:
+def matrix_model_npz(path: Path, scale: float = 0.85, *, sensors: bool = True) -> Path:
     """The frame as a matrix model: substructures = the two storeys, both ``scale`` x the
-    truth (K(theta) = sum (1 + theta_j) K_j), sensors at both floors."""
+    truth (K(theta) = sum (1 + theta_j) K_j), sensors at both floors (or no sensor list:
+    the channels' node and direction find their DOFs by label)."""
     k1 = _k(np.array([K_STORY[0], 0.0])) * scale
     k2 = _k(np.array([0.0, K_STORY[1]])) * scale
-    np.savez(path, M=np.diag(MASS), K_story1=k1, K_story2=k2, measured_dofs=np.array([0, 1]),
-             dofs=np.array(["1:x", "2:x"]))
+    extra = {"measured_dofs": np.array([0, 1])} if sensors else {}
+    np.savez(path, M=np.diag(MASS), K_story1=k1, K_story2=k2, dofs=np.array(["1:x", "2:x"]),
+             **extra)
     return path
 
 
@@ -152,6 +154,10 @@ def test_update_frame_to_identified_modes(frame: dict[str, Path], tmp_path: Path
     assert (out / "model_v1.npz").is_file()
     assert main(["update", str(npz), "--modes", str(frame["modes"]), "--out", str(out)]) == 0
     assert (out / "model_v2.npz").is_file()  # a new version, the old one kept
+    bare = matrix_model_npz(tmp_path / "bare.npz", scale=0.85, sensors=False)
+    assert main(["update", str(bare), "--modes", str(frame["modes"]), "--out", str(out)]) == 0
+    rep3 = json.loads((out / "update_v3.json").read_text())
+    np.testing.assert_allclose(rep3["theta"], rep["theta"], rtol=1e-9)  # DOFs by label
 
 
 def _bad(argv: list[str], capsys: pytest.CaptureFixture, *needles: str) -> None:

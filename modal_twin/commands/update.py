@@ -4,7 +4,9 @@ MODEL is a ``.mat`` / ``.npz`` matrix model with substructure stiffnesses ``K_<n
 (:mod:`modal_twin.models.matrix_model`); its parameters are the substructure factors
 ``theta_j`` of ``K(theta) = K0 + sum_j theta_j K_j``. FILE holds the identified modes
 (:func:`modal_twin.io.modes_file.read_modes`). The measured DOFs come from
-``--measured-dofs``, else the modes file, else the model file.
+``--measured-dofs``, else the modes file (``measDOFs``, or the channels' node and
+direction matched to the model's DOF labels ``"node:x"`` / ``"node:ux"``), else the model
+file (``measDOFs``).
 
 The settings are those of the bridge benchmark (test/benchmarks/bench_updating.py):
 bounded Gauss-Newton from the nominal model with the analytic Jacobian (no global
@@ -44,6 +46,21 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--max-nfev", type=int, default=60)
     p.add_argument("--out", type=Path, default=None, help="folder of model versions")
     p.set_defaults(func=run)
+
+
+def _by_label(dofs: tuple[dict[str, object], ...], labels: tuple[str, ...]
+              ) -> np.ndarray | None:
+    """Model DOFs of the shape entries from their node and direction (``"12:z"`` or
+    ``"12:uz"`` labels), or None when any entry has no match."""
+    index = {lab: k for k, lab in enumerate(labels)}
+    out = []
+    for d in dofs:
+        node, axis = str(d.get("node_label") or ""), str(d.get("direction") or "")
+        k = index.get(f"{node}:{axis}", index.get(f"{node}:u{axis}"))
+        if not node or k is None:
+            return None
+        out.append(k)
+    return np.array(out, dtype=np.int64) if out else None
 
 
 def _measured(a: argparse.Namespace, file_dofs: np.ndarray | None,
@@ -107,7 +124,9 @@ def run(a: argparse.Namespace) -> int:
         msg = f"{a.model}: no substructure stiffness K_<name> to update"
         raise ConfigError(msg)
     md = read_modes(a.modes)
-    dofs = _measured(a, md.measured_dofs, mm.measured_dofs, md.shapes.shape[0])
+    file_dofs = md.measured_dofs if md.measured_dofs is not None else _by_label(md.dofs,
+                                                                                mm.dofs)
+    dofs = _measured(a, file_dofs, mm.measured_dofs, md.shapes.shape[0])
     p = len(mm.names)
     if mm.lower is not None and mm.upper is not None:
         lo, hi = mm.lower, mm.upper
