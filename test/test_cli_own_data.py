@@ -299,3 +299,24 @@ def test_bridge_updates_from_the_command_line(shared_dir: Path, tmp_path: Path,
     assert max(abs(v) for v in rep["df_pct_after"]) <= 0.52  # bench_updating.py: 0.519
     assert min(rep["mac_after"]) >= 0.885
     assert "determined by the data: ['Frame', 'y1', 'y2']" in capsys.readouterr().out
+
+
+def test_identify_warnings_no_mode_and_non_stationary(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture) -> None:
+    frame = shear_frame_csv(tmp_path / "f.csv", seconds=60.0)
+    roles = tmp_path / "roles.yaml"
+    roles.write_text("channels:\n  - {name: ground, role: input}\n")
+    assert main(["import", str(frame), "--map", str(roles), "--out", str(tmp_path / "n")]) == 0
+    # a band below the first mode (3.97 Hz): nothing to find, and the command says so
+    assert main(["identify", str(tmp_path / "n"), "--f-max", "3"]) == ExitCode.FAILED
+    err = capsys.readouterr().err
+    assert "warning: no mode found in 0.333-3 Hz" in err
+    assert "--f-max" in err
+    rows = np.loadtxt(frame, delimiter=",", skiprows=1)
+    rows[:, 1:] *= np.exp(-rows[:, :1] / 8.0)  # a decaying, earthquake-like record
+    burst = tmp_path / "burst.csv"
+    np.savetxt(burst, rows, delimiter=",", comments="", fmt="%.9g",
+               header="t [s],ground [m/s^2],floor1 [m/s^2],floor2 [g]")
+    assert main(["import", str(burst), "--out", str(tmp_path / "b")]) == 0
+    main(["identify", str(tmp_path / "b"), "--method", "ssi-cov"])
+    assert "output-only SSI on a non-stationary record" in capsys.readouterr().err
