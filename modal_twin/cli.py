@@ -8,6 +8,10 @@
     modal-twin diagnose MODEL --train BAG --test BAG
     modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
     modal-twin effects history DIR [--png FILE]
+    modal-twin import FILE... --out BAG [--map MAP.yaml]       (UFF, CSMIP / SMC, CSV, NPZ)
+    modal-twin identify BAG [--method n4sid|ssi-cov|polymax] [--out DIR]
+    modal-twin update MODEL.mat|.npz --modes FILE [--out DIR]
+    modal-twin export modes|frf|model SRC --out FILE
     modal-twin demo
 """
 
@@ -19,7 +23,8 @@ import os
 import sys
 from pathlib import Path
 
-from modal_twin.commands import campaign
+from modal_twin.commands import campaign, export, identify, import_, update
+from modal_twin.commands.model_matrix import check_model_kind, matrix_info
 from modal_twin.errors import ModalTwinError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.runtime import THREAD_ENV
@@ -90,6 +95,8 @@ def _cmd_model(a: argparse.Namespace) -> int:
     from modal_twin.models.model_info import model_info
     from modal_twin.models.vehicle_spec import is_vehicle_file
 
+    if check_model_kind(a.file) == "matrix":  # .mat / .npz from the user's FE tool
+        return matrix_info(a)
     if is_vehicle_file(a.file):  # config/vehicles
         return _vehicle_info(a)
     bld = build_building(a.file)
@@ -213,7 +220,8 @@ def _parser() -> argparse.ArgumentParser:
     msub = mo.add_subparsers(dest="model_cmd", required=True)
     mi = msub.add_parser("info", help="DOF count, total mass, lowest modes")
     mi.add_argument("file", type=Path,
-                    help="structure or vehicle YAML (config/structures/..., config/vehicles/...)")
+                    help="structure or vehicle YAML (config/structures/..., config/vehicles/...)"
+                         " or M, K (K_j, C) matrices in a .mat / .npz file")
     mi.add_argument("--json", action="store_true")
     mi.add_argument("--modes", type=int, default=None, help="modes to compute")
     mi.add_argument("--show", type=int, default=12, help="modes to list")
@@ -248,7 +256,8 @@ def _parser() -> argparse.ArgumentParser:
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)
-    campaign.register(sub)
+    for mod in (import_, identify, export, update, campaign):
+        mod.register(sub)
     return p
 
 

@@ -21,8 +21,16 @@ import scipy.sparse as sp
 
 from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import ConfigError
+from modal_twin.models.matrix_model import MatrixModel, matrix_model_from_arrays
 
-__all__ = ["BRIDGE_DIR", "BridgeData", "BridgePublished", "load_bridge", "load_bridge_published"]
+__all__ = [
+    "BRIDGE_DIR",
+    "BridgeData",
+    "BridgePublished",
+    "load_bridge",
+    "load_bridge_published",
+    "load_matrix_model",
+]
 
 BRIDGE_DIR = Path("/work/shared/realdata/model_updating")
 _PREFIX = "SteelPedestrianBridge__"
@@ -31,6 +39,9 @@ _MODES = _PREFIX + "Experiment__Experiment_Model_Updating__ExpModeInfo_FEM.mat"
 SUBSTRUCTURES: tuple[str, ...] = ("K_Frame", "K_Truss", *(f"K_Conc{j}" for j in range(1, 12)),
                                   "K_y1", "K_z1", "K_y2", "K_z2")
 """Order of the 17 parameters alpha_j (as the project's own ``structModel.K_j``)."""
+BRIDGE_LOWER = np.array([-0.1, -0.1] + [-0.2] * 11 + [-1.0] * 4)
+BRIDGE_UPPER = np.array([0.1, 0.1] + [0.4] * 11 + [10.0] * 4)
+"""The project's bounds on alpha (frame / truss, concrete segments, support springs)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,8 +143,7 @@ def load_bridge(folder: str | Path | None = None) -> BridgeData:
         msg = f"{_MODEL} / {_MODES}: missing variable {err}"
         raise ConfigError(msg) from err
     K0 = sp.csr_array(sum(K_j[1:], K_j[0]))  # K(alpha) = sum_j (1 + alpha_j) K_j
-    lower = np.array([-0.1, -0.1] + [-0.2] * 11 + [-1.0] * 4)
-    upper = np.array([0.1, 0.1] + [0.4] * 11 + [10.0] * 4)
+    lower, upper = BRIDGE_LOWER.copy(), BRIDGE_UPPER.copy()
     return BridgeData(M=M, K0=K0, K_j=K_j, names=tuple(s.removeprefix("K_") for s in
                                                          SUBSTRUCTURES),
                       lower=lower, upper=upper, measured_dofs=dofs, lambda_exp=lam,
@@ -161,3 +171,41 @@ def load_bridge_published(folder: str | Path | None = None, formulation: int = 1
                            fval=float(fval[k]),
                            seconds_per_run=float(np.median(np.asarray(r["t"], dtype=float))),
                            formulation=formulation)
+
+
+def load_matrix_model(path: str | Path) -> MatrixModel:
+    """A :class:`~modal_twin.models.matrix_model.MatrixModel` from a ``.mat`` or ``.npz``.
+
+    The pedestrian-bridge file (its 17 substructures) gets the parameter order and bounds
+    of :func:`load_bridge` (the project's published bounds).
+
+    Raises
+    ------
+    ConfigError
+        Not a readable ``.mat`` / ``.npz`` file.
+    ModelError, ShapeError
+        See :func:`~modal_twin.models.matrix_model.matrix_model_from_arrays`.
+    """
+    p = Path(path)
+    arrays: dict[str, object]
+    try:
+        if p.suffix.lower() == ".npz":
+            with np.load(p, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+        elif p.suffix.lower() == ".mat":
+            arrays = {k: v for k, v in sio.loadmat(p).items() if not k.startswith("__")}
+        else:
+            msg = f"{p}: expected a .mat or .npz matrix file, got {p.suffix!r}"
+            raise ConfigError(msg)
+    except (OSError, ValueError, NotImplementedError) as err:
+        msg = f"{p}: not a readable {p.suffix} file ({type(err).__name__}: {err})"
+        raise ConfigError(msg) from err
+    subs = {f"K_{s.removeprefix('K_')}" for s in SUBSTRUCTURES}
+    bridge = subs <= set(arrays) and "lower" not in arrays
+    order = tuple(s.removeprefix("K_") for s in SUBSTRUCTURES) if bridge else None
+    mm = matrix_model_from_arrays(arrays, str(p), order)
+    if bridge:
+        from dataclasses import replace
+
+        mm = replace(mm, lower=BRIDGE_LOWER.copy(), upper=BRIDGE_UPPER.copy())
+    return mm

@@ -30,10 +30,22 @@ import numpy as np
 from modal_twin._types import FloatArray
 from modal_twin.errors import SignalError
 
-__all__ = ["StrongMotionChannel", "read_smc", "read_v2", "read_zip"]
+__all__ = [
+    "StrongMotionChannel",
+    "StructureFrame",
+    "read_record",
+    "read_smc",
+    "read_v2",
+    "read_v3",
+    "read_zip",
+    "to_structure_frame",
+]
 
 _UNIT_TO_SI = {"cm/sec2": 0.01, "cm/sec/sec": 0.01, "cm/s2": 0.01, "m/sec2": 1.0,
                "g": 9.80665, "mm/sec2": 0.001}
+
+_CHAN = r"^Chan\s+(\d+):\s+(\S+)(?:\s+Deg)?\s+(?:\(Sta Chn:\s*(\d+)\))?\s*Location"
+"""CSMIP channel line: number, orientation (Up / Long / Tran / azimuth), station channel."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,6 +84,8 @@ class StrongMotionChannel:
     start_utc: str
     unit_in_file: str
     data: FloatArray
+    filter_hz: tuple[float, float] = (np.nan, np.nan)
+    volume: str = "V2"
 
 
 def _fixed(lines: list[str], n: int, width: int, what: str) -> FloatArray:
@@ -120,12 +134,11 @@ def read_v2(text: str, name: str = "v2") -> StrongMotionChannel:
         A header line is missing, the unit is unknown, or samples are missing / malformed.
     """
     lines = text.splitlines()
-    ch = _search(r"^Chan\s+(\d+):\s+(\S+)\s+(?:\(Sta Chn:\s*(\d+)\))?\s*Location:\s*(.*?)\s*$",
-                 text, "channel ('Chan n: ... Location:')", name)
+    ch = _search(_CHAN + r":\s*(.*?)\s*$", text, "channel ('Chan n: ... Location:')", name)
     sta = _search(r"Station No\.\s+(\d+)", text, "station ('Station No.')", name).group(1)
     start = re.search(r"Start time:\s*(.*?)\s*$", text, flags=re.MULTILINE)
     acc = _search(
-        r"^\s*(\d+)\s+points of accel data equally spaced at\s+([\d.Ee+-]+)\s+sec,\s+in\s+"
+        r"^\s*(\d+)\s+points of (?:accel )?data equally spaced at\s+([\d.Ee+-]+)\s+sec,\s+in\s+"
         r"(\S+?)\.?\s+\((\d+)[fFeE](\d+)\.\d+\)",
         text, "accel data ('N points of accel data ...')", name,
     )
@@ -139,9 +152,15 @@ def read_v2(text: str, name: str = "v2") -> StrongMotionChannel:
     first = text[: acc.end()].count("\n") + 1
     data = _fixed(lines[first:], n, width, name) * _UNIT_TO_SI[unit.lower()]
     st_ch = int(ch.group(3)) if ch.group(3) else int(ch.group(1))
+    orient = ch.group(2)
+    deg = re.match(r"^(\d+(?:\.\d*)?)$", orient)
+    az = float(deg.group(1)) % 360.0 if deg else np.nan
+    corners = re.search(r"3 dB pts at\s+([\d.]+)\s+and\s+([\d.]+)\s+cyc/sec", text)
+    filt = (float(corners.group(1)), float(corners.group(2))) if corners else (np.nan, np.nan)
+    vol = "V1" if re.match(r"\s*Uncorrected accelerogram", text, flags=re.IGNORECASE) else "V2"
     return StrongMotionChannel(
-        f"{sta}.ch{st_ch:02d}", sta, ch.group(4), ch.group(2), np.nan, 1.0 / dt,
-        start.group(1) if start else "", unit, data,
+        f"{sta}.ch{st_ch:02d}", sta, ch.group(4), orient, az, 1.0 / dt,
+        start.group(1) if start else "", unit, data, filt, vol,
     )
 
 
@@ -188,9 +207,160 @@ def read_smc(text: str, name: str = "smc") -> StrongMotionChannel:
     start = "{:04d}-{:02d}-{:02d} {:02d}:{:02d}:{:02d}.{:03d}".format(*(int(v) for v in ints[1:8]))
     return StrongMotionChannel(
         scnl.group(1) if scnl else name, stam.group(1).strip() if stam else "",
-        loc.group(1).strip() if loc else "", orient, az, fs, start, "cm/s^2",
-        data_cm * 0.01,
+        loc.group(1).strip() if loc else "", orient, az % 360.0, fs, start, "cm/s^2",
+        data_cm * 0.01, (np.nan, np.nan), "SMC",
     )
+
+
+def read_v3(text: str, name: str = "v3") -> dict[str, object]:
+    """Header of a CSMIP Volume 3 file (response and Fourier spectra): what it belongs to.
+
+    The spectra themselves are not used by the pipeline; the import keeps, per channel,
+    the V3 file name, its damping values and its period range as metadata.
+
+    Raises
+    ------
+    SignalError
+        No channel line in the header.
+    """
+    ch = _search(_CHAN, text, "channel ('Chan n: ... Location:')", name)
+    sta = _search(r"Station No\.\s+(\d+)", text, "station ('Station No.')", name).group(1)
+    st_ch = int(ch.group(3)) if ch.group(3) else int(ch.group(1))
+    rng = re.search(r"periods,\s*([\d.]+)\s*-\s*([\d.]+)\s*sec", text)
+    return {"channel": f"{sta}.ch{st_ch:02d}", "file": name, "kind": "response spectra (V3)",
+            "periods_s": [float(rng.group(1)), float(rng.group(2))] if rng else []}
+
+
+def read_record(path: str | Path) -> tuple[tuple[StrongMotionChannel, ...],
+                                           dict[str, dict[str, object]]]:
+    """Acceleration channels and V3 spectra headers of a zip or of one V1 / V2 / SMC file.
+
+    A zip may hold V1 (uncorrected), V2 (corrected) and V3 (spectra) files; a channel with
+    both a V1 and a V2 file is taken from the V2. SMC files other than acceleration
+    (``_v``, ``_d``, spectra) are ignored.
+
+    Returns
+    -------
+    channels : tuple of StrongMotionChannel
+    spectra : dict
+        Channel name -> :func:`read_v3` header.
+
+    Raises
+    ------
+    SignalError
+        No V1, V2 or SMC acceleration data found.
+    """
+    p = Path(path)
+    texts: list[tuple[str, str]] = []
+    if zipfile.is_zipfile(p):
+        with zipfile.ZipFile(p) as z:
+            texts = [(i.filename, z.read(i.filename).decode("latin-1"))
+                     for i in sorted(z.infolist(), key=lambda i: i.filename)]
+    else:
+        texts = [(p.name, p.read_bytes().decode("latin-1"))]
+    by_name: dict[str, StrongMotionChannel] = {}
+    spectra: dict[str, dict[str, object]] = {}
+    for fn, text in texts:
+        low = fn.lower()
+        if low.endswith((".v1", ".v2")):
+            c = read_v2(text, fn)
+            if low.endswith(".v2") or c.name not in by_name:
+                by_name[c.name] = c
+        elif low.endswith(".v3"):
+            h = read_v3(text, fn)
+            spectra[str(h["channel"])] = h
+        elif low.endswith("_a.smc") or (low.endswith(".smc") and not zipfile.is_zipfile(p)):
+            c = read_smc(text, fn)
+            by_name[c.name] = c
+    if not by_name:
+        msg = f"{p}: expected V1 / V2 or _a.smc acceleration files, found none"
+        raise SignalError(msg)
+    return tuple(by_name[k] for k in sorted(by_name)), spectra
+
+
+@dataclass(frozen=True, slots=True)
+class StructureFrame:
+    """Horizontal axes of the structure: x at ``x_azimuth_deg`` from north, y at x - 90.
+
+    (x, y, z up) is right-handed; a sensor at azimuth ``a`` measures
+    ``cos(a - ax) a_x - sin(a - ax) a_y``.
+    """
+
+    x_azimuth_deg: float
+
+
+def default_frame(channels: tuple[StrongMotionChannel, ...]) -> StructureFrame:
+    """x along the most common horizontal sensor axis (azimuth mod 180, smallest on ties)."""
+    axes = [round(c.azimuth_deg % 180.0, 3) for c in channels if np.isfinite(c.azimuth_deg)]
+    if not axes:
+        return StructureFrame(0.0)
+    vals, counts = np.unique(axes, return_counts=True)
+    return StructureFrame(float(vals[np.argmax(counts)]))
+
+
+def _axis(c: StrongMotionChannel) -> str:
+    o = c.orientation.lower()
+    return {"long": "x", "tran": "y", "up": "z", "vert": "z", "dn": "-z"}.get(o, "")
+
+
+def to_structure_frame(channels: tuple[StrongMotionChannel, ...],
+                       frame: StructureFrame | None = None
+                       ) -> tuple[list[StrongMotionChannel], list[str], StructureFrame]:
+    """Rotate the horizontal sensors into the structure frame.
+
+    Sensors labelled Long / Tran / Up (CSMIP bridges) are in the structure frame already
+    (x, y, z). Sensors with an azimuth are grouped by location: a group with two
+    non-parallel horizontal sensors is rotated, ``[d1; d2] (a_x, a_y) = (s1, s2)`` with
+    ``d = (cos(a - ax), -sin(a - ax))``, the sensor nearer to x carrying a_x and the other
+    a_y (names kept); a single sensor along +-x or +-y (within 1 degree) is sign-corrected;
+    any other single sensor keeps its data and gets its unit vector as direction.
+
+    Returns
+    -------
+    channels : list of StrongMotionChannel
+        Same names and order, data in the structure frame.
+    directions : list of str
+        ``"x"``, ``"y"``, ``"z"`` or ``"cx,cy,0"``.
+    frame : StructureFrame
+    """
+    fr = frame or default_frame(channels)
+    out = list(channels)
+    dirs = [_axis(c) for c in channels]
+    groups: dict[str, list[int]] = {}
+    for k, c in enumerate(channels):
+        if np.isfinite(c.azimuth_deg):
+            groups.setdefault(c.location or c.name, []).append(k)
+    tol = np.cos(np.radians(1.0))
+    for idx in groups.values():
+        th = np.radians([channels[k].azimuth_deg - fr.x_azimuth_deg for k in idx])
+        D = np.column_stack([np.cos(th), -np.sin(th)])
+        if len(idx) == 2 and abs(np.linalg.det(D)) > 1e-3:
+            S = np.array([channels[k].data for k in idx])
+            A = np.linalg.solve(D, S)
+            kx = int(np.argmax(np.abs(D[:, 0])))
+            for j, k in enumerate(idx):
+                comp = 0 if j == kx else 1
+                out[k] = _replace_data(channels[k], A[comp])
+                dirs[k] = "xy"[comp]
+            continue
+        for j, k in enumerate(idx):
+            d = D[j]
+            ax = int(np.argmax(np.abs(d)))
+            if abs(d[ax]) >= tol:
+                out[k] = _replace_data(channels[k], np.sign(d[ax]) * channels[k].data)
+                dirs[k] = "xy"[ax]
+            else:
+                dirs[k] = f"{d[0]:.4f},{d[1]:.4f},0"
+    for k, c in enumerate(channels):
+        if not dirs[k] and c.orientation.upper() == "UP":
+            dirs[k] = "z"
+    return out, dirs, fr
+
+
+def _replace_data(c: StrongMotionChannel, data: FloatArray) -> StrongMotionChannel:
+    from dataclasses import replace
+
+    return replace(c, data=np.ascontiguousarray(data, dtype=np.float64))
 
 
 def read_zip(path: str | Path) -> tuple[StrongMotionChannel, ...]:

@@ -103,3 +103,72 @@ def test_bad_files() -> None:
     bad_fs = _smc().replace(f"{200.0:15.7E}", f"{0.0:15.7E}")
     with pytest.raises(SignalError, match="sample rate in"):
         read_smc(bad_fs)
+
+
+def _ch(name: str, loc: str, orient: str, az: float, data: np.ndarray):
+    from modal_twin.io.strong_motion import StrongMotionChannel
+
+    return StrongMotionChannel(name, "1", loc, orient, az, 100.0, "", "cm/s^2", data)
+
+
+def test_rotation_to_structure_frame_sign_and_pairs() -> None:
+    from modal_twin.io.strong_motion import StructureFrame, default_frame, to_structure_frame
+
+    rng = np.random.default_rng(0)
+    ax_true, ay_true = rng.standard_normal(50), rng.standard_normal(50)
+    # structure x at azimuth 171, y at 81; a sensor at azimuth a reads
+    # cos(a - 171) a_x - sin(a - 171) a_y
+    def reading(az: float) -> np.ndarray:
+        th = np.radians(az - 171.0)
+        return np.cos(th) * ax_true - np.sin(th) * ay_true
+
+    chans = (
+        _ch("R.x", "roof", "351", 351.0, reading(351.0)),  # -x
+        _ch("R.y", "roof", "81", 81.0, reading(81.0)),  # +y
+        _ch("B.1", "basement", "200", 200.0, reading(200.0)),  # a pair off the axes
+        _ch("B.2", "basement", "290", 290.0, reading(290.0)),
+        _ch("S.1", "stair", "216", 216.0, reading(216.0)),  # a single one off the axes
+        _ch("Z", "roof", "UP", np.nan, ay_true * 0.0),
+    )
+    assert default_frame(chans).x_azimuth_deg in (171.0, 20.0, 36.0, 81.0, 110.0)
+    out, dirs, fr = to_structure_frame(chans, StructureFrame(171.0))
+    assert fr.x_azimuth_deg == 171.0
+    assert dirs[:2] == ["x", "y"]
+    np.testing.assert_allclose(out[0].data, ax_true, atol=1e-12)  # sign corrected
+    np.testing.assert_allclose(out[1].data, ay_true, atol=1e-12)
+    assert sorted(dirs[2:4]) == ["x", "y"]
+    bx = out[2].data if dirs[2] == "x" else out[3].data
+    np.testing.assert_allclose(bx, ax_true, atol=1e-10)  # the pair rotated
+    assert dirs[4] == f"{np.cos(np.radians(45)):.4f},{-np.sin(np.radians(45)):.4f},0"
+    np.testing.assert_array_equal(out[4].data, chans[4].data)
+    assert dirs[5] == "z"
+
+
+def test_v1_v3_and_filter_corners(tmp_path: Path) -> None:
+    from modal_twin.io.strong_motion import read_record, read_v3
+
+    v2 = _v2().replace("(8f10.6)\n", "(8f10.6)\n", 1)
+    v2 = v2.replace(" 10 points of accel", "Accelerogram bandpass filtered with 3 dB pts at  "
+                    "0.30 and 40.00 cyc/sec\n 10 points of accel", 1)
+    v1 = ("Uncorrected accelerogram" + _v2()[len("Corrected accelerogram"):]).replace(
+        "accel data", "data")
+    v3 = ("Response and Fourier amplitude spectra (** periods,  .04 - 32.0 sec)   for\n"
+          + _v2().split(" 10 points")[0])
+    h = read_v3(v3, "chan006.v3")
+    assert h["channel"] == "58658.ch06"
+    assert h["periods_s"] == [0.04, 32.0]
+    p = tmp_path / "rec.zip"
+    with zipfile.ZipFile(p, "w") as z:
+        z.writestr("chan006.v1", v1)
+        z.writestr("chan006.v2", v2)
+        z.writestr("chan006.v3", v3)
+        z.writestr("chan007.v1", v1.replace("(Sta Chn:  6)", "(Sta Chn:  7)"))
+    chans, spectra = read_record(p)
+    assert [(c.name, c.volume) for c in chans] == [("58658.ch06", "V2"), ("58658.ch07", "V1")]
+    assert chans[0].filter_hz == (0.30, 40.0)
+    assert spectra["58658.ch06"]["file"] == "chan006.v3"
+    q = tmp_path / "none.zip"
+    with zipfile.ZipFile(q, "w") as z:
+        z.writestr("readme.txt", "x")
+    with pytest.raises(SignalError, match=r"expected V1 / V2 or _a\.smc"):
+        read_record(q)

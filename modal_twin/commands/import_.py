@@ -1,0 +1,204 @@
+"""``modal-twin import FILE... --out BAG``: measured files to a bag and its channel map.
+
+Formats by file name: ``.uff`` / ``.unv`` (UFF 58 / 58b time data and spectra, UFF
+geometry), ``.zip`` / ``.v1`` / ``.v2`` / ``.smc`` (CSMIP and USGS strong-motion
+records, rotated to one structure frame), ``.csv`` and ``.npz`` (a channel table with
+units). Time channels of all files must share the sample rate and length. Roles: a user
+map (``--map``) first; else strong-motion sensors at ground level / in the basement are
+inputs and every other sensor an output; else :func:`modal_twin.channels.default_role`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modal_twin.channels import ChannelSpec
+from modal_twin.errors import ConfigError, SignalError
+from modal_twin.exit_codes import ExitCode
+
+__all__ = ["register", "run"]
+
+UFF = (".uff", ".unv")
+STRONG_MOTION = (".zip", ".v1", ".v2", ".smc")
+LARGE_MB = 2.0
+"""Files and records from this size on get progress lines (stderr)."""
+GROUND = re.compile(r"grnd|ground|basement|free.?field|^abutment", re.IGNORECASE)
+"""Sensor locations that measure the structure's input (base motion)."""
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Add ``import`` to the sub-commands."""
+    p = sub.add_parser("import", help="measured files (UFF, CSMIP/SMC, CSV, NPZ) to a bag")
+    p.add_argument("files", nargs="+", type=Path, help="data files")
+    p.add_argument("--out", type=Path, required=True, help="bag folder to write (new)")
+    p.add_argument("--map", type=Path, default=None,
+                   help="channel map (JSON/YAML) overriding role, quantity, node, direction")
+    p.add_argument("--structure-frame", type=float, default=None, metavar="AZ_DEG",
+                   help="azimuth of the structure's x axis from north (default: the most "
+                        "common sensor axis)")
+    p.add_argument("--fs", type=float, default=None, help="sample rate of a CSV without time")
+    p.set_defaults(func=run)
+
+
+def _progress(text: str) -> None:
+    end = "\r" if sys.stderr.isatty() else "\n"
+    print(f"import: {text}", file=sys.stderr, end=end, flush=True)
+
+
+Part = tuple[list[ChannelSpec], float, np.ndarray]
+
+
+def _strong_motion(path: Path, az: float | None, meta: dict[str, Any]) -> Part:
+    from modal_twin.io.strong_motion import StructureFrame, read_record, to_structure_frame
+
+    raw, spectra = read_record(path)
+    chans, dirs, frame = to_structure_frame(raw, None if az is None else StructureFrame(az))
+    meta.setdefault("structure_frame", {"x_azimuth_deg": frame.x_azimuth_deg,
+                                        "y_azimuth_deg": (frame.x_azimuth_deg - 90) % 360,
+                                        "z": "up"})
+    n = min(c.data.size for c in chans)
+    if max(c.data.size for c in chans) != n:
+        lens = sorted({c.data.size for c in chans})
+        msg = f"{path}: channels differ in length {lens}; expected one record length"
+        raise SignalError(msg)
+    fs = {c.fs_hz for c in chans}
+    if len(fs) != 1:
+        msg = f"{path}: channels differ in sample rate {sorted(fs)}"
+        raise SignalError(msg)
+    specs = []
+    for c, d in zip(chans, dirs, strict=True):
+        m = {"file": path.name, "volume": c.volume, "orientation": c.orientation,
+             "azimuth_deg": c.azimuth_deg, "filter_hz": list(c.filter_hz),
+             "unit_in_file": c.unit_in_file, "start_utc": c.start_utc, "station": c.station}
+        if c.name in spectra:
+            m["spectra_file"] = spectra[c.name]["file"]
+        role = "input" if GROUND.search(c.location) else "output"
+        specs.append(ChannelSpec(c.name, "acceleration", c.location, d, node=c.location,
+                                 role=role, meta=tuple(sorted(m.items()))))
+    return specs, fs.pop(), np.array([c.data for c in chans])
+
+
+def _uff(path: Path, extra: dict[str, Any]) -> Part | None:
+    from modal_twin.io.uff import read_uff
+
+    u = read_uff(path)
+    if u.geometry.get("nodes") or u.geometry.get("trace_lines"):
+        extra[f"geometry_{path.stem}.json"] = u.geometry
+    if u.spectra:
+        extra[f"spectra_{path.stem}.npz"] = {
+            "names": np.array([s["name"] for s in u.spectra]),
+            "func_type": np.array([s["func_type"] for s in u.spectra]),
+            **{f"f_hz_{k}": s["f_hz"] for k, s in enumerate(u.spectra)},
+            **{f"data_{k}": s["data"] for k, s in enumerate(u.spectra)}}
+    if u.skipped:
+        _progress(f"{path.name}: dataset types {sorted(set(u.skipped))} not read")
+    if not (u.time or u.spectra or extra):
+        msg = (f"{path}: no supported UFF dataset (found types {sorted(set(u.skipped))}; "
+               f"import reads 58 / 58b, 15, 18, 82, 151, 164, 2411, 2420)")
+        raise ConfigError(msg)
+    if not u.time:
+        return None
+    fs = {round(t[1], 9) for t in u.time}
+    ns = {t[3].size for t in u.time}
+    if len(fs) != 1 or len(ns) != 1:
+        msg = (f"{path}: time channels differ in sample rate {sorted(fs)} or length "
+               f"{sorted(ns)}; expected one record")
+        raise SignalError(msg)
+    return [t[0] for t in u.time], u.time[0][1], np.array([t[3] for t in u.time])
+
+
+def _read(path: Path, a: argparse.Namespace, meta: dict[str, Any],
+          extra: dict[str, Any]) -> Part | None:
+    from modal_twin.io.tabular import read_csv, read_npz
+
+    suf = path.suffix.lower()
+    if not path.is_file():
+        msg = f"{path}: no such file"
+        raise ConfigError(msg)
+    if suf in UFF:
+        return _uff(path, extra)
+    if suf in STRONG_MOTION:
+        return _strong_motion(path, a.structure_frame, meta)
+    if suf == ".csv":
+        return read_csv(path, a.fs)
+    if suf == ".npz":
+        return read_npz(path)
+    msg = (f"{path}: unknown file kind {suf!r}; expected one of "
+           f"{sorted((*UFF, *STRONG_MOTION, '.csv', '.npz'))}")
+    raise ConfigError(msg)
+
+
+def _join(parts: list[tuple[Path, Part]]) -> Part:
+    fs = {round(p[1], 9) for _, p in parts}
+    ns = {p[2].shape[1] for _, p in parts}
+    if len(fs) != 1 or len(ns) != 1:
+        msg = (f"files {[str(f) for f, _ in parts]} differ in sample rate {sorted(fs)} or "
+               f"length {sorted(ns)}; import them into separate bags")
+        raise SignalError(msg)
+    chans = [c for _, p in parts for c in p[0]]
+    names = [c.name for c in chans]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        chans = [replace(c, name=f"{f.stem}.{c.name}") for f, p in parts for c in p[0]]
+    return chans, parts[0][1][1], np.concatenate([p[2] for _, p in parts], axis=0)
+
+
+def _positions(chans: list[ChannelSpec], extra: dict[str, Any]) -> list[ChannelSpec]:
+    """Sensor positions from imported UFF geometry (a channel's node among its nodes)."""
+    nodes: dict[str, list[float]] = {}
+    for name, obj in extra.items():
+        if name.startswith("geometry_"):
+            nodes.update(obj.get("nodes", {}))
+    return [replace(c, position_m=tuple(nodes[c.node])) if c.node in nodes else c
+            for c in chans]
+
+
+def run(a: argparse.Namespace) -> int:
+    """Import the files (module docstring)."""
+    from modal_twin.io.channel_map import apply_map, map_keys, read_channel_map
+    from modal_twin.io.imported import write_imported, write_side_files
+    from modal_twin.signal_block import SignalBlock
+
+    meta: dict[str, Any] = {"files": [str(f) for f in a.files]}
+    extra: dict[str, Any] = {}
+    parts = []
+    for k, f in enumerate(a.files):
+        size = f.stat().st_size / 1e6 if f.is_file() else 0.0
+        if size >= LARGE_MB:
+            _progress(f"[{k + 1}/{len(a.files)}] reading {f} ({size:.1f} MB)")
+        part = _read(f, a, meta, extra)
+        if part is not None:
+            parts.append((f, part))
+    if not parts:
+        out = write_side_files(a.out, extra)
+        print(f"import: no time data in {[str(f) for f in a.files]}; wrote "
+              f"{sorted(extra)} into {out}")
+        return ExitCode.OK
+    chans, fs, X = _join(parts)
+    chans = _positions(chans, extra)
+    if a.map is not None:
+        chans = apply_map(chans, read_channel_map(a.map), map_keys(a.map), str(a.map))
+    bad = [c.name for c, x in zip(chans, X, strict=True) if not np.all(np.isfinite(x))]
+    if bad:
+        msg = f"{a.files[0]}: channels {bad} hold NaN or Inf samples"
+        raise SignalError(msg)
+    block = SignalBlock(tuple(c.name for c in chans), fs, 0, X, source=a.files[0].name)
+    large = X.nbytes / 1e6 >= LARGE_MB
+    out = write_imported(a.out, block, chans, extra_files=extra, record_meta=meta,
+                         progress=(lambda q: _progress(f"writing {a.out}: {100 * q:.0f} %"))
+                         if large else None)
+    roles: dict[str, int] = {}
+    for c in chans:
+        roles[c.effective_role] = roles.get(c.effective_role, 0) + 1
+    print(f"import: {out}: {len(chans)} channels x {block.n_samples} samples at "
+          f"{fs:g} Hz ({block.n_samples / fs:.1f} s); roles {roles}; "
+          f"channel map {out / 'channel_map.json'}"
+          + (f"; also {sorted(extra)}" if extra else ""))
+    return ExitCode.OK

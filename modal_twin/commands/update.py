@@ -1,0 +1,171 @@
+"""``modal-twin update MODEL --modes FILE``: update a matrix model to identified modes.
+
+MODEL is a ``.mat`` / ``.npz`` matrix model with substructure stiffnesses ``K_<name>``
+(:mod:`modal_twin.models.matrix_model`); its parameters are the substructure factors
+``theta_j`` of ``K(theta) = K0 + sum_j theta_j K_j``. FILE holds the identified modes
+(:func:`modal_twin.io.modes_file.read_modes`). The measured DOFs come from
+``--measured-dofs``, else the modes file (``measDOFs``, or the channels' node and
+direction matched to the model's DOF labels ``"node:x"`` / ``"node:ux"``), else the model
+file (``measDOFs``).
+
+The settings are those of the bridge benchmark (test/benchmarks/bench_updating.py):
+bounded Gauss-Newton from the nominal model with the analytic Jacobian (no global
+stage, ``--max-nfev`` 60), frequencies weighted by their identified standard deviations
+where the file gives them, shapes by theirs, and a weak pull towards the nominal values
+(``--prior-weight`` 0.3). Prints df / MAC before and after and which parameters the data
+determine; ``--out DIR`` receives the new model version ``model_vN.npz`` and its report
+``update_vN.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from modal_twin.errors import ConfigError, ShapeError
+from modal_twin.exit_codes import ExitCode
+
+__all__ = ["register", "run"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Add ``update`` to the sub-commands."""
+    p = sub.add_parser("update", help="update a matrix model (.mat / .npz) to identified modes")
+    p.add_argument("model", type=Path, help="matrix model with K_<name> substructures")
+    p.add_argument("--modes", type=Path, required=True,
+                   help="identified modes: identify JSON, UFF 55 or .mat")
+    p.add_argument("--measured-dofs", default=None,
+                   help="0-based model DOFs of the shape entries, comma list")
+    p.add_argument("--bounds", default="-0.5,1.0",
+                   help="bounds of every theta_j when the model gives none (default -0.5,1.0)")
+    p.add_argument("--prior-weight", type=float, default=0.3)
+    p.add_argument("--max-nfev", type=int, default=60)
+    p.add_argument("--out", type=Path, default=None, help="folder of model versions")
+    p.set_defaults(func=run)
+
+
+def _by_label(dofs: tuple[dict[str, object], ...], labels: tuple[str, ...]
+              ) -> np.ndarray | None:
+    """Model DOFs of the shape entries from their node and direction (``"12:z"`` or
+    ``"12:uz"`` labels), or None when any entry has no match."""
+    index = {lab: k for k, lab in enumerate(labels)}
+    out = []
+    for d in dofs:
+        node, axis = str(d.get("node_label") or ""), str(d.get("direction") or "")
+        k = index.get(f"{node}:{axis}", index.get(f"{node}:u{axis}"))
+        if not node or k is None:
+            return None
+        out.append(k)
+    return np.array(out, dtype=np.int64) if out else None
+
+
+def _measured(a: argparse.Namespace, file_dofs: np.ndarray | None,
+              model_dofs: np.ndarray, n_ch: int) -> np.ndarray:
+    if a.measured_dofs:
+        try:
+            dofs = np.array([int(v) for v in a.measured_dofs.split(",")], dtype=np.int64)
+        except ValueError as err:
+            msg = f"--measured-dofs: expected integers, got {a.measured_dofs!r}"
+            raise ConfigError(msg) from err
+    elif file_dofs is not None:
+        dofs = file_dofs
+    elif model_dofs.size:
+        dofs = model_dofs
+    else:
+        msg = (f"{a.modes}: cannot tell which model DOFs the {n_ch} shape entries are; "
+               f"give --measured-dofs or measDOFs in the model file")
+        raise ConfigError(msg)
+    if dofs.size != n_ch:
+        msg = (f"{a.modes}: shapes have {n_ch} entries but {dofs.size} measured DOFs are "
+               f"given; the modes do not fit the model's sensor list")
+        raise ShapeError(msg)
+    return dofs
+
+
+def _version(out: Path) -> int:
+    out.mkdir(parents=True, exist_ok=True)
+    nums = [int(p.stem.removeprefix("model_v")) for p in out.glob("model_v*.npz")
+            if p.stem.removeprefix("model_v").isdigit()]
+    return max(nums, default=0) + 1
+
+
+def _table(res: object) -> None:
+    pb, pa = res.pairing_before, res.pairing_after  # type: ignore[attr-defined]
+    print(f"{'mode':>4} {'f id [Hz]':>10} {'df before %':>11} {'MAC before':>10} "
+          f"{'df after %':>10} {'MAC after':>9}")
+    def cell(df: float, mac: float, w: int) -> str:
+        if not np.isfinite(df):
+            return f"{'unmatched':>{w + 11}}"
+        return f"{100 * df:{w}.3f} {mac:10.3f}"
+
+    for k, f in enumerate(res.f_id):  # type: ignore[attr-defined]
+        print(f"{k + 1:>4} {f:10.4f} {cell(pb.df_rel[k], pb.mac[k], 11)} "
+              f"{cell(pa.df_rel[k], pa.mac[k], 10)}")
+
+
+def run(a: argparse.Namespace) -> int:
+    """Update the model (module docstring)."""
+    from modal_twin.commands.model_matrix import check_model_kind
+    from modal_twin.io.matfiles import load_matrix_model
+    from modal_twin.io.modes_file import read_modes
+    from modal_twin.updating.optimize import update
+    from modal_twin.updating.problem import ModeTargets, UpdatingProblem
+
+    if check_model_kind(a.model) != "matrix":
+        msg = (f"{a.model}: update takes a matrix model (.mat / .npz with K_<name> "
+               f"substructures); export a structure with `modal-twin export model`")
+        raise ConfigError(msg)
+    mm = load_matrix_model(a.model)
+    if not mm.names:
+        msg = f"{a.model}: no substructure stiffness K_<name> to update"
+        raise ConfigError(msg)
+    md = read_modes(a.modes)
+    file_dofs = md.measured_dofs if md.measured_dofs is not None else _by_label(md.dofs,
+                                                                                mm.dofs)
+    dofs = _measured(a, file_dofs, mm.measured_dofs, md.shapes.shape[0])
+    p = len(mm.names)
+    if mm.lower is not None and mm.upper is not None:
+        lo, hi = mm.lower, mm.upper
+    else:
+        b = [float(v) for v in a.bounds.split(",")]
+        lo, hi = np.full(p, b[0]), np.full(p, b[1])
+    t = ModeTargets.create(md.f_hz, md.shapes, std_f_hz=md.std_f_hz,
+                           std_shapes=md.std_shapes)
+    f_scale = md.std_f_hz / md.f_hz if np.all(np.isfinite(md.std_f_hz)) else 1.0
+    pr = UpdatingProblem(mm.K0, mm.M, list(mm.K_j), None, np.zeros(p), mm.names, lo, hi,
+                         dofs, t, f_scale=f_scale, prior_weight=a.prior_weight)
+    print(f"update: {a.model.name}: {mm.n_dof} DOFs, {p} parameters; {md.f_hz.size} modes "
+          f"at {dofs.size} DOFs; Gauss-Newton (max {a.max_nfev} evaluations)",
+          file=sys.stderr, flush=True)
+    res = update(pr, global_stage=False, max_nfev=a.max_nfev)
+    _table(res)
+    print(f"max |df| {res.max_abs_df_pct:.3f} %, min MAC {res.min_mac:.3f}, "
+          f"{res.n_eigen_solves} eigen-solves, {res.seconds:.1f} s, at bounds "
+          f"{list(res.at_bounds)}")
+    u = res.uncertainty
+    if u is not None:
+        det = [n for n, d in zip(u.names, u.determined, strict=True) if d]
+        print(f"determined by the data: {det}; the others rest on the prior "
+              f"(std / bound range >= {u.fraction:g})")
+    for n, th in zip(mm.names, res.theta, strict=True):
+        print(f"  {n:>10} {th:+.4f}")
+    if a.out is not None:
+        _write(a.out, mm, res)
+    return ExitCode.OK
+
+
+def _write(out: Path, mm: object, res: object) -> None:
+    from modal_twin.io.imported import atomic_file
+
+    v = _version(out)
+    arrays = mm.to_arrays(res.theta)  # type: ignore[attr-defined]
+    with atomic_file(out / f"model_v{v}.npz") as tmp, tmp.open("wb") as fh:
+        np.savez(fh, **arrays)
+    with atomic_file(out / f"update_v{v}.json") as tmp:
+        tmp.write_text(json.dumps(res.as_dict(), indent=1, default=float)  # type: ignore[attr-defined]
+                       .replace("NaN", "null"))
+    print(f"update: wrote {out}/model_v{v}.npz and update_v{v}.json")

@@ -1,0 +1,166 @@
+"""Write an imported record as a bag the pipeline replays, with its channel map.
+
+The bag holds the samples on ``/measurement/frames`` (SignalBlock, blocks of about one
+second) and the channel map on the latched ``/measurement/channels`` (ChannelMap; the
+message has no role field, so the roles travel in ``channel_map.json`` inside the bag
+folder). Everything is written to a temporary folder beside the target and renamed at the
+end: an interrupted or failed import leaves nothing half-written.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modal_twin.channels import ChannelSpec
+from modal_twin.errors import BagError
+from modal_twin.io.bag import BagWriter
+from modal_twin.io.channel_map import MAP_FILE, write_channel_map
+from modal_twin.io.convert import block_to_rosbags
+from modal_twin.io.typestore import typestore
+from modal_twin.signal_block import SignalBlock
+
+__all__ = [
+    "atomic_dir",
+    "atomic_file",
+    "read_imported",
+    "write_imported",
+    "write_side_files",
+]
+
+FRAMES = "/measurement/frames"
+CHANNELS = "/measurement/channels"
+
+
+@contextmanager
+def atomic_dir(target: str | Path) -> Iterator[Path]:
+    """A temporary folder renamed to ``target`` on success, removed on failure."""
+    t = Path(target)
+    if t.exists():
+        msg = f"{t} exists already; choose a new path"
+        raise BagError(msg)
+    t.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{t.name}.", dir=t.parent))
+    work = tmp / t.name
+    try:
+        yield work
+        os.replace(work, t)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@contextmanager
+def atomic_file(target: str | Path) -> Iterator[Path]:
+    """A temporary file path renamed to ``target`` on success, removed on failure."""
+    t = Path(target)
+    t.parent.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=f".{t.name}.", suffix=t.suffix, dir=t.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        os.replace(tmp, t)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _map_msg(channels: list[ChannelSpec], source: str, store: Any) -> Any:
+    T = store.types
+    infos = [T["modal_twin_msgs/msg/ChannelInfo"](
+        name=c.name, quantity=c.quantity, unit=c.unit, location=c.location,
+        direction=c.direction, sensitivity=float(c.sensitivity),
+        position_m=np.asarray(c.position_m, dtype=np.float64)) for c in channels]
+    header = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0),
+                                      frame_id=source)
+    return T["modal_twin_msgs/msg/ChannelMap"](header=header, source=source, channels=infos)
+
+
+def write_imported(out: str | Path, block: SignalBlock, channels: list[ChannelSpec], *,
+                   extra_files: dict[str, Any] | None = None, record_meta: dict[str, Any]
+                   | None = None, block_s: float = 1.0,
+                   progress: Callable[[float], None] | None = None) -> Path:
+    """Write ``block`` and its channel map as a bag folder ``out`` (module docstring).
+
+    Parameters
+    ----------
+    extra_files : dict, optional
+        File name -> JSON-ready object (geometry, FRFs ...) written into the folder.
+    record_meta : dict, optional
+        Record-level metadata stored in the channel map file.
+    progress : callable, optional
+        Called with the fraction written.
+    """
+    if [c.name for c in channels] != list(block.channel_names):
+        msg = "write_imported: channel map and block list different channels"
+        raise BagError(msg)
+    store = typestore()
+    with atomic_dir(out) as work:
+        topics = {FRAMES: "modal_twin_msgs/msg/SignalBlock",
+                  CHANNELS: "modal_twin_msgs/msg/ChannelMap"}
+        n_blk = max(1, round(block_s * block.fs_hz))
+        with BagWriter(work, topics, flush_period_s=1e9) as w:
+            t0 = block.stamp_ns
+            w.write(CHANNELS, t0, store.serialize_cdr(_map_msg(channels, block.source, store),
+                                                       topics[CHANNELS]))
+            for k in range(0, block.n_samples, n_blk):
+                sub = SignalBlock(block.channel_names, block.fs_hz, block.first_index + k,
+                                  block.data[:, k: k + n_blk],
+                                  t0 + round(k / block.fs_hz * 1e9), block.source)
+                w.write(FRAMES, sub.stamp_ns, store.serialize_cdr(
+                    block_to_rosbags(sub, store), topics[FRAMES]))
+                if progress is not None and (k // n_blk) % 50 == 0:
+                    progress(k / block.n_samples)
+        write_channel_map(work / MAP_FILE, channels, fs_hz=block.fs_hz,
+                          n_samples=block.n_samples, source=block.source,
+                          **(record_meta or {}))
+        _extras(work, extra_files)
+    return Path(out)
+
+
+def _extras(folder: Path, extra_files: dict[str, Any] | None) -> None:
+    """Write JSON objects (``*.json``) and dicts of arrays (``*.npz``) into ``folder``."""
+    for name, obj in (extra_files or {}).items():
+        if name.endswith(".npz"):
+            np.savez(folder / name, **obj)
+        else:
+            (folder / name).write_text(json.dumps(obj, default=str, indent=1))
+
+
+def write_side_files(out: str | Path, extra_files: dict[str, Any]) -> Path:
+    """Write only side files (geometry, spectra) into a new folder ``out`` (no bag)."""
+    with atomic_dir(out) as work:
+        work.mkdir()
+        _extras(work, extra_files)
+    return Path(out)
+
+
+def read_imported(bag: str | Path) -> tuple[SignalBlock, list[ChannelSpec]]:
+    """The record of a bag as one block and its channel map.
+
+    The map comes from ``channel_map.json`` when the bag has one, else from the
+    channel names (:func:`modal_twin.channels.default_role`).
+    """
+    from modal_twin.io.bag import read_blocks
+    from modal_twin.io.channel_map import read_channel_map
+    from modal_twin.signal_block import concatenate_blocks
+
+    blocks = read_blocks(bag, FRAMES)
+    if not blocks:
+        msg = f"{bag}: no SignalBlock on {FRAMES}"
+        raise BagError(msg)
+    block = concatenate_blocks(blocks)
+    p = Path(bag) / MAP_FILE
+    if p.is_file():
+        chans = {c.name: c for c in read_channel_map(p)}
+        channels = [chans.get(n, ChannelSpec(n, "acceleration")) for n in block.channel_names]
+    else:
+        channels = [ChannelSpec(n, "acceleration") for n in block.channel_names]
+    return block, channels

@@ -1,0 +1,281 @@
+"""Universal File Format (UFF) with pyuff: time data, FRFs, geometry; modes and FRFs out.
+
+Read (:func:`read_uff`):
+
+- dataset 58 / 58b, function type 1 (time response): channels of one record (same
+  sample interval and length), SI by the ordinate unit exponents and label;
+- dataset 58, function types 4 (FRF), 9 (PSD) and other spectra: kept as spectra;
+- datasets 15 / 2411 (nodes), 18 / 2420 (coordinate systems), 82 (trace lines),
+  164 / 151 (units, header): the test geometry.
+
+Other dataset types are listed as skipped. Written: dataset 55 (modes) and 58 (FRFs).
+The 58 direction code ``rsp_dir`` (1..3 = +x..+z, -1..-3 = -x..-z, 4..6 = rotations) gives
+the channel direction.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modal_twin._types import ComplexArray, FloatArray
+from modal_twin.channels import ChannelSpec
+from modal_twin.errors import ConfigError, SignalError
+
+__all__ = ["AXIS_CODES", "UffContents", "read_uff", "read_uff55", "write_uff55", "write_uff58_frf"]
+
+log = logging.getLogger(__name__)
+
+AXIS_CODES = {"x": 1, "y": 2, "z": 3, "-x": -1, "-y": -2, "-z": -3}
+"""Direction label -> UFF direction code (58 ``rsp_dir``, 55 column)."""
+_DIRS = {1: "x", 2: "y", 3: "z", -1: "-x", -2: "-y", -3: "-z", 4: "rx", 5: "ry", 6: "rz",
+         -4: "-rx", -5: "-ry", -6: "-rz"}
+# UFF specific data type codes of the ordinate (dataset 58, record 8) -> quantity
+_QUANT = {8: "displacement", 11: "velocity", 12: "acceleration", 13: "force",
+          21: "pressure", 1: "", 0: ""}
+_UNIT_SCALE = {"m/s2": 1.0, "m/s^2": 1.0, "g": 9.80665, "mm/s2": 1e-3, "m": 1.0, "mm": 1e-3,
+               "m/s": 1.0, "mm/s": 1e-3, "n": 1.0, "kn": 1e3, "pa": 1.0}
+_GEOMETRY = {15, 2411, 18, 2420, 82, 164, 151}
+
+
+@dataclass(frozen=True, slots=True)
+class UffContents:
+    """What a UFF file holds, in SI where the file says its units.
+
+    Attributes
+    ----------
+    time : tuple of (ChannelSpec, fs_hz, start_s, samples)
+        Time-response channels (58 function type 1).
+    spectra : tuple of dict
+        Other 58 functions: ``{"name", "func_type", "f_hz", "data" (complex), "ref", "rsp"}``.
+    geometry : dict
+        ``nodes`` (id -> xyz), ``coordinate_systems``, ``trace_lines``, ``units``, ``header``.
+    skipped : tuple of int
+        Dataset types present but not read.
+    """
+
+    time: tuple[tuple[ChannelSpec, float, float, FloatArray], ...]
+    spectra: tuple[dict[str, Any], ...]
+    geometry: dict[str, Any] = field(default_factory=dict)
+    skipped: tuple[int, ...] = ()
+
+
+def _sets(path: Path) -> list[dict[str, Any]]:
+    import pyuff
+
+    try:
+        u = pyuff.UFF(str(path))
+        types = [int(t) for t in u.get_set_types()]
+    except Exception as err:
+        msg = f"{path}: not a readable UFF file ({type(err).__name__}: {err})"
+        raise ConfigError(msg) from err
+    if not types:
+        msg = f"{path}: expected UFF datasets, found none"
+        raise ConfigError(msg)
+    out = []
+    for k, t in enumerate(types):
+        if t not in (58, *_GEOMETRY):
+            out.append({"type": t, "_skipped": True})
+            continue
+        try:
+            s = u.read_sets(k)
+        except Exception as err:
+            msg = f"{path}: dataset {k} (type {t}) could not be read ({err})"
+            raise ConfigError(msg) from err
+        out.append(s)
+    return out
+
+
+def _time_channel(s: dict[str, Any], path: Path, k: int) -> tuple[ChannelSpec, float, float,
+                                                                  FloatArray]:
+    dt = float(s.get("abscissa_inc", 0.0))
+    if not dt > 0:
+        x = np.asarray(s["x"], dtype=float)
+        dt = float(np.median(np.diff(x))) if x.size > 1 else 0.0
+    if not dt > 0:
+        msg = f"{path}: dataset {k} time data has no positive sample interval"
+        raise SignalError(msg)
+    unit = str(s.get("ordinate_axis_units_lab", "")).strip()
+    quantity = _QUANT.get(int(s.get("ordinate_spec_data_type", 0)), "") or str(
+        s.get("ordinate_axis_lab", "")).strip().lower() or "unknown"
+    scale = _UNIT_SCALE.get(unit.lower().replace(" ", ""), 1.0)
+    name = str(s.get("rsp_ent_name") or s.get("id1") or f"ch{k}").strip()
+    node = int(s.get("rsp_node", 0))
+    direction = _DIRS.get(int(s.get("rsp_dir", 0)), "")
+    meta = (("file", path.name), ("dataset", k), ("unit_in_file", unit),
+            ("id1", str(s.get("id1", ""))), ("id3", str(s.get("id3", ""))))
+    spec = ChannelSpec(name, quantity, "", direction, node=str(node) if node else "",
+                       meta=meta)
+    data = np.real(np.asarray(s["data"])).astype(np.float64) * scale
+    return spec, 1.0 / dt, float(s.get("abscissa_min", 0.0)), data
+
+
+def _geometry(sets: list[dict[str, Any]]) -> dict[str, Any]:
+    g: dict[str, Any] = {"nodes": {}, "coordinate_systems": [], "trace_lines": [],
+                         "units": {}, "header": {}}
+    for s in sets:
+        t = s["type"]
+        if t in (15, 2411):
+            for n, x, y, z in zip(s["node_nums"], s["x"], s["y"], s["z"], strict=True):
+                g["nodes"][str(int(n))] = [float(x), float(y), float(z)]
+        elif t in (18, 2420):
+            for k, num in enumerate(np.atleast_1d(s.get("cs_num", []))):
+                g["coordinate_systems"].append({
+                    "number": int(num),
+                    "origin": np.asarray(s["ref_o"])[k].tolist() if "ref_o" in s else None,
+                    "x_point": np.asarray(s["x_point"])[k].tolist() if "x_point" in s else None,
+                    "xz_point": np.asarray(s["xz_point"])[k].tolist()
+                    if "xz_point" in s else None})
+        elif t == 82:
+            g["trace_lines"].append({"number": int(s["trace_num"]), "id": str(s.get("id", "")),
+                                     "nodes": [int(v) for v in np.asarray(s["nodes"])]})
+        elif t == 164:
+            g["units"] = {k: (float(v) if isinstance(v, (int, float)) else str(v))
+                          for k, v in s.items() if k != "type"}
+        elif t == 151:
+            g["header"] = {k: str(v) for k, v in s.items() if k != "type"}
+    return g
+
+
+def read_uff(path: str | Path) -> UffContents:
+    """Read a UFF file (module docstring).
+
+    Raises
+    ------
+    ConfigError
+        Not a UFF file, or a dataset that pyuff cannot read.
+    SignalError
+        Time data without a sample interval.
+    """
+    p = Path(path)
+    sets = _sets(p)
+    time: list[tuple[ChannelSpec, float, float, FloatArray]] = []
+    spectra: list[dict[str, Any]] = []
+    skipped: list[int] = []
+    for k, s in enumerate(sets):
+        if s.get("_skipped"):
+            skipped.append(int(s["type"]))
+        elif s["type"] == 58 and int(s.get("func_type", 0)) == 1:
+            ch = _time_channel(s, p, k)
+            if ch[0].name in {t[0].name for t in time}:  # two channels at one node and dir
+                ch = (replace(ch[0], name=f"{ch[0].name}#{k}"), *ch[1:])
+            time.append(ch)
+        elif s["type"] == 58:
+            spectra.append({"name": str(s.get("id1", "")).strip(),
+                            "func_type": int(s["func_type"]),
+                            "f_hz": np.asarray(s["x"], dtype=float),
+                            "data": np.asarray(s["data"]).astype(complex),
+                            "rsp": f"{s.get('rsp_node', 0)}{_DIRS.get(s.get('rsp_dir', 0), '')}",
+                            "ref": f"{s.get('ref_node', 0)}{_DIRS.get(s.get('ref_dir', 0), '')}",
+                            "unit": str(s.get("ordinate_axis_units_lab", "")).strip()})
+    geo = _geometry([s for s in sets if s["type"] in _GEOMETRY and not s.get("_skipped")])
+    if skipped:
+        log.info("%s: dataset types %s skipped (not read)", p, sorted(set(skipped)))
+    return UffContents(tuple(time), tuple(spectra), geo, tuple(skipped))
+
+
+def write_uff55(path: str | Path, f_hz: FloatArray, zeta: FloatArray, shapes: ComplexArray,
+                nodes: list[int], dirs: list[int]) -> Path:
+    """Write modes as UFF 55 (complex eigenvalue, one dataset per mode).
+
+    ``shapes`` is ``(n_ch, n_modes)``; channel ``c`` sits at ``nodes[c]`` in direction
+    ``dirs[c]`` (1..3 = x..z). Nodes with several channels get them in their columns.
+    """
+    import pyuff
+
+    p = Path(path)
+    un = sorted(set(nodes))
+    u = pyuff.UFF(str(p))
+    sets = []
+    for m in range(len(f_hz)):
+        r = np.zeros((len(un), 3), complex)
+        for c, (n, d) in enumerate(zip(nodes, dirs, strict=True)):
+            r[un.index(n), abs(d) - 1] = np.sign(d) * shapes[c, m]
+        w = 2 * np.pi * f_hz[m]
+        lam = complex(-zeta[m] * w, w * np.sqrt(max(1 - zeta[m] ** 2, 0.0)))
+        sets.append(pyuff.prepare_55(
+            model_type=1, id1="modal_twin modes", id2=f"mode {m + 1}", id3="NONE",
+            id4="NONE", id5="NONE", analysis_type=3, data_ch=3, spec_data_type=12,
+            data_type=5, n_data_per_node=3, node_nums=np.array(un, dtype=int),
+            r1=r[:, 0], r2=r[:, 1], r3=r[:, 2], load_case=1, mode_n=m + 1,
+            eig=lam, modal_a=0.0 + 0j, modal_b=0.0 + 0j))  # not the full dict: its None
+        # r4..r6 would make pyuff write 6 values per node, which it cannot read back
+    u.write_sets(sets, mode="overwrite")
+    return p
+
+
+def read_uff55(path: str | Path) -> dict[str, Any]:
+    """Modes of a UFF 55 file: ``f_hz``, ``zeta``, ``shapes`` (n_node*3, n_modes), ``dofs``.
+
+    Raises
+    ------
+    ConfigError
+        The file holds no dataset 55.
+    """
+    import pyuff
+
+    p = Path(path)
+    try:
+        u = pyuff.UFF(str(p))
+        idx = [k for k, t in enumerate(u.get_set_types()) if int(t) == 55]
+    except Exception as err:
+        msg = f"{p}: not a readable UFF file ({err})"
+        raise ConfigError(msg) from err
+    if not idx:
+        msg = f"{p}: expected UFF dataset 55 (modes), found types {list(u.get_set_types())}"
+        raise ConfigError(msg)
+    f, z, cols, dofs = [], [], [], []
+    for k in idx:
+        s = u.read_sets(k)
+        if int(s.get("analysis_type", 0)) == 3:
+            lam = complex(s["eig"])
+            wn = abs(lam)
+            f.append(wn / (2 * np.pi))
+            z.append(-lam.real / wn if wn > 0 else 0.0)
+        else:
+            f.append(float(s.get("freq", 0.0)))
+            z.append(float(s.get("modal_damp_vis", 0.0)))
+        nn = np.asarray(s["node_nums"]).astype(int)
+        col = np.column_stack([s["r1"], s["r2"], s["r3"]]).ravel()
+        cols.append(col)
+        dofs = [(int(n), d) for n in nn for d in ("x", "y", "z")]
+    return {"f_hz": np.array(f), "zeta": np.array(z), "shapes": np.column_stack(cols),
+            "dofs": dofs}
+
+
+def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
+                    rsp: list[tuple[int, int]], ref: list[tuple[int, int]]) -> Path:
+    """Write FRFs ``H (n_out, n_in, n_f)`` as UFF 58 function type 4.
+
+    ``rsp[o]`` / ``ref[i]`` are (node, direction code) of output o / input i.
+    """
+    import pyuff
+
+    p = Path(path)
+    u = pyuff.UFF(str(p))
+    sets = []
+    for o, (rn, rd) in enumerate(rsp):
+        for i, (qn, qd) in enumerate(ref):
+            sets.append(pyuff.prepare_58(
+                binary=0, id1=f"FRF {rn}{_DIRS.get(rd, '')}/{qn}{_DIRS.get(qd, '')}",
+                id2="modal_twin H1", id3="NONE", id4="NONE", id5="NONE",
+                func_type=4, ver_num=0, load_case_id=0, rsp_ent_name=f"N{rn}", rsp_node=rn,
+                rsp_dir=rd, ref_ent_name=f"N{qn}", ref_node=qn, ref_dir=qd,
+                ord_data_type=6, num_pts=len(f_hz), abscissa_spacing=1,
+                abscissa_min=float(f_hz[0]), abscissa_inc=float(f_hz[1] - f_hz[0]),
+                z_axis_value=0.0, abscissa_spec_data_type=18, abscissa_len_unit_exp=0,
+                abscissa_force_unit_exp=0, abscissa_temp_unit_exp=0,
+                abscissa_axis_units_lab="Hz", ordinate_spec_data_type=12,
+                ordinate_len_unit_exp=0, ordinate_force_unit_exp=0, ordinate_temp_unit_exp=0,
+                ordinate_axis_units_lab="SI", orddenom_spec_data_type=12,
+                orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
+                orddenom_axis_units_lab="SI", z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
+                z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE",
+                data=np.asarray(H[o, i], dtype=complex), x=np.asarray(f_hz, dtype=float),
+                return_full_dict=True))
+    u.write_sets(sets, mode="overwrite")
+    return p

@@ -1,0 +1,169 @@
+"""A model given as matrices by the user's own FE tool: M, K, substructures K_j, C, DOF map.
+
+Conventions of the arrays (a ``.mat`` or ``.npz`` file read by
+:func:`modal_twin.io.matfiles.load_matrix_model`, or any mapping of names to arrays):
+
+- mass ``M`` (or ``M0``); stiffness ``K`` (or ``K0``); damping ``C`` (optional);
+- substructure stiffnesses ``K_<name>`` (any number; ``K_whole`` is a copy of the total,
+  ignored). With substructures the stiffness is parametrised as
+  ``K(theta) = K0 + sum_j theta_j K_j`` (``theta = 0`` nominal); when no ``K`` is given,
+  ``K0 = sum_j K_j``, i.e. ``K(alpha) = sum_j (1 + alpha_j) K_j`` as in the
+  Structural-Model-Updating project;
+- ``dofs``: DOF labels (strings such as ``"12:z"``), or ``dof_nodes`` and ``dof_dirs``;
+  default ``"0".."n-1"``;
+- ``measDOFs`` / ``measured_dofs``: the DOFs of the sensors (``measDOFs`` is MATLAB's
+  1-based; ``measured_dofs`` is 0-based);
+- ``lower`` / ``upper``: bounds of ``theta`` (optional).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from modal_twin._types import FloatArray, IntArray
+from modal_twin.errors import ModelError, ShapeError
+
+__all__ = ["MatrixModel", "matrix_model_from_arrays"]
+
+
+@dataclass(frozen=True, slots=True)
+class MatrixModel:
+    """Matrices of a linear structure and their parametrisation (module docstring).
+
+    Attributes
+    ----------
+    M, K0 : (n, n) scipy.sparse.csr_array
+        Mass and nominal stiffness (``theta = 0``), SI units of the source.
+    C : (n, n) csr_array or None
+        Damping.
+    K_j : tuple of (n, n) csr_array
+        ``dK / dtheta_j``.
+    names : tuple of str
+        Parameter names (the ``<name>`` of ``K_<name>``).
+    dofs : tuple of str
+        DOF labels, length n.
+    measured_dofs : (n_s,) int array
+        0-based DOFs of the sensors (empty when the file does not say).
+    lower, upper : (p,) float arrays or None
+        Bounds of theta when the file gives them.
+    source : str
+    """
+
+    M: sp.csr_array
+    K0: sp.csr_array
+    C: sp.csr_array | None
+    K_j: tuple[sp.csr_array, ...]
+    names: tuple[str, ...]
+    dofs: tuple[str, ...]
+    measured_dofs: IntArray
+    lower: FloatArray | None
+    upper: FloatArray | None
+    source: str = ""
+
+    @property
+    def n_dof(self) -> int:
+        """Number of DOFs."""
+        return int(self.M.shape[0])
+
+    def K(self, theta: FloatArray) -> sp.csr_array:  # noqa: N802 (matrix symbol)
+        """Stiffness at ``theta``: ``K0 + sum_j theta_j K_j``."""
+        out = self.K0.copy()
+        for t, Kj in zip(np.asarray(theta, dtype=float), self.K_j, strict=True):
+            if t:
+                out = out + t * Kj
+        return sp.csr_array(out)
+
+    def to_arrays(self, theta: FloatArray | None = None) -> dict[str, Any]:
+        """Arrays for :func:`numpy.savez` (dense; the conventions of the module docstring)."""
+        th = np.zeros(len(self.names)) if theta is None else np.asarray(theta, dtype=float)
+        out: dict[str, Any] = {"M": self.M.toarray(), "K": self.K(th).toarray(),
+                               "dofs": np.array(self.dofs), "theta": th,
+                               "parameter_names": np.array(self.names),
+                               "measured_dofs": self.measured_dofs}
+        if self.C is not None:
+            out["C"] = self.C.toarray()
+        for n, Kj in zip(self.names, self.K_j, strict=True):
+            out[f"K_{n}"] = Kj.toarray()
+        if self.lower is not None and self.upper is not None:
+            out["lower"], out["upper"] = self.lower, self.upper
+        return out
+
+
+def _natural(s: str) -> list[Any]:
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", s)]
+
+
+def _square(a: Any, name: str, n: int | None, source: str) -> sp.csr_array:
+    A = sp.csr_array(a.astype(float)) if sp.issparse(a) else sp.csr_array(
+        np.asarray(a, dtype=float))
+    if A.ndim != 2 or A.shape[0] != A.shape[1] or (n is not None and A.shape[0] != n):
+        want = f"({n}, {n})" if n is not None else "square"
+        msg = f"{source}: {name} expected {want}, got {A.shape}"
+        raise ShapeError(msg)
+    return A
+
+
+def _dofs(a: Mapping[str, Any], n: int, source: str) -> tuple[str, ...]:
+    if "dofs" in a:
+        d = tuple(str(v).strip() for v in np.asarray(a["dofs"]).ravel())
+    elif "dof_nodes" in a and "dof_dirs" in a:
+        d = tuple(f"{int(nn)}:{str(dd).strip()}" for nn, dd in zip(
+            np.asarray(a["dof_nodes"]).ravel(), np.asarray(a["dof_dirs"]).ravel(), strict=True))
+    else:
+        return tuple(str(k) for k in range(n))
+    if len(d) != n:
+        msg = f"{source}: dofs expected {n} labels, got {len(d)}"
+        raise ShapeError(msg)
+    return d
+
+
+def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
+                             order: tuple[str, ...] | None = None) -> MatrixModel:
+    """Build a :class:`MatrixModel` from named arrays (module docstring).
+
+    Parameters
+    ----------
+    order : tuple of str, optional
+        Order of the substructure names (default: natural sort of the ``K_`` names).
+
+    Raises
+    ------
+    ModelError
+        No mass matrix, or neither a stiffness nor substructures.
+    ShapeError
+        Matrices of different sizes, bad DOF labels or measured DOFs out of range.
+    """
+    mkey = next((k for k in ("M", "M0") if k in a), None)
+    if mkey is None:
+        msg = f"{source}: expected a mass matrix 'M' or 'M0', found {sorted(a)}"
+        raise ModelError(msg)
+    M = _square(a[mkey], mkey, None, source)
+    n = M.shape[0]
+    subs = [k[2:] for k in a if k.startswith("K_") and k not in ("K_whole", "K_j")]
+    names = tuple(order) if order is not None else tuple(sorted(subs, key=_natural))
+    K_j = tuple(_square(a[f"K_{s}"], f"K_{s}", n, source) for s in names)
+    kkey = next((k for k in ("K", "K0") if k in a), None)
+    if kkey is None and not K_j:
+        msg = f"{source}: expected a stiffness 'K' / 'K0' or substructures 'K_<name>'"
+        raise ModelError(msg)
+    K0 = (_square(a[kkey], kkey, n, source) if kkey is not None
+          else sp.csr_array(sum(K_j[1:], K_j[0])))
+    C = _square(a["C"], "C", n, source) if "C" in a else None
+    if "measured_dofs" in a:
+        meas = np.asarray(a["measured_dofs"], dtype=np.int64).ravel()
+    elif "measDOFs" in a:
+        meas = np.asarray(a["measDOFs"], dtype=np.int64).ravel() - 1  # MATLAB 1-based
+    else:
+        meas = np.zeros(0, np.int64)
+    if meas.size and (meas.min() < 0 or meas.max() >= n):
+        msg = f"{source}: measured DOFs expected in [0, {n}), got [{meas.min()}, {meas.max()}]"
+        raise ShapeError(msg)
+    lo = np.asarray(a["lower"], dtype=float).ravel() if "lower" in a else None
+    hi = np.asarray(a["upper"], dtype=float).ravel() if "upper" in a else None
+    return MatrixModel(M, K0, C, K_j, names, _dofs(a, n, source), meas, lo, hi, source)

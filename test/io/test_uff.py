@@ -1,0 +1,83 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import pyuff
+
+from modal_twin.errors import ConfigError
+from modal_twin.io.uff import read_uff, read_uff55, write_uff55, write_uff58_frf
+
+
+def _time_set(node: int, direction: int, data: np.ndarray, dt: float, unit: str) -> dict:
+    return pyuff.prepare_58(
+        binary=0, id1=f"pt{node}", id2="NONE", id3="NONE", id4="NONE", id5="NONE",
+        func_type=1, ver_num=0, load_case_id=0, rsp_ent_name=f"{node}+Z", rsp_node=node,
+        rsp_dir=direction, ref_ent_name="NONE", ref_node=0, ref_dir=0, ord_data_type=4,
+        num_pts=data.size, abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=dt,
+        z_axis_value=0.0, abscissa_spec_data_type=17, abscissa_len_unit_exp=0,
+        abscissa_force_unit_exp=0, abscissa_temp_unit_exp=0, abscissa_axis_units_lab="s",
+        ordinate_spec_data_type=12, ordinate_len_unit_exp=0, ordinate_force_unit_exp=0,
+        ordinate_temp_unit_exp=0, ordinate_axis_units_lab=unit, orddenom_spec_data_type=0,
+        orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
+        orddenom_axis_units_lab="NONE", z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
+        z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE",
+        data=data, x=np.arange(data.size) * dt)
+
+
+def test_uff58_time_data_in_si(tmp_path: Path) -> None:
+    rng = np.random.default_rng(1)
+    a, b = rng.standard_normal(64), rng.standard_normal(64)
+    p = tmp_path / "t.uff"
+    pyuff.UFF(str(p)).write_sets([_time_set(3, 3, a, 1 / 256, "m/s2"),
+                                  _time_set(3, -1, b, 1 / 256, "g")], mode="overwrite")
+    u = read_uff(p)
+    (s1, fs1, t0, x1), (s2, _, _, x2) = u.time
+    assert (s1.name, s1.quantity, s1.direction, s1.node) == ("3+Z", "acceleration", "z", "3")
+    assert s2.name.startswith("3+Z#")  # the same node name twice: made unique
+    assert s2.direction == "-x"
+    assert fs1 == pytest.approx(256.0)
+    assert t0 == 0.0
+    np.testing.assert_allclose(x1, a, rtol=1e-6)
+    np.testing.assert_allclose(x2, b * 9.80665, rtol=1e-6)
+
+
+def test_uff55_round_trip_through_pyuff(tmp_path: Path) -> None:
+    f, z = np.array([1.5, 4.25]), np.array([0.02, 0.05])
+    S = np.array([[1.0, 0.3 + 0.1j], [-0.5, 1.0], [0.25 - 0.05j, -0.75]])
+    p = write_uff55(tmp_path / "m.uff", f, z, S, nodes=[1, 1, 2], dirs=[1, 2, -3])
+    raw = pyuff.UFF(str(p)).read_sets()
+    assert [int(r["mode_n"]) for r in raw] == [1, 2]
+    lam = raw[1]["eig"]
+    assert abs(lam) / (2 * np.pi) == pytest.approx(4.25, rel=1e-5)
+    assert raw[0]["r2"][0] == pytest.approx(-0.5, rel=1e-5)
+    assert raw[0]["r3"][1] == pytest.approx(-(0.25 - 0.05j), rel=1e-5)  # -z: sign flipped
+    d = read_uff55(p)
+    np.testing.assert_allclose(d["f_hz"], f, rtol=1e-5)
+    np.testing.assert_allclose(d["zeta"], z, rtol=1e-4)
+    assert d["shapes"].shape == (6, 2)
+    with pytest.raises(ConfigError, match="expected UFF dataset 55"):
+        read_uff55(write_uff58_frf(tmp_path / "f.uff", np.arange(4.0), np.ones((1, 1, 4)),
+                                   [(1, 3)], [(2, 3)]))
+
+
+def test_uff58_frf_round_trip_through_pyuff(tmp_path: Path) -> None:
+    fr = np.linspace(0.0, 10.0, 11)
+    H = np.exp(1j * fr)[None, None, :] * np.array([[[1.0], [2.0]]])
+    p = write_uff58_frf(tmp_path / "h.uff", fr, H, [(5, 2)], [(1, 1), (1, 3)])
+    raw = pyuff.UFF(str(p)).read_sets()
+    assert [(r["func_type"], r["rsp_node"], r["rsp_dir"], r["ref_dir"]) for r in raw] == [
+        (4, 5, 2, 1), (4, 5, 2, 3)]
+    np.testing.assert_allclose(raw[1]["data"], H[0, 1], rtol=1e-5)
+    np.testing.assert_allclose(raw[0]["x"], fr, atol=1e-9)
+    u = read_uff(p)
+    assert [s["func_type"] for s in u.spectra] == [4, 4]
+    assert u.time == ()
+
+
+def test_not_uff(tmp_path: Path) -> None:
+    p = tmp_path / "x.uff"
+    p.write_text("hello\n")
+    with pytest.raises(ConfigError, match=r"x\.uff"):
+        read_uff(p)
