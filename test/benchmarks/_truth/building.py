@@ -103,7 +103,7 @@ class BuildingTruth:
         return (tuple(self.mb.channel_names) + tuple(f"{d}_d{a}" for d in devs for a in "xy")
                 + tuple(f"{d}_f{a}" for d in devs for a in "xy"))
 
-    def simulate(self, ag: FloatArray, fs_hz: float, n_sub: int = 4) -> FloatArray:
+    def simulate(self, ag: FloatArray, fs_hz: float, n_sub: int = 2) -> FloatArray:
         """Clean channels (n_ch, nt) for table accelerations ``ag`` (6, nt)."""
         mb = self.mb
         r = mb.n_modes

@@ -77,9 +77,11 @@ def _bw(dev: str, alpha: float, uy: float, c_frac: float) -> laws.Law:
     return laws.BoucWenN1(k=k, alpha=alpha, uy=uy, c=c_frac * c)
 
 
-def _stribeck(dev: str) -> laws.Law:
+def _stribeck(dev: str, mu_s: float = 0.06, mu_k: float = 0.03, v_s: float = 0.05,
+              k_frac: float = 0.3) -> laws.Law:
     k, c, w = _dev(dev)
-    return laws.StribeckFriction(W=w, mu_s=0.06, mu_k=0.03, v_s=0.05, k=0.3 * k, c=0.3 * c)
+    return laws.StribeckFriction(W=w, mu_s=mu_s, mu_k=mu_k, v_s=v_s, k=k_frac * k,
+                                 c=0.3 * c)
 
 
 def _laws(**kw: Callable[[], laws.Law]) -> Callable[[], BuildingTruth]:
@@ -107,6 +109,11 @@ def _hertz() -> laws.Law:
     return laws.HertzGap(k=k, c=c, k_h=21.0 * float(k.mean()), g=0.06)
 
 
+def _stopper() -> laws.Law:
+    k, c, _ = _dev("ESB2")
+    return laws.HertzGap(k=k, c=c, k_h=30.0 * float(k.mean()), g=0.04, one_sided=True)
+
+
 def _dashpot() -> laws.Law:
     k, c, _ = _dev("SDP1")
     return laws.LinearKC(k=k, c=3.0 * c)
@@ -126,7 +133,7 @@ CASES: tuple[Case, ...] = (
     Case("hyst_bw1_SDP2", "building", (Hidden("hysteresis", "SDP2"),),
          _laws(SDP2=lambda: _bw("SDP2", 0.1, 0.02, 0.3)), 3.0, seed=2),
     Case("microslip_iwan_ESB2", "building",
-         (Hidden("hysteresis", "ESB2", also_families=("friction", "softening")),),
+         (Hidden("hysteresis", "ESB2", also_families=("friction",)),),
          _laws(ESB2=_iwan), 2.0, seed=3),
     Case("friction_stribeck_ESB1", "building", (Hidden("friction", "ESB1"),),
          _laws(ESB1=lambda: _stribeck("ESB1")), 2.0, seed=4),
@@ -134,7 +141,7 @@ CASES: tuple[Case, ...] = (
          _laws(RB2=_tanh), 1.5, seed=5),
     Case("hardening_quintic_SDP1", "building", (Hidden("hardening", "SDP1"),),
          _laws(SDP1=_quintic), 2.0, seed=6),
-    Case("gap_hertz_RB1", "building", (Hidden("gap", "RB1", also_families=("hardening",)),),
+    Case("gap_hertz_RB1", "building", (Hidden("gap", "RB1"),),
          _laws(RB1=_hertz), 2.0, seed=7),
     Case("damping_dashpot_SDP1", "building", (Hidden("damping", "SDP1"),),
          _laws(SDP1=_dashpot), 2.0, seed=8),
@@ -154,13 +161,24 @@ CASES: tuple[Case, ...] = (
          (Hidden("hysteresis", "RB2"), Hidden("friction", "ESB1")),
          _laws(RB2=lambda: _bw("RB2", 0.3, 0.012, 0.5), ESB1=lambda: _stribeck("ESB1")),
          2.0, seed=12),
+    Case("gap_stopper_onesided_ESB2", "building", (Hidden("gap", "ESB2"),),
+         _laws(ESB2=_stopper), 2.0, seed=18),
+    Case("friction_stribeck_ESB2", "building", (Hidden("friction", "ESB2"),),
+         _laws(ESB2=lambda: _stribeck("ESB2", 0.08, 0.04, 0.02, 0.15)), 2.5, seed=19),
+    Case("stiffness_storey_3", "building", (Hidden("stiffness", "columns:storey_3"),),
+         lambda: BuildingTruth(edits=[weaken_columns(
+             lambda n1, n2: n1.startswith("F2_") and n2.startswith("F3_"), 0.5)]), 1.5,
+         seed=20),
+    Case("mass_F2_eccentric", "building", (Hidden("mass", "F2", aliases=("m_F2",)),),
+         lambda: BuildingTruth(edits=[add_masses([("F2_1B", 5000.0), ("F2_B12", 5000.0)])]),
+         2.0, seed=21),
     Case("control_noise_3pct", "building", (), _nominal, 3.0, seed=13),
     Case("control_sensor_gain_F2_C2_x", "building", (Hidden("sensor", "F2_C2_x"),),
          _nominal, 2.0, gains={"F2_C2_x": 1.08}, seed=14),
     Case("control_nothing_1pct", "building", (), _nominal, 1.0, seed=15),
     Case("veh_mount_hardening_EQ1", "vehicle",
-         (Hidden("elastic_attachment", "EQ1", also_families=("hardening",)),),
-         _mount(4e-4), 2.0, seed=16),
+         (Hidden("elastic_attachment", "EQ1"),),
+         _mount(8e-5), 2.0, seed=16),
     Case("veh_worn_damper_front", "vehicle",
          (Hidden("damping", "secondary_front", aliases=("c_secondary", "secondary")),),
          lambda: VehicleTruth(damper_wear=(0, 0.3)), 2.0, seed=17),

@@ -214,13 +214,18 @@ class SinhHardening(Law):
 @dataclass
 class HertzGap(Law):
     """Linear ``k``, ``c`` plus a Hertz contact beyond a clearance ``g``, per direction:
-    ``f_c = k_h max(|u| - g, 0)^1.5 sign(u)``."""
+    ``f_c = k_h max(|u| - g, 0)^1.5 sign(u)``; with ``one_sided`` only ``u > g`` touches
+    (a stopper on one side: ``f_c = k_h max(u - g, 0)^1.5``)."""
 
     k: float
     c: float
     k_h: float
     g: float
+    one_sided: bool = False
 
     def force(self, u, v, z):
-        pen = np.maximum(np.abs(u) - self.g, 0.0)
-        return self.k * u + self.c * v + self.k_h * pen**1.5 * np.sign(u), z[:0]
+        if self.one_sided:
+            fc = self.k_h * np.maximum(u - self.g, 0.0) ** 1.5
+        else:
+            fc = self.k_h * np.maximum(np.abs(u) - self.g, 0.0) ** 1.5 * np.sign(u)
+        return self.k * u + self.c * v + fc, z[:0]
