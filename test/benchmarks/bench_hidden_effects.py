@@ -234,7 +234,15 @@ def main(argv: list[str] | None = None) -> int:
         "median_before_over_noise": float(np.median([r["test"]["before"] / r["test"]["noise"]
                                                      for r in rows])),
         "worse_at_another_level": int(worse), "n_cases": n,
-        "cases": [r["case"] for r in rows], "quick": args.quick,
+        "per_case": {r["case"]: {
+            "named": "+".join(f"{e['family']}@{e['place']}" for e in r["named"]["effects"])
+            or r["named"]["family"],
+            "both_found": r["score"].get("both"),
+            "test_after_over_noise": round(r["test"]["after"] / r["test"]["noise"], 2),
+            "worse": any(r[k]["after"] > 1.05 * r[k]["before"] for k in ("train", "test",
+                                                                           "low"))}
+            for r in rows},
+        "quick": args.quick,
         "truth_only": args.truth_only,
         "wall_time_s": round(time.perf_counter() - t0, 1),
     }

@@ -54,8 +54,8 @@ def test_vehicle_linear_part_equals_library_plant() -> None:
     assert np.max(_nrmse(lib, y)) < 1e-2
 
 
-def _cycle_energy(law: laws.Law, a: float, f_hz: float, n_cycles: int = 4,
-                  n_per: int = 4000) -> float:
+def _cycle_energy(law: laws.Law, a: float, f_hz: float, n_cycles: int = 5,
+                  n_per: int = 2000) -> float:
     """Energy of the last of ``n_cycles`` sine cycles of drift amplitude ``a`` (x only),
     the law's ODE states advanced by RK4 on the prescribed drift."""
     w = 2 * np.pi * f_hz
@@ -200,3 +200,27 @@ def test_truth_imports_nothing_of_the_library_laws_or_kernels() -> None:
                 names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
             bad = [n for n in names if n.startswith(BANNED)]
             assert not bad, f"{path.name} imports {bad}"
+
+
+def test_bench_scores_families_places_and_false_claims() -> None:
+    from _truth.cases import CASES
+    from bench_hidden_effects import score
+
+    cases = {c.name: c for c in CASES}
+
+    def eff(family: str, place: str) -> dict:
+        return {"family": family, "place": place, "law": "x", "params": {}}
+
+    two = cases["two_bw1_RB2_stribeck_ESB1"]
+    got = score(two, {"effects": [eff("hysteresis", "RB2"), eff("friction", "esb1")]})
+    assert got == {"family": True, "place": True, "both": True, "false_claims": 0}
+    got = score(two, {"effects": [eff("friction", "RB2"), eff("hysteresis", "ESB1")]})
+    assert got == {"family": True, "place": True, "both": False, "false_claims": 0}
+    got = score(two, {"effects": [eff("hysteresis", "RB2")]})
+    assert got["family"] is False and got["place"] is False
+    assert score(cases["mass_roof_eccentric"], {"effects": [eff("mass", "m_R")]})["both"]
+    assert score(cases["control_nothing_1pct"], {"effects": [eff("mass", "R")]}) == {
+        "family": False, "place": False, "both": False, "false_claims": 1}
+    gain = cases["control_sensor_gain_F2_C2_x"]
+    got = score(gain, {"effects": [eff("sensor", "F2_C2_x"), eff("damping", "SDP1")]})
+    assert got["both"] and got["false_claims"] == 1

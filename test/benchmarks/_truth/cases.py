@@ -182,6 +182,7 @@ CASES: tuple[Case, ...] = (
     Case("veh_worn_damper_front", "vehicle",
          (Hidden("damping", "secondary_front", aliases=("c_secondary", "secondary")),),
          lambda: VehicleTruth(damper_wear=(0, 0.3)), 2.0, seed=17),
+    Case("veh_control_nothing_2pct", "vehicle", (), VehicleTruth, 2.0, seed=22),
 )
 
 
