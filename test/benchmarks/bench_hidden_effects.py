@@ -24,6 +24,11 @@ nothing hidden plus effects other than the sensor's in the sensor-gain case;
 median / max_after_over_noise = held-out NRMSE after / noise floor over the cases;
 worse_at_another_level = cases whose NRMSE after exceeds before x 1.05 on any record.
 
+Baseline (the diagnosis of 2026-11-23, ``pipeline.diagnose`` with ``n_fit=2``, 22 cases,
+414 s on the shared 2-core VM): family right 63.6 %, place 68.2 %, both 50.0 %, 0 false
+claims, held-out after / noise median 3.16 (max 37.96), worse at another level in 7 cases.
+Goal (issue 10): >= 90 % both, 0 false claims, median <= 2 and max <= 3, never worse.
+
 Run::
 
     PYTHONPATH=. OMP_NUM_THREADS=1 .venv/bin/python test/benchmarks/bench_hidden_effects.py
