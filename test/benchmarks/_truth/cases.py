@@ -1,0 +1,213 @@
+"""The hidden-effect cases of ``bench_hidden_effects.py``: what each truth carries (family
+and place), how it is built, and its three records (training, held-out, low level).
+
+Places: a device name (``RB1``), an element group (``columns:line_1A``: the four columns of
+grid line 1A; ``columns:storey_1``: the columns between floors 0 and 1), a floor (``R``),
+an equipment item (``EQ1``), a damper (``secondary_front``) or a channel name. ``aliases``
+lists other names the same place may be given (e.g. the library's parameter names).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import laws
+from .building import INPUTS as B_INPUTS
+from .building import BuildingTruth, add_masses, weaken_columns
+from .records import Noisy, measured, table_earthquake, table_random, track_inputs
+from .vehicle import INPUTS as V_INPUTS
+from .vehicle import VehicleTruth
+
+FAMILIES = ("hysteresis", "friction", "softening", "hardening", "gap", "damping",
+            "stiffness", "mass", "elastic_attachment", "sensor", "nothing")
+
+
+@dataclass(frozen=True)
+class Hidden:
+    """One hidden effect: its family, place, other accepted names of both."""
+
+    family: str
+    place: str
+    also_families: tuple[str, ...] = ()
+    aliases: tuple[str, ...] = ()
+
+    def family_ok(self, family: str) -> bool:
+        """The named family is this effect's (or an accepted neighbour)."""
+        return family in (self.family, *self.also_families)
+
+    def place_ok(self, place: str) -> bool:
+        """The named place is this effect's (case-insensitive, aliases accepted)."""
+        return place.lower() in {p.lower() for p in (self.place, *self.aliases)}
+
+
+@dataclass(frozen=True)
+class Case:
+    """A truth, what it hides, its noise level and sensor gains."""
+
+    name: str
+    model: str  # "building" | "vehicle"
+    hidden: tuple[Hidden, ...]
+    build: Callable[[], BuildingTruth | VehicleTruth]
+    noise_pct: float = 2.0
+    gains: dict[str, float] = field(default_factory=dict)
+    seed: int = 0
+
+
+def _nominal() -> BuildingTruth:
+    return BuildingTruth()
+
+
+_NOM = None
+
+
+def _dev(name: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """Nominal (k, c) per direction and weight of a device."""
+    global _NOM
+    if _NOM is None:
+        _NOM = _nominal()
+    d = _NOM.mb.device_names.index(name)
+    return _NOM.mb.k_dev[d].copy(), _NOM.mb.c_dev[d].copy(), _NOM.weight(name)
+
+
+def _bw(dev: str, alpha: float, uy: float, c_frac: float) -> laws.Law:
+    k, c, _ = _dev(dev)
+    return laws.BoucWenN1(k=k, alpha=alpha, uy=uy, c=c_frac * c)
+
+
+def _stribeck(dev: str, mu_s: float = 0.06, mu_k: float = 0.03, v_s: float = 0.05,
+              k_frac: float = 0.3) -> laws.Law:
+    k, c, w = _dev(dev)
+    return laws.StribeckFriction(W=w, mu_s=mu_s, mu_k=mu_k, v_s=v_s, k=k_frac * k,
+                                 c=0.3 * c)
+
+
+def _laws(**kw: Callable[[], laws.Law]) -> Callable[[], BuildingTruth]:
+    return lambda: BuildingTruth(laws={d: f() for d, f in kw.items()})
+
+
+def _iwan() -> laws.Law:
+    k, c, _ = _dev("ESB2")
+    return laws.IwanJoint(k=0.8 * float(k.mean()), phi_max=0.03, k_res=0.2 * float(k.mean()),
+                       c=c)
+
+
+def _tanh() -> laws.Law:
+    k, c, _ = _dev("RB2")
+    return laws.TanhSoftening(k=k, k_r=0.3 * k, u0=0.02, c=c)
+
+
+def _quintic() -> laws.Law:
+    k, c, _ = _dev("SDP1")
+    return laws.QuinticHardening(k=k, u5=0.09, c=c)
+
+
+def _hertz() -> laws.Law:
+    k, c, _ = _dev("RB1")
+    return laws.HertzGap(k=k, c=c, k_h=21.0 * float(k.mean()), g=0.06)
+
+
+def _stopper() -> laws.Law:
+    k, c, _ = _dev("ESB2")
+    return laws.HertzGap(k=k, c=c, k_h=30.0 * float(k.mean()), g=0.04, one_sided=True)
+
+
+def _dashpot() -> laws.Law:
+    k, c, _ = _dev("SDP1")
+    return laws.LinearKC(k=k, c=3.0 * c)
+
+
+def _mount(u0: float) -> Callable[[], VehicleTruth]:
+    def build() -> VehicleTruth:
+        probe = VehicleTruth(mount=("EQ1", 10.0, 0.05, laws.LinearKC(0.0, 0.0)))
+        law = laws.SinhHardening(k=probe.mount_k(), u0=u0, c=0.0)
+        return VehicleTruth(mount=("EQ1", 10.0, 0.05, law))
+    return build
+
+
+CASES: tuple[Case, ...] = (
+    Case("hyst_bw1_RB1", "building", (Hidden("hysteresis", "RB1"),),
+         _laws(RB1=lambda: _bw("RB1", 0.35, 0.01, 0.5)), 2.0, seed=1),
+    Case("hyst_bw1_SDP2", "building", (Hidden("hysteresis", "SDP2"),),
+         _laws(SDP2=lambda: _bw("SDP2", 0.1, 0.02, 0.3)), 3.0, seed=2),
+    Case("microslip_iwan_ESB2", "building",
+         (Hidden("hysteresis", "ESB2", also_families=("friction",)),),
+         _laws(ESB2=_iwan), 2.0, seed=3),
+    Case("friction_stribeck_ESB1", "building", (Hidden("friction", "ESB1"),),
+         _laws(ESB1=lambda: _stribeck("ESB1")), 2.0, seed=4),
+    Case("softening_tanh_RB2", "building", (Hidden("softening", "RB2"),),
+         _laws(RB2=_tanh), 1.5, seed=5),
+    Case("hardening_quintic_SDP1", "building", (Hidden("hardening", "SDP1"),),
+         _laws(SDP1=_quintic), 2.0, seed=6),
+    Case("gap_hertz_RB1", "building", (Hidden("gap", "RB1"),),
+         _laws(RB1=_hertz), 2.0, seed=7),
+    Case("damping_dashpot_SDP1", "building", (Hidden("damping", "SDP1"),),
+         _laws(SDP1=_dashpot), 2.0, seed=8),
+    Case("stiffness_line_1A", "building",
+         (Hidden("stiffness", "columns:line_1A"),),
+         lambda: BuildingTruth(edits=[weaken_columns(
+             lambda n1, n2: n1.endswith("_1A") and n2.endswith("_1A"), 0.4)]), 1.0, seed=9),
+    Case("stiffness_storey_1", "building",
+         (Hidden("stiffness", "columns:storey_1"),),
+         lambda: BuildingTruth(edits=[weaken_columns(
+             lambda n1, n2: n1.startswith("F0_") and n2.startswith("F1_"), 0.6)]), 2.0,
+         seed=10),
+    Case("mass_roof_eccentric", "building", (Hidden("mass", "R", aliases=("m_R",)),),
+         lambda: BuildingTruth(edits=[add_masses(
+             [("R_3B", 6000.0), ("R_B23", 4000.0), ("R_3AB", 4000.0)])]), 1.5, seed=11),
+    Case("two_bw1_RB2_stribeck_ESB1", "building",
+         (Hidden("hysteresis", "RB2"), Hidden("friction", "ESB1")),
+         _laws(RB2=lambda: _bw("RB2", 0.3, 0.012, 0.5), ESB1=lambda: _stribeck("ESB1")),
+         2.0, seed=12),
+    Case("gap_stopper_onesided_ESB2", "building", (Hidden("gap", "ESB2"),),
+         _laws(ESB2=_stopper), 2.0, seed=18),
+    Case("friction_stribeck_ESB2", "building", (Hidden("friction", "ESB2"),),
+         _laws(ESB2=lambda: _stribeck("ESB2", 0.08, 0.04, 0.02, 0.15)), 2.5, seed=19),
+    Case("stiffness_storey_3", "building", (Hidden("stiffness", "columns:storey_3"),),
+         lambda: BuildingTruth(edits=[weaken_columns(
+             lambda n1, n2: n1.startswith("F2_") and n2.startswith("F3_"), 0.5)]), 1.5,
+         seed=20),
+    Case("mass_F2_eccentric", "building", (Hidden("mass", "F2", aliases=("m_F2",)),),
+         lambda: BuildingTruth(edits=[add_masses([("F2_1B", 5000.0), ("F2_B12", 5000.0)])]),
+         2.0, seed=21),
+    Case("control_noise_3pct", "building", (), _nominal, 3.0, seed=13),
+    Case("control_sensor_gain_F2_C2_x", "building", (Hidden("sensor", "F2_C2_x"),),
+         _nominal, 2.0, gains={"F2_C2_x": 1.08}, seed=14),
+    Case("control_nothing_1pct", "building", (), _nominal, 1.0, seed=15),
+    Case("veh_mount_hardening_EQ1", "vehicle",
+         (Hidden("elastic_attachment", "EQ1"),),
+         _mount(8e-5), 2.0, seed=16),
+    Case("veh_worn_damper_front", "vehicle",
+         (Hidden("damping", "secondary_front", aliases=("c_secondary", "secondary")),),
+         lambda: VehicleTruth(damper_wear=(0, 0.3)), 2.0, seed=17),
+    Case("veh_control_nothing_2pct", "vehicle", (), VehicleTruth, 2.0, seed=22),
+)
+
+
+def records(case: Case, *, quick: bool = False) -> dict[str, Noisy]:
+    """Training, held-out and low-level records of ``case`` (deterministic)."""
+    truth = case.build()
+    names = truth.channel_names()
+    out = {}
+    s = 100 * case.seed
+    if case.model == "building":
+        fs, T = 500.0, (6.0 if quick else 10.0)
+        ins = {"train": table_random(T, fs, 1.0, s + 1),
+               "test": table_earthquake(T, fs, 3.5, s + 2),
+               "low": table_random(T, fs, 0.05, s + 3)}
+        inputs = B_INPUTS
+    else:
+        fs, T = 200.0, (8.0 if quick else 12.0)
+        ax = truth.spec.axle_x
+        ins = {"train": track_inputs(ax, 300.0, T, fs, 1.5e-3, s + 1),
+               "test": track_inputs(ax, 350.0, T, fs, 1.5e-3, s + 2),
+               "low": track_inputs(ax, 300.0, T, fs, 1.5e-3 / 20.0, s + 3)}
+        inputs = V_INPUTS
+    for k, u in ins.items():
+        clean = truth.simulate(u, fs)
+        out[k] = measured(inputs, u, names, clean, fs, case.noise_pct,
+                          s + {"train": 1, "test": 2, "low": 3}[k],
+                          f"{case.name}:{k}", case.gains)
+    return out
