@@ -67,5 +67,8 @@ def place_of(effect: EffectSpec) -> str:
     (``m_F2`` -> ``F2``, ``kcol_1A`` -> ``1A``)."""
     comp = effect.component
     if effect.law in ("added_mass", "stiffness", "damping") and "_" in comp:
-        return comp.split("_", 1)[1]
+        head, _, rest = comp.partition("_")
+        if head in ("k", "c") and rest[-2:] in ("_x", "_y", "_z"):
+            return rest[:-2]  # k_RB2_x: the device RB2
+        return rest
     return comp

@@ -37,11 +37,11 @@ class BuildingFactory:
         Modes kept (the file's ``n_modes`` by default).
     """
 
-    # parameters the diagnosis screens as candidates (masses, moduli); the isolators' k and
-    # c are screened as device laws at their components
+    # parameters the diagnosis screens as candidates (masses, moduli, the isolators' linear k
+    # and c); nonlinear laws at the isolators are screened on their force-state data
     base_effects: tuple[EffectSpec, ...] = ()  # a version's effects, kept in every plant
     label: str = ""  # the version's label, part of every plant's name
-    parameter_prefixes = ("m_", "E_")
+    parameter_prefixes = ("m_", "E_", "k_", "c_")
 
     def __init__(self, structure_file: str | Path, *, theta: Mapping[str, float] | None = None,
                  n_modes: int | None = None) -> None:

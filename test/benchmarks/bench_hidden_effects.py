@@ -52,7 +52,7 @@ from _truth.cases import CASES, FAMILIES, Case, records
 
 from modal_twin.diagnosis.fitting import simulate_record
 from modal_twin.diagnosis.record import Record
-from modal_twin.twin.plants import factory_for
+from modal_twin.models.loading import load_model
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL_FILES = {"building": ROOT / "config" / "structures" / "building.yaml",
@@ -67,54 +67,39 @@ MODEL_FILES = {"building": ROOT / "config" / "structures" / "building.yaml",
 #                   Record -> (n_channels_of_record, nt) array, or None (= nominal)}
 # ---------------------------------------------------------------------------------------
 
-_LAW_FAMILY = {"stick_slip": "friction", "coulomb": "friction", "bouc_wen": "hysteresis",
-               "bilinear_hysteretic": "hysteresis", "bouc_wen_esb": "hysteresis",
-               "bouc_wen_sdp": "hysteresis", "prandtl": "hysteresis", "gap": "gap",
-               "elastic_mount": "elastic_attachment", "added_mass": "mass",
-               "stiffness": "stiffness", "damping": "damping"}
-
-
-def _family_of(law: str, params: dict[str, float], factory: Any, component: str) -> str:
-    """Today's law names -> families (the mapping item 7 of issue 10 asks for)."""
-    if law == "bilinear":
-        return "softening" if params.get("ratio", 0.75) < 1.0 else "hardening"
-    if law == "cubic":
-        return "hardening" if params.get("k3", 0.0) > 0.0 else "softening"
-    if law == "linear":  # k-c change: the larger relative change names it
-        site = factory.sites.get(component)
-        k0 = float(np.mean(site.k)) if site is not None else 1.0
-        c0 = float(np.mean(site.c)) if site is not None else 1.0
-        dk = abs(params.get("k", k0) / k0 - 1.0)
-        dc = abs(params.get("c", c0) / c0 - 1.0)
-        return "damping" if dc > dk else "stiffness"
-    return _LAW_FAMILY.get(law, law)
-
-
-def _place_of(component: str, law: str) -> str:
-    """Parameter effects name a parameter (``m_F2`` -> floor ``F2``); others a component."""
-    if law == "added_mass" and component.startswith("m_"):
-        return component[2:]
-    return component
+def _claim_place(f: Any) -> str:
+    """The place of a found effect as the truth names places (a floor for a mass, a
+    column line / storey for a stiffness group, a device, a channel, an equipment item)."""
+    place = f.place
+    if f.effect.law == "stiffness" and f.effect.component.startswith("kcol_"):
+        return f"columns:line_{f.effect.component[5:]}"
+    if f.effect.law == "stiffness" and f.effect.component.startswith("kst_"):
+        return f"columns:storey_{f.effect.component[4:]}"
+    if f.effect.law in ("stiffness", "damping") and f.effect.component[:2] in ("k_", "c_"):
+        return f.effect.component[2:].rsplit("_", 1)[0]  # k_RB2_x -> RB2
+    return place
 
 
 def run_diagnosis(model_file: Path, train: Record, test: Record, low: Record) -> dict:
-    """Diagnose ``model_file`` (nominal) on the records; today's API (``pipeline.diagnose``,
-    one best effect; the low-level record is not used by it)."""
-    from modal_twin.diagnosis.parameters import PARAMETER_LAWS
+    """Diagnose ``model_file`` with the low-level record as another level; every effect
+    the diagnosis found (accepted, unflagged, jointly refitted) is a claim."""
     from modal_twin.diagnosis.pipeline import diagnose
+    from modal_twin.executors import make_executor
 
-    factory = factory_for(model_file)
-    d = diagnose(factory, train, test, n_fit=2)
-    if d.best is None:
+    factory = load_model(model_file)
+    with make_executor(None) as ex:
+        d = diagnose(factory, train, test, levels=[low], mapper=ex.map)
+    if not d.found:
         return {"family": "nothing", "place": "", "effects": [], "model_after": None}
-    e = d.best.effect
-    fam, place = _family_of(e.law, e.params, factory, e.component), _place_of(e.component,
-                                                                             e.law)
-    after = (factory.with_theta(e.params).plant() if e.law in PARAMETER_LAWS
-             else factory.plant([e]))
-    return {"family": fam, "place": place, "model_after": after,
-            "effects": [{"family": fam, "place": place, "law": e.law,
-                         "params": dict(e.params)}]}
+    theta = {k: v for f in d.found if f.effect.law in ("added_mass", "stiffness", "damping")
+             for k, v in f.effect.params.items()}
+    effects = [f.effect for f in d.found
+               if f.effect.law not in ("added_mass", "stiffness", "damping")]
+    after = (factory.with_theta(theta) if theta else factory).plant(effects)
+    claims = [{"family": f.family, "place": _claim_place(f), "law": f.effect.law,
+               "params": dict(f.effect.params)} for f in d.found]
+    return {"family": claims[0]["family"], "place": claims[0]["place"], "effects": claims,
+            "model_after": after}
 
 
 # ---------------------------------------------------------------------------------------
@@ -161,7 +146,7 @@ def run_case(case: Case, quick: bool, truth_only: bool) -> dict[str, Any]:
               for k, n in recs.items()}
     t_truth = time.perf_counter() - t0
     model_file = MODEL_FILES[case.model]
-    nominal = factory_for(model_file).plant()
+    nominal = load_model(model_file).plant()
     if truth_only:
         named = {"family": "-", "place": "-", "effects": [], "model_after": None}
     else:
@@ -255,7 +240,9 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-assert set(_LAW_FAMILY.values()) <= set(FAMILIES)
+from modal_twin.diagnosis.families import FAMILIES as _OURS  # noqa: E402
+
+assert set(_OURS) <= set(FAMILIES)
 
 if __name__ == "__main__":
     raise SystemExit(main())

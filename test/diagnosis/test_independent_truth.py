@@ -24,7 +24,7 @@ from _truth.vehicle import VehicleTruth  # noqa: E402
 
 from modal_twin.diagnosis.fitting import simulate_record  # noqa: E402
 from modal_twin.diagnosis.record import Record  # noqa: E402
-from modal_twin.twin.plants import load_plant  # noqa: E402
+from modal_twin.models.loading import load_model  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -39,7 +39,8 @@ def test_building_linear_part_equals_library_plant() -> None:
     ag = table_random(3.0, fs, 1.0, seed=3)
     y = truth.simulate(ag, fs)
     rec = Record(fs, ("ax", "ay", "az", "arx", "ary", "arz"), ag, truth.channel_names(), y)
-    lib = simulate_record(load_plant(ROOT / "config" / "structures" / "building.yaml"), rec)
+    lib = simulate_record(
+        load_model(ROOT / "config" / "structures" / "building.yaml").plant(), rec)
     assert np.max(_nrmse(lib, y)) < 1e-3  # brief: < 1 %; RK4 at h = 0.5 ms gives ~1e-7
 
 
@@ -50,7 +51,8 @@ def test_vehicle_linear_part_equals_library_plant() -> None:
     y = truth.simulate(u, fs)
     rec = Record(fs, ("zt1", "zt2", "zt3", "zt4", "vt1", "vt2", "vt3", "vt4"), u,
                  truth.channel_names(), y)
-    lib = simulate_record(load_plant(ROOT / "config" / "vehicles" / "trailer_car.yaml"), rec)
+    lib = simulate_record(
+        load_model(ROOT / "config" / "vehicles" / "trailer_car.yaml").plant(), rec)
     assert np.max(_nrmse(lib, y)) < 1e-2
 
 
