@@ -21,6 +21,7 @@ import argparse
 import logging
 import os
 import sys
+import time
 from pathlib import Path
 
 from modal_twin.commands import campaign, export, identify, import_, update
@@ -131,9 +132,14 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
     train, test = record_from_bag(a.train), record_from_bag(a.test)
     levels = [record_from_bag(b) for b in a.level or []]
-    d = diagnose_model(a.model, train, test, levels=levels, n_fit=a.n_fit,
-                       progress=lambda s: print(f"  {s}", file=sys.stderr))
+    from modal_twin.executors import make_executor
+
+    t0 = time.perf_counter()
+    with make_executor(a.jobs) as ex:
+        d = diagnose_model(a.model, train, test, levels=levels, n_fit=a.n_fit, mapper=ex.map,
+                           progress=lambda s: print(f"  {s}", file=sys.stderr))
     print(d.format())
+    print(f"diagnosis wall time {time.perf_counter() - t0:.1f} s")
     if a.plots:
         from modal_twin.viz.force_state import force_state_plots
 
@@ -164,7 +170,10 @@ def _cmd_effects(a: argparse.Namespace) -> int:
     train, test = record_from_bag(a.train), record_from_bag(a.test)
     levels = [record_from_bag(b) for b in a.level or []]
     if a.auto:
-        d = diagnose_model(a.model, train, test, levels=levels)
+        from modal_twin.executors import make_executor
+
+        with make_executor(a.jobs) as ex:
+            d = diagnose_model(a.model, train, test, levels=levels, mapper=ex.map)
         mv = add_diagnosed(a.model, d, test, a.out)
         if mv is None:
             print(f"nothing to add: {d.summary}")
@@ -233,6 +242,9 @@ def _parser() -> argparse.ArgumentParser:
     dg.add_argument("--level", type=Path, action="append",
                     help="another record (e.g. low level) no effect may make worse; repeatable")
     dg.add_argument("--n-fit", type=int, default=3, help="candidates fitted by simulation")
+    dg.add_argument("--jobs", default=None,
+                    help="fits in parallel: N processes, 1 = serial, dask://HOST:PORT for a "
+                    "cluster (default: the free cores)")
     dg.add_argument("--plots", type=Path, default=None, help="folder for force-state maps")
     dg.set_defaults(func=_cmd_diagnose)
     ef = sub.add_parser("effects", help="add an effect to a model; error history")
@@ -244,6 +256,7 @@ def _parser() -> argparse.ArgumentParser:
     ea.add_argument("--out", type=Path, required=True, help="model version folder")
     ea.add_argument("--level", type=Path, action="append",
                     help="another record no effect may make worse; repeatable")
+    ea.add_argument("--jobs", default=None, help="as for diagnose")
     ea.add_argument("--auto", action="store_true",
                     help="write every effect the diagnosis finds (accepted, unflagged)")
     ea.add_argument("--component")
