@@ -6,11 +6,11 @@ from modal_twin.updating.device_ls import DeviceKC, device_kc, fit_devices, kc_b
 from modal_twin.updating.matching import ModePairing, match_modes, pair_costs
 from modal_twin.updating.objectives import (
     close_match,
-    converged_000,
-    cost_002,
-    cost_004,
-    fom_000,
+    frequencies_converged,
+    frequency_figure_of_merit,
+    frequency_mac_damping_cost,
     relaxed_cost,
+    weighted_frequency_mac_cost,
 )
 from modal_twin.updating.optimize import global_search, multi_start, refine, update
 from modal_twin.updating.problem import PENALTY, ModeTargets, UpdatingProblem, real_shapes
@@ -42,13 +42,12 @@ __all__ = [
     "building_stages",
     "close_match",
     "cluster_parameters",
-    "converged_000",
-    "cost_002",
-    "cost_004",
     "device_kc",
     "eigen_derivatives",
     "fit_devices",
-    "fom_000",
+    "frequencies_converged",
+    "frequency_figure_of_merit",
+    "frequency_mac_damping_cost",
     "global_search",
     "kc_bounds",
     "kc_nominal",
@@ -63,4 +62,5 @@ __all__ = [
     "relaxed_cost",
     "staged_update",
     "update",
+    "weighted_frequency_mac_cost",
 ]

@@ -1,12 +1,12 @@
 """Scalar updating objectives of the seed papers, evaluated on a :class:`ModePairing`.
 
-* :func:`cost_004` -- Eq. (3) of [004]: relative frequency error + ``w_mac (1 - MAC)`` +
-  ``w_zeta`` relative damping error, summed over the identified modes (``inf`` when one
-  is unmatched, Sec. 5.1 of [004]).
-* :func:`cost_002` -- Eqs. (11)-(12) of [002]: weighted mean of ``|df|`` (percent) times
-  ``alpha`` plus ``beta`` times the mean ``1 - MAC`` (percent).
-* :func:`fom_000` -- Eq. (1) of [000]: sum of squared relative frequency errors, and
-  :func:`converged_000`, the test of Eq. (2) of [000].
+* :func:`frequency_mac_damping_cost` -- Eq. (3) of [004]: relative frequency error +
+  ``w_mac (1 - MAC)`` + ``w_zeta`` relative damping error, summed over the identified modes
+  (``inf`` when one is unmatched, Sec. 5.1 of [004]).
+* :func:`weighted_frequency_mac_cost` -- Eqs. (11)-(12) of [002]: weighted mean of ``|df|``
+  (percent) times ``alpha`` plus ``beta`` times the mean ``1 - MAC`` (percent).
+* :func:`frequency_figure_of_merit` -- Eq. (1) of [000]: sum of squared relative frequency
+  errors, and :func:`frequencies_converged`, the test of Eq. (2) of [000].
 * :func:`close_match` -- the "close" criteria of Eqs. (6a)-(6c) of [004].
 * :func:`relaxed_cost` -- Eq. (7) of [004], zero exactly when the close criteria hold.
 """
@@ -22,7 +22,7 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.updating.matching import ModePairing
 
-__all__ = ["close_match", "converged_000", "cost_002", "cost_004", "fom_000", "relaxed_cost"]
+__all__ = ["close_match", "frequencies_converged", "frequency_figure_of_merit", "frequency_mac_damping_cost", "relaxed_cost", "weighted_frequency_mac_cost"]
 
 
 def _weights(w: ArrayLike | float, n: int, name: str) -> FloatArray:
@@ -34,7 +34,7 @@ def _weights(w: ArrayLike | float, n: int, name: str) -> FloatArray:
     return np.asarray(arr, dtype=float)
 
 
-def cost_004(pairing: ModePairing, *, w_mac: ArrayLike | float = 1.0,
+def frequency_mac_damping_cost(pairing: ModePairing, *, w_mac: ArrayLike | float = 1.0,
              w_zeta: ArrayLike | float = 0.0) -> float:
     """Eq. (3) of [004]: ``J = sum_i |df_i| + w_mac_i (1 - MAC_i) + w_zeta_i |dzeta_i|``.
 
@@ -45,7 +45,7 @@ def cost_004(pairing: ModePairing, *, w_mac: ArrayLike | float = 1.0,
     --------
     >>> from modal_twin.updating.matching import match_modes
     >>> p = match_modes([1.0], [[1.0], [0.0]], [1.1], [[1.0], [0.0]])
-    >>> round(cost_004(p), 6)
+    >>> round(frequency_mac_damping_cost(p), 6)
     0.1
     """
     n = pairing.fem_index.size
@@ -61,7 +61,7 @@ def cost_004(pairing: ModePairing, *, w_mac: ArrayLike | float = 1.0,
     return float(J.sum())  # Eq. (3a) of [004]
 
 
-def cost_002(pairing: ModePairing, *, alpha: float = 1.0, beta: float = 0.25,
+def weighted_frequency_mac_cost(pairing: ModePairing, *, alpha: float = 1.0, beta: float = 0.25,
              gamma: ArrayLike | float = 1.0) -> float:
     """Eq. (11) of [002]: ``100 a / sum(g) sum(g |df|) + 100 b / n sum(1 - MAC)``.
 
@@ -80,7 +80,7 @@ def cost_002(pairing: ModePairing, *, alpha: float = 1.0, beta: float = 0.25,
                  + 100.0 * beta / n * np.sum(1.0 - pairing.mac))  # Eq. (11) of [002]
 
 
-def fom_000(f_num: ArrayLike, f_exp: ArrayLike) -> float:
+def frequency_figure_of_merit(f_num: ArrayLike, f_exp: ArrayLike) -> float:
     """Eq. (1) of [000]: ``FOM = sum_j ((f_num_j - f_exp_j) / f_exp_j)^2``.
 
     Raises
@@ -96,9 +96,9 @@ def fom_000(f_num: ArrayLike, f_exp: ArrayLike) -> float:
     return float(np.sum(((a - b) / b) ** 2))  # Eq. (1) of [000]
 
 
-def converged_000(f_num: ArrayLike, f_exp: ArrayLike, eps: float = 0.01) -> bool:
+def frequencies_converged(f_num: ArrayLike, f_exp: ArrayLike, eps: float = 0.01) -> bool:
     """Eq. (2) of [000]: ``sqrt(FOM) <= eps``."""
-    return math.sqrt(fom_000(f_num, f_exp)) <= eps  # Eq. (2) of [000]
+    return math.sqrt(frequency_figure_of_merit(f_num, f_exp)) <= eps  # Eq. (2) of [000]
 
 
 def close_match(pairing: ModePairing, *, tol: float = 0.05, w_mac: float = 1.0,

@@ -12,11 +12,11 @@ from modal_twin.models.fe import FEModel, solve_modes
 from modal_twin.updating.matching import match_modes
 from modal_twin.updating.objectives import (
     close_match,
-    converged_000,
-    cost_002,
-    cost_004,
-    fom_000,
+    frequencies_converged,
+    frequency_figure_of_merit,
+    frequency_mac_damping_cost,
     relaxed_cost,
+    weighted_frequency_mac_cost,
 )
 from modal_twin.updating.problem import PENALTY, ModeTargets, UpdatingProblem
 from modal_twin.updating.sensitivity import eigen_derivatives
@@ -71,7 +71,7 @@ def test_match_spurious_and_unmatched():
     assert p.fem_index.tolist() == [0, -1, 1]
     assert p.unmatched_id == (1,)
     assert math.isinf(p.total_cost)
-    assert math.isinf(cost_004(p))
+    assert math.isinf(frequency_mac_damping_cost(p))
 
 
 def test_match_monotonic_greedy_and_bad_input():
@@ -97,11 +97,11 @@ def test_match_monotonic_greedy_and_bad_input():
 def test_objectives_known_answers():
     phi = np.eye(3)
     p = match_modes([1.0, 2.0], phi[:, :2], [1.02, 1.96], phi[:, :2])
-    assert cost_004(p) == pytest.approx(0.04)  # 2 % + 2 %, MAC 1
-    assert cost_002(p) == pytest.approx(2.0)  # 100 * mean |df| = 2 %
-    assert fom_000([1.02, 1.96], [1.0, 2.0]) == pytest.approx(8e-4)
-    assert converged_000([1.02, 1.96], [1.0, 2.0], eps=0.03)
-    assert not converged_000([1.02, 1.96], [1.0, 2.0], eps=0.02)
+    assert frequency_mac_damping_cost(p) == pytest.approx(0.04)  # 2 % + 2 %, MAC 1
+    assert weighted_frequency_mac_cost(p) == pytest.approx(2.0)  # 100 * mean |df| = 2 %
+    assert frequency_figure_of_merit([1.02, 1.96], [1.0, 2.0]) == pytest.approx(8e-4)
+    assert frequencies_converged([1.02, 1.96], [1.0, 2.0], eps=0.03)
+    assert not frequencies_converged([1.02, 1.96], [1.0, 2.0], eps=0.02)
     assert close_match(p)
     assert relaxed_cost(p) == 0.0
     far = match_modes([1.0], phi[:, :1], [1.08], phi[:, :1])
@@ -109,15 +109,15 @@ def test_objectives_known_answers():
     assert relaxed_cost(far) == pytest.approx(0.03)
     z = match_modes([1.0], phi[:, :1], [1.0], phi[:, :1], zeta_id=[0.05], zeta_fem=[0.06],
                     w_zeta=1.0, r_zeta=1.0)
-    assert cost_004(z, w_zeta=1.0) == pytest.approx(0.2)
+    assert frequency_mac_damping_cost(z, w_zeta=1.0) == pytest.approx(0.2)
     with pytest.raises(OptionError, match="w_zeta: damping weights"):
-        cost_004(p, w_zeta=1.0)
+        frequency_mac_damping_cost(p, w_zeta=1.0)
     with pytest.raises(OptionError, match="gamma: expected at least one positive"):
-        cost_002(p, gamma=0.0)
+        weighted_frequency_mac_cost(p, gamma=0.0)
     with pytest.raises(OptionError, match="w_mac: expected a scalar"):
-        cost_004(p, w_mac=[1.0, 2.0, 3.0])
+        frequency_mac_damping_cost(p, w_mac=[1.0, 2.0, 3.0])
     with pytest.raises(ShapeError, match="f_exp: expected"):
-        fom_000([1.0], [0.0])
+        frequency_figure_of_merit([1.0], [0.0])
 
 
 # ---------------------------------------------------------------- sensitivities
