@@ -22,7 +22,14 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.updating.matching import ModePairing
 
-__all__ = ["close_match", "frequencies_converged", "frequency_figure_of_merit", "frequency_mac_damping_cost", "relaxed_cost", "weighted_frequency_mac_cost"]
+__all__ = [
+    "close_match",
+    "frequencies_converged",
+    "frequency_figure_of_merit",
+    "frequency_mac_damping_cost",
+    "relaxed_cost",
+    "weighted_frequency_mac_cost",
+]
 
 
 def _weights(w: ArrayLike | float, n: int, name: str) -> FloatArray:
