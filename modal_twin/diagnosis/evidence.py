@@ -36,10 +36,12 @@ elastic       u^3 / A99^2, u |u| / A99, A99 tanh(u / (0.5 A99)), dead zones
 The elastic group is named by what its fitted backbone does: **hardening** when it adds
 stiffness with amplitude, **softening** when it removes it, **gap** when the dead-zone
 columns alone explain it at least as well as the smooth ones. Each family's score is the
-share of ``var(r)`` it explains beyond the linear terms, alone and uniquely (all families
-fitted together minus all but it), always in [0, 1]. A family counts when its gain beats
-the noise: the drop of the residual sum of squares must exceed ``p ln N`` noise variances
-(BIC, ``p`` columns) and 5 % of the residual.
+share of the residual it explains, alone and uniquely (all families fitted together minus
+all but it), always in [0, 1]: for stiffness and damping the share of ``var(r)``, for the
+nonlinear families the share of what the linear terms leave (a nonlinearity always
+projects partly on them). A family counts when its gain beats the noise: the drop of the
+residual sum of squares must exceed ``p ln N`` noise variances (BIC, ``p`` columns) and
+10 % of the residual it is judged on.
 """
 
 from __future__ import annotations
@@ -294,16 +296,18 @@ def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[fl
         gains[g] = s_without - sse_lin
     for g in nonlin:
         s_g, _ = _sse(design(["stiffness", "damping", g]), b)
-        alone[g] = float(np.clip((sse_lin - s_g) / base, 0, 1))
+        # a nonlinear family is judged on what the linear terms leave
+        alone[g] = float(np.clip((sse_lin - s_g) / max(sse_lin, 1e-300), 0, 1))
         s_wo, _ = _sse(design(["stiffness", "damping", *[x for x in nonlin if x != g]]), b)
-        unique[g] = float(np.clip((s_wo - sse_all) / base, 0, 1))
+        unique[g] = float(np.clip((s_wo - sse_all) / max(sse_lin, 1e-300), 0, 1))
         gains[g] = sse_lin - s_g
     n_obs = b.size
     sig = []
     for g, gain in gains.items():
         p = sum(len(groups_x[i][g]) for i in range(n_dir))
         noise_level = max(sse_noise / max(nt, 1), 1e-300)
-        if gain > p * np.log(n_obs) * noise_level and gain > 0.1 * base:
+        ref = base if g in ("stiffness", "damping") else sse_lin
+        if gain > p * np.log(n_obs) * noise_level and gain > 0.1 * ref:
             sig.append(g)
     sig.sort(key=lambda g: -alone[g])
     elastic_kind = _elastic_kind(design, groups_x, b, n_dir)

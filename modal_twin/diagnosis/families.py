@@ -7,6 +7,8 @@ ratio below 1 softens, above 1 hardens).
 
 from __future__ import annotations
 
+import numpy as np
+
 from modal_twin.models.effects import MOUNT_LAW, SENSOR_LAWS, EffectSpec
 
 __all__ = ["FAMILIES", "FAMILY_LAWS", "family_of", "place_of"]
@@ -44,9 +46,17 @@ _LAW_FAMILY = {
 
 
 def family_of(effect: EffectSpec, *, nominal_k: float | None = None,
-              nominal_c: float | None = None) -> str:
-    """The family of what a fitted effect does (module docstring)."""
+              nominal_c: float | None = None, drift_scale: float | None = None) -> str:
+    """The family of what a fitted effect does (module docstring).
+
+    A bilinear hysteretic law whose elastic range ``ub`` is below 5 % of the drift it sees
+    (``drift_scale``, e.g. its 99th percentile) is a slider that sticks and slips beside
+    a spring: friction; with a wider elastic range it yields gradually: hysteresis.
+    """
     law, p = effect.law, effect.params
+    if law == "bilinear_hysteretic" and drift_scale and \
+            float(p.get("ub", np.inf)) < 0.05 * drift_scale:
+        return "friction"
     if law in _LAW_FAMILY:
         return _LAW_FAMILY[law]
     if law in ("bilinear", "bilinear_elastic"):

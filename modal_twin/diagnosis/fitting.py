@@ -177,12 +177,21 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
                 lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"],
                                     p.get("kt_factor", 1.0)]),
                 np.array([lf - 3, 1.0, 0.5]), np.array([lf + 3, 3.0, 2.0]))
-    if law in ("bilinear", "bilinear_hysteretic"):
+    if law == "bilinear":
         lu = np.log(start["ub"])
         return (["ub", "ratio", "k"],
                 lambda x: {"ub": float(np.exp(x[0])), "ratio": float(x[1]), "k": k * float(x[2])},
                 lambda p: np.array([np.log(p["ub"]), p["ratio"], p.get("k", k) / k]),
                 np.array([lu - 3, 0.02, 0.7]), np.array([lu + 3, 3.0, 1.3]))
+    if law == "bilinear_hysteretic":  # also a stiff slider beside a soft spring (friction)
+        lu, lk = np.log(start["ub"]), np.log(start.get("k", k) / k)
+        return (["ub", "ratio", "k"],
+                lambda x: {"ub": float(np.exp(x[0])), "ratio": float(np.exp(x[1])),
+                           "k": k * float(np.exp(x[2]))},
+                lambda p: np.array([np.log(p["ub"]), np.log(p["ratio"]),
+                                    np.log(p.get("k", k) / k)]),
+                np.array([lu - 4, np.log(0.005), min(lk, 0.0) + np.log(0.5)]),
+                np.array([lu + 4, np.log(3.0), max(lk, 0.0) + np.log(30.0)]))
     if law == "bouc_wen":
         lu = np.log(start["uy"])
         return (["uy", "alpha", "k"],

@@ -65,7 +65,8 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
           records: Sequence[Record], noises: Sequence[np.ndarray], *,
           nominal_values: Mapping[str, float] | None = None,
           floor_mass: Mapping[str, float] | None = None,
-          nominal_k: float | None = None, nominal_c: float | None = None) -> FittedEffect:
+          nominal_k: float | None = None, nominal_c: float | None = None,
+          drift_scale: float | None = None) -> FittedEffect:
     """``f`` with its family, place, per-record errors, flags and rejection filled in.
 
     ``records[0]`` is the training record and ``records[1]`` the held-out one.
@@ -87,7 +88,8 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
             rejected = (f"makes {b.record or f'record {i}'} worse "
                         f"({100 * b.total:.2f} % -> {100 * a.total:.2f} %)")
             break
-    return replace(f, family=family_of(f.effect, nominal_k=nominal_k, nominal_c=nominal_c),
+    return replace(f, family=family_of(f.effect, nominal_k=nominal_k, nominal_c=nominal_c,
+                                       drift_scale=drift_scale),
                    place=place_of(f.effect), records=rows, rejected=rejected,
                    flags=_flags(f, nominal_values or {}, floor_mass or {}))
 

@@ -319,8 +319,11 @@ def _judge(factory: ModelFactory, f: FittedEffect, before: Sequence[ErrorFigures
     c = float(np.mean(spec.c)) if spec is not None and hasattr(spec, "c") else None
     values = factory.parameters()
     floor = {n: v for n, v in values.items() if n.startswith("m_")}
+    cols = [f"{e.component}_d{a}" for a in "xy"]
+    drift = (float(np.quantile(np.abs(records[0].channels(cols)), 0.99))
+             if all(x in records[0].channel_names for x in cols) else None)
     return judge(f, plant, before, records, noises, nominal_values=values, floor_mass=floor,
-                 nominal_k=k, nominal_c=c)
+                 nominal_k=k, nominal_c=c, drift_scale=drift)
 
 
 def _apply(factory: ModelFactory, f: FittedEffect) -> ModelFactory:

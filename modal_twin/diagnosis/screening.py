@@ -54,8 +54,12 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
     if law == "stick_slip":
         fk = [0.4 * f_max, 0.6 * f_max, 0.8 * f_max]
         return [{"Fs": r * a, "Fk": a} for a in fk for r in (1.0, 1.5)]
-    if law in ("bilinear", "bilinear_hysteretic"):
+    if law == "bilinear":
         return [{"ub": g * u_max, "ratio": r} for g in (0.2, 0.4, 0.6) for r in (0.5, 0.75)]
+    if law == "bilinear_hysteretic":  # yielding, and a stiff slider beside a soft spring
+        return ([{"ub": g * u_max, "ratio": r} for g in (0.2, 0.4, 0.6) for r in (0.5, 0.75)]
+                + [{"k": 10.0 * k, "ratio": r, "ub": g * u_max} for g in (0.005, 0.02)
+                   for r in (0.03, 0.1)])
     if law == "bouc_wen":
         return [{"uy": g * u_max, "alpha": a} for g in (0.2, 0.4, 0.6) for a in (0.05, 0.5)]
     if law == "cubic":
