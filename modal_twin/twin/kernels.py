@@ -1,9 +1,14 @@
 """Jitted time-stepping loop of the modal twin (see :mod:`modal_twin.twin.simulator`).
 
-One call of :func:`run_block` advances a run of samples with everything in one compiled
-loop: the first-order-hold propagation of the diagonal modal state, the implicit solve for
-the device forces and the state commit. All work arrays are allocated once per call; the
-loop itself allocates nothing. Complex modal quantities are carried as [real; imaginary]
+Work is split by what depends on the device forces. Everything of a sample that depends on
+its input alone (the input projections of the modal state and of the drift prediction) is
+one block product before the loop (:func:`project_inputs`); the outputs are one BLAS
+product after it (:mod:`modal_twin.twin.simulator`). One call of :func:`run_block` then
+advances a run of samples with only the device feedback in the compiled loop: the
+first-order-hold propagation of the diagonal modal state, the drift prediction, the
+implicit solve for the device forces and the state commit. All work arrays are allocated
+once per call; the loop itself allocates nothing. Complex modal quantities are carried as
+[real; imaginary]
 float vectors. Small matrix products are written as fixed loops (dot form four rows at a
 time over the 2 ns modal coordinates, :func:`gemv_t` axpy form four rows per pass over
 the short dimensions) so that the compiler vectorises them without BLAS call overhead,
@@ -37,6 +42,7 @@ __all__ = [
     "STATUS_OK",
     "gemv_t",
     "invert_inplace",
+    "project_inputs",
     "run_block",
 ]
 
@@ -112,8 +118,30 @@ def gemv_t(y, AT, x):  # pragma: no cover - jitted
 
 
 @njit(cache=True, fastmath={"reassoc", "contract"})
+def project_inputs(ag, k_begin, k_end, PinT, Ain):  # pragma: no cover - jitted
+    """Block product before the per-sample loop: ``Ain[k - k_begin] = Pin a_k``.
+
+    ``PinT`` (n_in, m) is the transposed map from the inputs of a sample to everything of
+    it that does not depend on the device forces (see :func:`run_block`). Every row is
+    computed by :func:`gemv_t` on its own, so a sample's numbers depend only on the
+    shapes, never on how the record was split into blocks (a BLAS product may order a
+    sum differently at the edge of a tile).
+    """
+    m = PinT.shape[1]
+    n_in = ag.shape[0]
+    ak = np.empty(n_in)
+    for k in range(k_begin, k_end):
+        row = Ain[k - k_begin]
+        for c in range(n_in):
+            ak[c] = ag[c, k]
+        for i in range(m):
+            row[i] = 0.0
+        gemv_t(row, PinT, ak)
+
+
+@njit(cache=True, fastmath={"reassoc", "contract"})
 def run_block(
-    ag, k_begin, k_end, coef, GaT, GfT, Q, Ua0T, Ua1T, HfT, HT,
+    ag, k_begin, k_end, Ain, coef, GfT, Q, HfT, HT,
     kinds, bw_idx, params, consts, Kr, Cr, kjump, cjump, Xh, base, ft, ft_old, Jinv, flags,
     states,
     Z, out_u, out_f, out_it, rtol, max_iter,
@@ -123,12 +151,15 @@ def run_block(
     Parameters (all float64 C-contiguous unless said otherwise; ns complex modes, nf = 2
     n_dev device rows, n_in inputs):
 
-    - ``ag`` (n_in, nb) input; ``coef`` (6, ns) rows Re / Im of exp(lambda dt) and of the
-      first-order-hold weights E0, E1; ``GaT`` (n_in, 2 ns) and ``GfT`` (nf, 2 ns) the
-      transposed input projections [Re; Im] V^-1 B_w; ``Q`` (2 nf, 2 ns) = P exp(Lambda
-      dt) with P the map modal state -> [u; v]; ``Ua0T``, ``Ua1T`` (n_in, 2 nf) and ``HfT``
-      (nf, 2 nf) the transposed maps P E0 Ga, P E1 Ga, P (exp(Lambda dt) E1 + E0) Gf;
-      ``HT`` (nf, 2 nf) the transposed map P E1 Gf: ft -> [u; v] of the implicit step.
+    - ``ag`` (n_in, nb) input; ``Ain`` (k_end - k_begin, 4 ns + 4 nf) everything of a
+      sample that depends on its input alone, computed before the loop by
+      :func:`project_inputs`: rows [E1 g_k; E0 g_k; Ua1 a_k; Ua0 a_k] with g_k = Ga a_k
+      (complex vectors split [Re; Im]); ``coef`` (6, ns) rows Re / Im of exp(lambda dt)
+      and of the first-order-hold weights E0, E1; ``GfT`` (nf, 2 ns) the transposed force
+      projection [Re; Im] V^-1 B_f; ``Q`` (2 nf, 2 ns) = P exp(Lambda dt) with P the map
+      modal state -> [u; v]; ``HfT`` (nf, 2 nf) the transposed map P (exp(Lambda dt) E1 +
+      E0) Gf; ``HT`` (nf, 2 nf) the transposed map P E1 Gf: ft -> [u; v] of the implicit
+      step. The loop itself carries only what the device forces feed back into.
     - ``kinds`` (n_dev,) int64, ``bw_idx`` (m,) int64 the Bouc-Wen devices (kinds 3, 4:
       their hysteretic variables are advanced together, see
       :func:`modal_twin.models.devices.bouc_wen.bw_advance_many`), ``params``,
@@ -180,8 +211,8 @@ def run_block(
     S = states.shape[1]
     n_in = ag.shape[0]
     col_f = n2 + n_in
-    g = np.empty(n2)
-    ak = np.empty(n_in)
+    o_ua1 = 2 * n2  # offsets in a row of Ain: [E1 g (n2), E0 g (n2), Ua1 a, Ua0 a]
+    o_ua0 = o_ua1 + nf2
     fg = np.empty(n2)
     Xp = np.empty(n2)
     uvp = np.empty(nf2)
@@ -211,23 +242,17 @@ def run_block(
     e1i = coef[5]
     for k in range(k_begin, k_end):
         row = k - k_begin
-        # input projection of this sample, g = Ga a_k
+        # everything of this sample that depends on its input alone was computed before
+        # the loop (project_inputs): E1 g_k, E0 g_k, Ua1 a_k, Ua0 a_k
+        pin = Ain[row]
         for c in range(n_in):
-            a = ag[c, k]
-            ak[c] = a
-            Z[row, n2 + c] = a
-        for r in range(n2):
-            g[r] = 0.0
-        gemv_t(g, GaT, ak)
+            Z[row, n2 + c] = ag[c, k]
         if flags[FLAG_STARTED] == 0:  # rest state at the first sample of a run
-            for r in range(ns):  # xi = 0, w = g: Xh = E0 g
-                Xh[r] = e0r[r] * g[r] - e0i[r] * g[ns + r]
-                Xh[ns + r] = e0r[r] * g[ns + r] + e0i[r] * g[r]
-            for r in range(n2):
+            for r in range(n2):  # xi = 0, w = g: Xh = E0 g
+                Xh[r] = pin[n2 + r]
                 Z[row, r] = 0.0
             for i in range(nf2):  # xi_p = xi = 0: base = Ua0 a_k
-                base[i] = 0.0
-            gemv_t(base, Ua0T, ak)
+                base[i] = pin[o_ua0 + i]
             for i in range(nf):
                 ft[i] = 0.0
                 ft_old[i] = 0.0
@@ -237,18 +262,14 @@ def run_block(
             out_it[k] = 0
             flags[FLAG_STARTED] = 1
             continue
-        # linear part with the new residual force set to zero (complex products, split):
+        # linear part with the new residual force set to zero:
         # xi_p,k = exp(Lambda dt) xi_k-1 + E0 w_k-1 (carried in Xh) + E1 g_k
-        for r in range(ns):
-            gr = g[r]
-            gi = g[ns + r]
-            Xp[r] = Xh[r] + e1r[r] * gr - e1i[r] * gi
-            Xp[ns + r] = Xh[ns + r] + e1r[r] * gi + e1i[r] * gr
+        for r in range(n2):
+            Xp[r] = Xh[r] + pin[r]
         # drift of this sample with its device force set to zero (see docstring):
         # uvp = Q xi_p,k-1 + Ua0 a_k-1 (carried in base) + Ua1 a_k + Hf ft_k-1
         for i in range(nf2):
-            uvp[i] = base[i]
-        gemv_t(uvp, Ua1T, ak)
+            uvp[i] = base[i] + pin[o_ua1 + i]
         gemv_t(uvp, HfT, ft)
         bad = 0.0
         for i in range(nf2):
@@ -258,10 +279,10 @@ def run_block(
         # base of the next sample, Q xi_p,k + Ua0 a_k: independent of this sample's device
         # forces (overlaps with the laws below); dot form four rows at a time (nf2 = 4 n_dev)
         for i in range(0, nf2, 4):
-            a0 = 0.0
-            a1 = 0.0
-            a2 = 0.0
-            a3 = 0.0
+            a0 = pin[o_ua0 + i]
+            a1 = pin[o_ua0 + i + 1]
+            a2 = pin[o_ua0 + i + 2]
+            a3 = pin[o_ua0 + i + 3]
             for r in range(n2):
                 x = Xp[r]
                 a0 += Q[i, r] * x
@@ -272,7 +293,6 @@ def run_block(
             base[i + 1] = a1
             base[i + 2] = a2
             base[i + 3] = a3
-        gemv_t(base, Ua0T, ak)
         # force predictor (linear extrapolation) and its drifts u, v = uvp + H ft
         for i in range(nf):
             f0 = ft[i]
@@ -414,18 +434,17 @@ def run_block(
         for r in range(n2):  # fg = Gf ft
             fg[r] = 0.0
         gemv_t(fg, GfT, ft)
-        # xi_k = xi_p,k + E1 Gf ft_k, w_k = g_k + Gf ft_k and the next Xh in one pass
+        # xi_k = xi_p,k + E1 Gf ft_k and the next Xh = exp(Lambda dt) xi_k + E0 Gf ft_k
+        # + E0 g_k (the last term from before the loop) in one pass
         for r in range(ns):
             fr = fg[r]
             fi = fg[ns + r]
             xr = Xp[r] + e1r[r] * fr - e1i[r] * fi
             xi = Xp[ns + r] + e1r[r] * fi + e1i[r] * fr
-            wr = g[r] + fr
-            wi = g[ns + r] + fi
             Z[row, r] = xr
             Z[row, ns + r] = xi
-            Xh[r] = lr[r] * xr - li[r] * xi + e0r[r] * wr - e0i[r] * wi
-            Xh[ns + r] = lr[r] * xi + li[r] * xr + e0r[r] * wi + e0i[r] * wr
+            Xh[r] = lr[r] * xr - li[r] * xi + e0r[r] * fr - e0i[r] * fi + pin[n2 + r]
+            Xh[ns + r] = lr[r] * xi + li[r] * xr + e0r[r] * fi + e0i[r] * fr + pin[n2 + ns + r]
         for i in range(nf):
             out_u[i, k] = uv[i]
             out_f[i, k] = fful[i]
