@@ -40,6 +40,7 @@ __all__ = [
     "STATUS_DIVERGED",
     "STATUS_NONFINITE",
     "STATUS_OK",
+    "gemv_dot4",
     "gemv_t",
     "invert_inplace",
     "project_inputs",
@@ -117,6 +118,31 @@ def gemv_t(y, AT, x):  # pragma: no cover - jitted
             y[i] += AT[j, i] * xj
 
 
+@njit(cache=True, fastmath={"reassoc", "contract"}, inline="always")
+def gemv_dot4(y, A, x):  # pragma: no cover - jitted
+    """y += A x in dot form, four rows of A per pass over x (A is (m, n), m a multiple of 4).
+
+    Each pass keeps four running sums, so x is read once per four rows; the order of the
+    operations depends only on the shapes (see :func:`gemv_t`).
+    """
+    n = x.shape[0]
+    for i in range(0, A.shape[0], 4):
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        for r in range(n):
+            xr = x[r]
+            a0 += A[i, r] * xr
+            a1 += A[i + 1, r] * xr
+            a2 += A[i + 2, r] * xr
+            a3 += A[i + 3, r] * xr
+        y[i] += a0
+        y[i + 1] += a1
+        y[i + 2] += a2
+        y[i + 3] += a3
+
+
 @njit(cache=True, fastmath={"reassoc", "contract"})
 def project_inputs(ag, k_begin, k_end, PinT, Ain):  # pragma: no cover - jitted
     """Block product before the per-sample loop: ``Ain[k - k_begin] = Pin a_k``.
@@ -144,7 +170,7 @@ def run_block(
     ag, k_begin, k_end, Ain, coef, GfT, Q, HfT, HT,
     kinds, bw_idx, params, consts, Kr, Cr, kjump, cjump, Xh, base, ft, ft_old, Jinv, flags,
     states,
-    Z, out_u, out_f, out_it, rtol, max_iter,
+    Z, U, out_it, rtol, max_iter,
 ):  # pragma: no cover - jitted
     """Advance the modal state over samples ``k_begin <= k < k_end`` of a block.
 
@@ -175,7 +201,9 @@ def run_block(
       samples; ``Jinv`` (nf, nf) inverse device Jacobian kept between samples;
       ``flags`` int64 (see FLAG_*).
     - Outputs: ``Z`` (k_end - k_begin, 2 ns + n_in + nf) rows [X; a_g; f] for the output
-      products; ``out_u``, ``out_f`` (nf, nb) drift and force; ``out_it`` (nb,) int64
+      products (the device forces are its last nf columns); ``U`` (k_end - k_begin, nf)
+      the drifts, rows per sample as Z (the caller transposes both per chunk: writing
+      (nf, nb) arrays here would touch nf pages per sample); ``out_it`` (nb,) int64
       device evaluations per sample.
 
     Drift prediction: the drift [u; v] = P xi_p,k+1 of the next sample with its device force
@@ -257,8 +285,7 @@ def run_block(
                 ft[i] = 0.0
                 ft_old[i] = 0.0
                 Z[row, col_f + i] = 0.0
-                out_u[i, k] = 0.0
-                out_f[i, k] = 0.0
+                U[row, i] = 0.0
             out_it[k] = 0
             flags[FLAG_STARTED] = 1
             continue
@@ -278,21 +305,9 @@ def run_block(
             return STATUS_NONFINITE, k
         # base of the next sample, Q xi_p,k + Ua0 a_k: independent of this sample's device
         # forces (overlaps with the laws below); dot form four rows at a time (nf2 = 4 n_dev)
-        for i in range(0, nf2, 4):
-            a0 = pin[o_ua0 + i]
-            a1 = pin[o_ua0 + i + 1]
-            a2 = pin[o_ua0 + i + 2]
-            a3 = pin[o_ua0 + i + 3]
-            for r in range(n2):
-                x = Xp[r]
-                a0 += Q[i, r] * x
-                a1 += Q[i + 1, r] * x
-                a2 += Q[i + 2, r] * x
-                a3 += Q[i + 3, r] * x
-            base[i] = a0
-            base[i + 1] = a1
-            base[i + 2] = a2
-            base[i + 3] = a3
+        for i in range(nf2):
+            base[i] = pin[o_ua0 + i]
+        gemv_dot4(base, Q, Xp)
         # force predictor (linear extrapolation) and its drifts u, v = uvp + H ft
         for i in range(nf):
             f0 = ft[i]
@@ -446,8 +461,7 @@ def run_block(
             Xh[r] = lr[r] * xr - li[r] * xi + e0r[r] * fr - e0i[r] * fi + pin[n2 + r]
             Xh[ns + r] = lr[r] * xi + li[r] * xr + e0r[r] * fi + e0i[r] * fr + pin[n2 + ns + r]
         for i in range(nf):
-            out_u[i, k] = uv[i]
-            out_f[i, k] = fful[i]
+            U[row, i] = uv[i]
             Z[row, col_f + i] = fful[i]
         out_it[k] = it
     return STATUS_OK, k_end

@@ -57,7 +57,7 @@ from modal_twin.models.devices import (
 )
 from modal_twin.models.devices._dispatch import evaluate_law
 from modal_twin.models.devices.linear import LinearDevice
-from modal_twin.twin.kernels import gemv_t, project_inputs, run_block
+from modal_twin.twin.kernels import gemv_dot4, gemv_t, project_inputs, run_block
 from modal_twin.twin.simulator import (
     DeviceAttachment,
     ReducedSystem,
@@ -237,21 +237,9 @@ def _same_shape_chain(nt, Q, GfT, HfT, HT, Jinv, coef, Xh, ft, out):  # pragma: 
         for i in range(nf2):
             uv[i] = base[i]
         gemv_t(uv, HfT, ft)
-        for i in range(0, nf2, 4):
-            a0 = 0.0
-            a1 = 0.0
-            a2 = 0.0
-            a3 = 0.0
-            for r in range(n2):
-                x = Xp[r]
-                a0 += Q[i, r] * x
-                a1 += Q[i + 1, r] * x
-                a2 += Q[i + 2, r] * x
-                a3 += Q[i + 3, r] * x
-            base[i] = a0
-            base[i + 1] = a1
-            base[i + 2] = a2
-            base[i + 3] = a3
+        for i in range(nf2):
+            base[i] = 0.0
+        gemv_dot4(base, Q, Xp)
         gemv_t(uv, HT, ft)
         for i in range(nf):  # linear "law" and its residual
             R[i] = ft[i] + 1e-3 * uv[i] + 1e-4 * uv[nf + i]
@@ -302,7 +290,7 @@ def loop_seconds(sim: Simulator, ag: np.ndarray, repeat: int) -> tuple[float, fl
         ain.append(a)
     nf = sim._ft.size
     Z = np.empty((chunk, sim._Wy.shape[1]))
-    out_u, out_f = np.empty((nf, nb)), np.empty((nf, nb))
+    U = np.empty((chunk, nf))
     out_it = np.empty(nb, dtype=np.int64)
     t_in = t_loop = np.inf
     for _ in range(repeat):
@@ -317,7 +305,7 @@ def loop_seconds(sim: Simulator, ag: np.ndarray, repeat: int) -> tuple[float, fl
                 ag, k0, min(nb, k0 + chunk), ain[j], sim._coef, sim._GfT, sim._Q, sim._HfT,
                 sim._HT, sim.kinds, sim._bw_idx, sim.params, sim._consts, sim.Kr, sim.Cr,
                 sim._kjump, sim._cjump, sim._Xh, sim._base, sim._ft, sim._ft_old, sim._Jinv,
-                sim._flags, sim._states, Z, out_u, out_f, out_it, sim.rtol, sim.max_iter,
+                sim._flags, sim._states, Z, U, out_it, sim.rtol, sim.max_iter,
             )  # fmt: skip
         t_loop = min(t_loop, time.process_time() - c0)
     return t_in, t_loop
