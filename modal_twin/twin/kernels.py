@@ -2,23 +2,22 @@
 
 Work is split by what depends on the device forces. Everything of a sample that depends on
 its input alone (the input projections of the modal state and of the drift prediction) is
-one block product before the loop (:func:`project_inputs`); the outputs are one BLAS
-product after it (:mod:`modal_twin.twin.simulator`). One call of :func:`run_block` then
-advances a run of samples with only the device feedback in the compiled loop: the
-first-order-hold propagation of the diagonal modal state, the drift prediction, the
-implicit solve for the device forces and the state commit. All work arrays are allocated
-once per call; the loop itself allocates nothing. Complex modal quantities are carried as
-[real; imaginary]
-float vectors. Small matrix products are written as fixed loops (dot form four rows at a
-time over the 2 ns modal coordinates, :func:`gemv_t` axpy form four rows per pass over
-the short dimensions) so that the compiler vectorises them without BLAS call overhead,
-in an order that depends only on the shapes (the state does not depend on how a record
-is split into blocks). The device laws are called directly (an if-chain on the kind code
-instead of a call through ``evaluate_law``: that extra call level cost ~45 ns per device
-and sample), and the Bouc-Wen devices advance their hysteretic variables together
-(:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`). The law functions are
-compiled on their own, without the loop's fast-math flags, so every law returns exactly
-what :meth:`Device.evaluate` returns (test/twin/test_simulator.py checks it bitwise).
+one block product per sub-block of samples before their loop (:func:`project_inputs`); the
+outputs are one BLAS product after it (:mod:`modal_twin.twin.simulator`). One call of
+:func:`run_block` then advances a run of samples with only the device feedback in the
+compiled loop: the first-order-hold propagation of the diagonal modal state, the drift
+prediction, the implicit solve for the device forces and the state commit. All work arrays
+are allocated once per call; the loop itself allocates nothing. Complex modal quantities are
+carried as [real; imaginary] float vectors. Small matrix products are written as fixed loops
+(dot form four rows at a time over the 2 ns modal coordinates, :func:`gemv_t` axpy form four
+rows per pass over the short dimensions) so that the compiler vectorises them without BLAS
+call overhead, in an order that depends only on the shapes (the state does not depend on how
+a record is split into blocks). The device laws are called directly (an if-chain on the kind
+code instead of a call through ``evaluate_law``: that extra call level cost ~45 ns per
+device and sample), and the Bouc-Wen devices advance their hysteretic variables together
+(:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`). The law functions are compiled
+on their own, without the loop's fast-math flags, so every law returns exactly what
+:meth:`Device.evaluate` returns (test/twin/test_simulator.py checks it bitwise).
 """
 
 from __future__ import annotations
@@ -167,7 +166,7 @@ def project_inputs(ag, k_begin, k_end, PinT, Ain):  # pragma: no cover - jitted
 
 @njit(cache=True, fastmath={"reassoc", "contract"})
 def run_block(
-    ag, k_begin, k_end, Ain, coef, GfT, Q, HfT, HT,
+    ag, k_begin, k_end, PinT, Ain, coef, GfT, Q, HfT, HT,
     kinds, bw_idx, params, consts, Kr, Cr, kjump, cjump, Xh, base, ft, ft_old, Jinv, flags,
     states,
     Z, U, out_it, rtol, max_iter,
@@ -177,15 +176,17 @@ def run_block(
     Parameters (all float64 C-contiguous unless said otherwise; ns complex modes, nf = 2
     n_dev device rows, n_in inputs):
 
-    - ``ag`` (n_in, nb) input; ``Ain`` (k_end - k_begin, 4 ns + 4 nf) everything of a
-      sample that depends on its input alone, computed before the loop by
-      :func:`project_inputs`: rows [E1 g_k; E0 g_k; Ua1 a_k; Ua0 a_k] with g_k = Ga a_k
-      (complex vectors split [Re; Im]); ``coef`` (6, ns) rows Re / Im of exp(lambda dt)
-      and of the first-order-hold weights E0, E1; ``GfT`` (nf, 2 ns) the transposed force
-      projection [Re; Im] V^-1 B_f; ``Q`` (2 nf, 2 ns) = P exp(Lambda dt) with P the map
-      modal state -> [u; v]; ``HfT`` (nf, 2 nf) the transposed map P (exp(Lambda dt) E1 +
-      E0) Gf; ``HT`` (nf, 2 nf) the transposed map P E1 Gf: ft -> [u; v] of the implicit
-      step. The loop itself carries only what the device forces feed back into.
+    - ``ag`` (n_in, nb) input; ``PinT`` (n_in, 4 ns + 4 nf) and the work array ``Ain``
+      (n_sub, 4 ns + 4 nf): everything of a sample that depends on its input alone, computed
+      by :func:`project_inputs` for n_sub samples at a time before their loop (a sub-block
+      small enough to stay in the L2 cache): rows [E1 g_k; E0 g_k; Ua1 a_k; Ua0 a_k] with
+      g_k = Ga a_k (complex vectors split [Re; Im]); ``coef`` (6, ns) rows Re / Im of
+      exp(lambda dt) and of the first-order-hold weights E0, E1; ``GfT`` (nf, 2 ns) the
+      transposed force projection [Re; Im] V^-1 B_f; ``Q`` (2 nf, 2 ns) = P exp(Lambda dt)
+      with P the map modal state -> [u; v]; ``HfT`` (nf, 2 nf) the transposed map P
+      (exp(Lambda dt) E1 + E0) Gf; ``HT`` (nf, 2 nf) the transposed map P E1 Gf: ft -> [u;
+      v] of the implicit step. The loop itself carries only what the device forces feed back
+      into.
     - ``kinds`` (n_dev,) int64, ``bw_idx`` (m,) int64 the Bouc-Wen devices (kinds 3, 4:
       their hysteretic variables are advanced together, see
       :func:`modal_twin.models.devices.bouc_wen.bw_advance_many`), ``params``,
@@ -239,6 +240,7 @@ def run_block(
     S = states.shape[1]
     n_in = ag.shape[0]
     col_f = n2 + n_in
+    n_sub = Ain.shape[0]
     o_ua1 = 2 * n2  # offsets in a row of Ain: [E1 g (n2), E0 g (n2), Ua1 a, Ua0 a]
     o_ua0 = o_ua1 + nf2
     fg = np.empty(n2)
@@ -270,9 +272,13 @@ def run_block(
     e1i = coef[5]
     for k in range(k_begin, k_end):
         row = k - k_begin
-        # everything of this sample that depends on its input alone was computed before
-        # the loop (project_inputs): E1 g_k, E0 g_k, Ua1 a_k, Ua0 a_k
-        pin = Ain[row]
+        # everything of this sample that depends on its input alone is computed before the
+        # samples' loop, one block product per sub-block of Ain's rows (project_inputs):
+        # E1 g_k, E0 g_k, Ua1 a_k, Ua0 a_k
+        sub = row % n_sub
+        if sub == 0:
+            project_inputs(ag, k, min(k_end, k + n_sub), PinT, Ain)
+        pin = Ain[sub]
         for c in range(n_in):
             Z[row, n2 + c] = ag[c, k]
         if flags[FLAG_STARTED] == 0:  # rest state at the first sample of a run

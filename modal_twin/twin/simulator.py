@@ -97,7 +97,6 @@ from modal_twin.models.devices.bouc_wen import esb_pressure_factor
 from modal_twin.twin.kernels import (
     STATUS_DIVERGED,
     STATUS_NONFINITE,
-    project_inputs,
     run_block,
 )
 from modal_twin.twin.system import DeviceAttachment, ReducedSystem, SimResult
@@ -107,7 +106,8 @@ __all__ = ["DeviceAttachment", "ReducedSystem", "SimResult", "Simulator", "simul
 _log = logging.getLogger(__name__)
 _METHODS = ("modal-foh",)
 
-_CHUNK = 1024  # samples per kernel call: the output buffer Z stays in the L2 cache
+_CHUNK = 1024  # samples per kernel call (one output product per chunk)
+_SUB = 64  # samples per input block product inside the kernel (98 kB: stays in L2)
 # stiffness / damping a law can switch to that neither its tangent nor K_ref shows
 # (parameter index, -1 for none): Coulomb sticking (kt), gap contact (k, c), Prandtl Kb
 _JUMPS = {KIND_COULOMB: (2, -1), KIND_GAP: (0, 2), KIND_PRANDTL: (5, -1)}
@@ -357,16 +357,15 @@ class Simulator:
         out_it = np.empty(nb, dtype=np.int64)
         W = self._Wall if self.modal_histories else self._Wy
         Z = np.empty((min(nb, _CHUNK), W.shape[1]))
-        Ain = np.empty((min(nb, _CHUNK), self._PinT.shape[1]))
+        Ain = np.empty((_SUB, self._PinT.shape[1]))
         U = np.empty((min(nb, _CHUNK), nf))
         col_f = W.shape[1] - nf  # Z rows: [xi; a_g; f]
         Y = np.empty((W.shape[0], nb))  # rows: y, then q, q', q'' if requested
         for k0 in range(0, nb, _CHUNK):
             k1 = min(nb, k0 + _CHUNK)
             m = k1 - k0
-            project_inputs(ag, k0, k1, self._PinT, Ain)  # block product before the loop
             status, idx = run_block(
-                ag, k0, k1, Ain, self._coef, self._GfT, self._Q, self._HfT, self._HT,
+                ag, k0, k1, self._PinT, Ain, self._coef, self._GfT, self._Q, self._HfT, self._HT,
                 self.kinds, self._bw_idx, self.params,
                 self._consts, self.Kr, self.Cr, self._kjump, self._cjump, self._Xh,
                 self._base, self._ft, self._ft_old, self._Jinv, self._flags, self._states,
