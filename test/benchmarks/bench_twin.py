@@ -22,11 +22,34 @@ force predictor, the device laws (the jitted law functions called one device at 
 Python), the Newton correction with the kept inverse Jacobian and its error bound, the
 commit and the output row y_k = W z_k. It runs on the first ``--ref-seconds`` of the record
 in the same process; its drifts are compared with the kernel's.
+
+The serial chain (``serial_chain_flops_per_step``, :func:`chain_flops`): the linear algebra
+that stays in the per-sample loop because it feeds the device forces back (drift
+prediction, force predictor, one Newton correction, force projection, diagonal commit; the
+laws are not counted); ``serial_chain_gflops_achieved`` divides it by the loop's CPU time
+per sample (the input block products subtracted, the laws included), and
+``machine_gflops_limit`` is the same chain alone on this machine: a numba loop of the same
+shapes and loop forms with a linear feedback in place of the laws
+(:func:`machine_chain_gflops`). ``us_per_step`` = input block products + loop + output
+product, CPU time.
+
+The vehicle twin (``rtf_vehicle``): the S2 trailer car (config/vehicles/trailer_car.yaml)
+at 400 Hz on 60 s of track at 300 km/h, CPU time; ``rtf_vehicle_devices`` with the
+secondary suspension as devices.
+
+The OpenSees peer (peer_opensees.py; skipped with a line saying so when openseespy is not
+importable, ``pip install -r requirements/bench.txt``): a shear-building equivalent of the
+same size (36 DOF, six bidirectional isolators at the same plan positions) simulated in
+both codes on the first ``--peer-seconds`` of the record (x, y, rz rows). The time ratio
+(``opensees_time_ratio``, OpenSees wall time of ``analyze`` / the twin's) is given only
+when the linear case agrees: NRMSE of the base acceleration below 5 %
+(``opensees_nrmse_pct``); the bilinear-isolator case is reported beside it.
+
 Compile time is printed separately: "warm" loads the numba cache, ``--cold`` compiles into
 an empty temporary cache directory. Timings on a shared 2-core machine vary by up to a
 factor 2 between runs. Last line: one JSON object.
 
-Run: ``.venv/bin/python test/benchmarks/bench_twin.py [--cold] [--repeat 3]``
+Run: ``.venv/bin/python test/benchmarks/bench_twin.py [--cold] [--repeat 3] [--peer-seconds 10]``
 """
 
 from __future__ import annotations
