@@ -1,19 +1,23 @@
 """Jitted time-stepping loop of the modal twin (see :mod:`modal_twin.twin.simulator`).
 
-One call of :func:`run_block` advances a run of samples with everything in one compiled
-loop: the first-order-hold propagation of the diagonal modal state, the implicit solve for
-the device forces and the state commit. All work arrays are allocated once per call; the
-loop itself allocates nothing. Complex modal quantities are carried as [real; imaginary]
-float vectors. Small matrix products are written as fixed loops (dot form four rows at a
-time over the 2 ns modal coordinates, :func:`gemv_t` axpy form four rows per pass over
-the short dimensions) so that the compiler vectorises them without BLAS call overhead,
-in an order that depends only on the shapes (the state does not depend on how a record
-is split into blocks). The device laws are called directly (an if-chain on the kind code
-instead of a call through ``evaluate_law``: that extra call level cost ~45 ns per device
-and sample), and the Bouc-Wen devices advance their hysteretic variables together
-(:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`). The law functions are
-compiled on their own, without the loop's fast-math flags, so every law returns exactly
-what :meth:`Device.evaluate` returns (test/twin/test_simulator.py checks it bitwise).
+Work is split by what depends on the device forces. Everything of a sample that depends on
+its input alone (the input projections of the modal state and of the drift prediction) is
+one block product per sub-block of samples before their loop (:func:`project_inputs`); the
+outputs are one BLAS product after it (:mod:`modal_twin.twin.simulator`). One call of
+:func:`run_block` then advances a run of samples with only the device feedback in the
+compiled loop: the first-order-hold propagation of the diagonal modal state, the drift
+prediction, the implicit solve for the device forces and the state commit. All work arrays
+are allocated once per call; the loop itself allocates nothing. Complex modal quantities are
+carried as [real; imaginary] float vectors. Small matrix products are written as fixed loops
+(dot form four rows at a time over the 2 ns modal coordinates, :func:`gemv_t` axpy form four
+rows per pass over the short dimensions) so that the compiler vectorises them without BLAS
+call overhead, in an order that depends only on the shapes (the state does not depend on how
+a record is split into blocks). The device laws are called directly (an if-chain on the kind
+code instead of a call through ``evaluate_law``: that extra call level cost ~45 ns per
+device and sample), and the Bouc-Wen devices advance their hysteretic variables together
+(:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`). The law functions are compiled
+on their own, without the loop's fast-math flags, so every law returns exactly what
+:meth:`Device.evaluate` returns (test/twin/test_simulator.py checks it bitwise).
 """
 
 from __future__ import annotations
@@ -21,6 +25,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from modal_twin.models.devices.base import (
+    KIND_BILINEAR_ELASTIC,
+    KIND_BILINEAR_HYSTERETIC,
+    KIND_BW_ESB,
+    KIND_BW_SDP,
+    KIND_COULOMB,
+    KIND_CUBIC,
+    KIND_LINEAR,
+    KIND_PRANDTL,
+)
 from modal_twin.models.devices.bilinear import law_bilinear_elastic, law_bilinear_hysteretic
 from modal_twin.models.devices.bouc_wen import bw_advance_many, bw_esb_force, bw_sdp_force
 from modal_twin.models.devices.coulomb import law_coulomb
@@ -35,8 +49,10 @@ __all__ = [
     "STATUS_DIVERGED",
     "STATUS_NONFINITE",
     "STATUS_OK",
+    "gemv_dot4",
     "gemv_t",
     "invert_inplace",
+    "project_inputs",
     "run_block",
 ]
 
@@ -111,24 +127,76 @@ def gemv_t(y, AT, x):  # pragma: no cover - jitted
             y[i] += AT[j, i] * xj
 
 
+@njit(cache=True, fastmath={"reassoc", "contract"}, inline="always")
+def gemv_dot4(y, A, x):  # pragma: no cover - jitted
+    """y += A x in dot form, four rows of A per pass over x (A is (m, n), m a multiple of 4).
+
+    Each pass keeps four running sums, so x is read once per four rows; the order of the
+    operations depends only on the shapes (see :func:`gemv_t`).
+    """
+    n = x.shape[0]
+    for i in range(0, A.shape[0], 4):
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        for r in range(n):
+            xr = x[r]
+            a0 += A[i, r] * xr
+            a1 += A[i + 1, r] * xr
+            a2 += A[i + 2, r] * xr
+            a3 += A[i + 3, r] * xr
+        y[i] += a0
+        y[i + 1] += a1
+        y[i + 2] += a2
+        y[i + 3] += a3
+
+
+@njit(cache=True, fastmath={"reassoc", "contract"})
+def project_inputs(ag, k_begin, k_end, PinT, Ain):  # pragma: no cover - jitted
+    """Block product before the per-sample loop: ``Ain[k - k_begin] = Pin a_k``.
+
+    ``PinT`` (n_in, m) is the transposed map from the inputs of a sample to everything of
+    it that does not depend on the device forces (see :func:`run_block`). Every row is
+    computed by :func:`gemv_t` on its own, so a sample's numbers depend only on the
+    shapes, never on how the record was split into blocks (a BLAS product may order a
+    sum differently at the edge of a tile).
+    """
+    m = PinT.shape[1]
+    n_in = ag.shape[0]
+    ak = np.empty(n_in)
+    for k in range(k_begin, k_end):
+        row = Ain[k - k_begin]
+        for c in range(n_in):
+            ak[c] = ag[c, k]
+        for i in range(m):
+            row[i] = 0.0
+        gemv_t(row, PinT, ak)
+
+
 @njit(cache=True, fastmath={"reassoc", "contract"})
 def run_block(
-    ag, k_begin, k_end, coef, GaT, GfT, Q, Ua0T, Ua1T, HfT, HT,
+    ag, k_begin, k_end, PinT, Ain, coef, GfT, Q, HfT, HT,
     kinds, bw_idx, params, consts, Kr, Cr, kjump, cjump, Xh, base, ft, ft_old, Jinv, flags,
     states,
-    Z, out_u, out_f, out_it, rtol, max_iter,
+    Z, U, out_it, rtol, max_iter,
 ):  # pragma: no cover - jitted
     """Advance the modal state over samples ``k_begin <= k < k_end`` of a block.
 
     Parameters (all float64 C-contiguous unless said otherwise; ns complex modes, nf = 2
     n_dev device rows, n_in inputs):
 
-    - ``ag`` (n_in, nb) input; ``coef`` (6, ns) rows Re / Im of exp(lambda dt) and of the
-      first-order-hold weights E0, E1; ``GaT`` (n_in, 2 ns) and ``GfT`` (nf, 2 ns) the
-      transposed input projections [Re; Im] V^-1 B_w; ``Q`` (2 nf, 2 ns) = P exp(Lambda
-      dt) with P the map modal state -> [u; v]; ``Ua0T``, ``Ua1T`` (n_in, 2 nf) and ``HfT``
-      (nf, 2 nf) the transposed maps P E0 Ga, P E1 Ga, P (exp(Lambda dt) E1 + E0) Gf;
-      ``HT`` (nf, 2 nf) the transposed map P E1 Gf: ft -> [u; v] of the implicit step.
+    - ``ag`` (n_in, nb) input; ``PinT`` (n_in, 4 ns + 4 nf) and the work array ``Ain``
+      (n_sub, 4 ns + 4 nf): everything of a sample that depends on its input alone, computed
+      by :func:`project_inputs` for n_sub samples at a time before their loop (a sub-block
+      small enough to stay in the L2 cache): rows [E1 g_k; E0 g_k; Ua1 a_k; Ua0 a_k] with
+      g_k = Ga a_k (complex vectors split [Re; Im]); ``coef`` (6, ns) rows Re / Im of
+      exp(lambda dt) and of the first-order-hold weights E0, E1; ``GfT`` (nf, 2 ns) the
+      transposed force projection [Re; Im] V^-1 B_f; ``Q`` (2 nf, 2 ns) = P exp(Lambda dt)
+      with P the map modal state -> [u; v]; ``HfT`` (nf, 2 nf) the transposed map P
+      (exp(Lambda dt) E1 + E0) Gf; ``HT`` (nf, 2 nf) the transposed map P E1 Gf: ft -> [u;
+      v] of the implicit step. The loop itself carries only what the device forces feed back
+      into.
     - ``kinds`` (n_dev,) int64, ``bw_idx`` (m,) int64 the Bouc-Wen devices (kinds 3, 4:
       their hysteretic variables are advanced together, see
       :func:`modal_twin.models.devices.bouc_wen.bw_advance_many`), ``params``,
@@ -144,7 +212,9 @@ def run_block(
       samples; ``Jinv`` (nf, nf) inverse device Jacobian kept between samples;
       ``flags`` int64 (see FLAG_*).
     - Outputs: ``Z`` (k_end - k_begin, 2 ns + n_in + nf) rows [X; a_g; f] for the output
-      products; ``out_u``, ``out_f`` (nf, nb) drift and force; ``out_it`` (nb,) int64
+      products (the device forces are its last nf columns); ``U`` (k_end - k_begin, nf)
+      the drifts, rows per sample as Z (the caller transposes both per chunk: writing
+      (nf, nb) arrays here would touch nf pages per sample); ``out_it`` (nb,) int64
       device evaluations per sample.
 
     Drift prediction: the drift [u; v] = P xi_p,k+1 of the next sample with its device force
@@ -180,8 +250,9 @@ def run_block(
     S = states.shape[1]
     n_in = ag.shape[0]
     col_f = n2 + n_in
-    g = np.empty(n2)
-    ak = np.empty(n_in)
+    n_sub = Ain.shape[0]
+    o_ua1 = 2 * n2  # offsets in a row of Ain: [E1 g (n2), E0 g (n2), Ua1 a, Ua0 a]
+    o_ua0 = o_ua1 + nf2
     fg = np.empty(n2)
     Xp = np.empty(n2)
     uvp = np.empty(nf2)
@@ -211,44 +282,37 @@ def run_block(
     e1i = coef[5]
     for k in range(k_begin, k_end):
         row = k - k_begin
-        # input projection of this sample, g = Ga a_k
+        # everything of this sample that depends on its input alone is computed before the
+        # samples' loop, one block product per sub-block of Ain's rows (project_inputs):
+        # E1 g_k, E0 g_k, Ua1 a_k, Ua0 a_k
+        sub = row % n_sub
+        if sub == 0:
+            project_inputs(ag, k, min(k_end, k + n_sub), PinT, Ain)
+        pin = Ain[sub]
         for c in range(n_in):
-            a = ag[c, k]
-            ak[c] = a
-            Z[row, n2 + c] = a
-        for r in range(n2):
-            g[r] = 0.0
-        gemv_t(g, GaT, ak)
+            Z[row, n2 + c] = ag[c, k]
         if flags[FLAG_STARTED] == 0:  # rest state at the first sample of a run
-            for r in range(ns):  # xi = 0, w = g: Xh = E0 g
-                Xh[r] = e0r[r] * g[r] - e0i[r] * g[ns + r]
-                Xh[ns + r] = e0r[r] * g[ns + r] + e0i[r] * g[r]
-            for r in range(n2):
+            for r in range(n2):  # xi = 0, w = g: Xh = E0 g
+                Xh[r] = pin[n2 + r]
                 Z[row, r] = 0.0
             for i in range(nf2):  # xi_p = xi = 0: base = Ua0 a_k
-                base[i] = 0.0
-            gemv_t(base, Ua0T, ak)
+                base[i] = pin[o_ua0 + i]
             for i in range(nf):
                 ft[i] = 0.0
                 ft_old[i] = 0.0
                 Z[row, col_f + i] = 0.0
-                out_u[i, k] = 0.0
-                out_f[i, k] = 0.0
+                U[row, i] = 0.0
             out_it[k] = 0
             flags[FLAG_STARTED] = 1
             continue
-        # linear part with the new residual force set to zero (complex products, split):
+        # linear part with the new residual force set to zero:
         # xi_p,k = exp(Lambda dt) xi_k-1 + E0 w_k-1 (carried in Xh) + E1 g_k
-        for r in range(ns):
-            gr = g[r]
-            gi = g[ns + r]
-            Xp[r] = Xh[r] + e1r[r] * gr - e1i[r] * gi
-            Xp[ns + r] = Xh[ns + r] + e1r[r] * gi + e1i[r] * gr
+        for r in range(n2):
+            Xp[r] = Xh[r] + pin[r]
         # drift of this sample with its device force set to zero (see docstring):
         # uvp = Q xi_p,k-1 + Ua0 a_k-1 (carried in base) + Ua1 a_k + Hf ft_k-1
         for i in range(nf2):
-            uvp[i] = base[i]
-        gemv_t(uvp, Ua1T, ak)
+            uvp[i] = base[i] + pin[o_ua1 + i]
         gemv_t(uvp, HfT, ft)
         bad = 0.0
         for i in range(nf2):
@@ -257,22 +321,9 @@ def run_block(
             return STATUS_NONFINITE, k
         # base of the next sample, Q xi_p,k + Ua0 a_k: independent of this sample's device
         # forces (overlaps with the laws below); dot form four rows at a time (nf2 = 4 n_dev)
-        for i in range(0, nf2, 4):
-            a0 = 0.0
-            a1 = 0.0
-            a2 = 0.0
-            a3 = 0.0
-            for r in range(n2):
-                x = Xp[r]
-                a0 += Q[i, r] * x
-                a1 += Q[i + 1, r] * x
-                a2 += Q[i + 2, r] * x
-                a3 += Q[i + 3, r] * x
-            base[i] = a0
-            base[i + 1] = a1
-            base[i + 2] = a2
-            base[i + 3] = a3
-        gemv_t(base, Ua0T, ak)
+        for i in range(nf2):
+            base[i] = pin[o_ua0 + i]
+        gemv_dot4(base, Q, Xp)
         # force predictor (linear extrapolation) and its drifts u, v = uvp + H ft
         for i in range(nf):
             f0 = ft[i]
@@ -300,25 +351,25 @@ def run_block(
                 sd = states[d]
                 sn = s_trial[d]
                 # direct calls (see module docstring); kinds as in devices.base.KIND_*
-                if kind == 3:
+                if kind == KIND_BW_ESB:
                     bw_esb_force(pd, vd, fd, Kt, Ct, sn, bw_tan[d, 0], bw_tan[d, 1],
                                  bw_tan[d, 2], bw_tan[d, 3], consts[d])
-                elif kind == 4:
+                elif kind == KIND_BW_SDP:
                     bw_sdp_force(pd, ud, vd, fd, Kt, Ct, sn, bw_tan[d, 0], bw_tan[d, 1],
                                  bw_tan[d, 2], bw_tan[d, 3])
-                elif kind == 1:
+                elif kind == KIND_BILINEAR_ELASTIC:
                     law_bilinear_elastic(pd, sd, ud, vd, fd, Kt, Ct, sn)
-                elif kind == 0:
+                elif kind == KIND_LINEAR:
                     law_linear(pd, sd, ud, vd, fd, Kt, Ct, sn)
-                elif kind == 2:
+                elif kind == KIND_BILINEAR_HYSTERETIC:
                     law_bilinear_hysteretic(pd, sd, ud, vd, fd, Kt, Ct, sn)
-                elif kind == 5:
+                elif kind == KIND_PRANDTL:
                     law_prandtl(pd, sd, ud, vd, fd, Kt, Ct, sn)
-                elif kind == 6:
+                elif kind == KIND_CUBIC:
                     law_cubic(pd, sd, ud, vd, fd, Kt, Ct, sn)
-                elif kind == 7:
+                elif kind == KIND_COULOMB:
                     law_coulomb(pd, sd, ud, vd, fd, Kt, Ct, sn)
-                else:  # kind 8 (the Simulator accepts only known kinds)
+                else:  # KIND_GAP (the Simulator accepts only known kinds)
                     law_gap(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 for a in range(2):
                     lin = (Kr[d, a, 0] * ud[0] + Kr[d, a, 1] * ud[1]
@@ -414,21 +465,19 @@ def run_block(
         for r in range(n2):  # fg = Gf ft
             fg[r] = 0.0
         gemv_t(fg, GfT, ft)
-        # xi_k = xi_p,k + E1 Gf ft_k, w_k = g_k + Gf ft_k and the next Xh in one pass
+        # xi_k = xi_p,k + E1 Gf ft_k and the next Xh = exp(Lambda dt) xi_k + E0 Gf ft_k
+        # + E0 g_k (the last term from before the loop) in one pass
         for r in range(ns):
             fr = fg[r]
             fi = fg[ns + r]
             xr = Xp[r] + e1r[r] * fr - e1i[r] * fi
             xi = Xp[ns + r] + e1r[r] * fi + e1i[r] * fr
-            wr = g[r] + fr
-            wi = g[ns + r] + fi
             Z[row, r] = xr
             Z[row, ns + r] = xi
-            Xh[r] = lr[r] * xr - li[r] * xi + e0r[r] * wr - e0i[r] * wi
-            Xh[ns + r] = lr[r] * xi + li[r] * xr + e0r[r] * wi + e0i[r] * wr
+            Xh[r] = lr[r] * xr - li[r] * xi + e0r[r] * fr - e0i[r] * fi + pin[n2 + r]
+            Xh[ns + r] = lr[r] * xi + li[r] * xr + e0r[r] * fi + e0i[r] * fr + pin[n2 + ns + r]
         for i in range(nf):
-            out_u[i, k] = uv[i]
-            out_f[i, k] = fful[i]
+            U[row, i] = uv[i]
             Z[row, col_f + i] = fful[i]
         out_it[k] = it
     return STATUS_OK, k_end

@@ -33,20 +33,32 @@ Integration scheme ("modal-foh")
    :func:`modal_twin.twin.kernels.run_block`); the device states are then committed at the
    evaluated drift. At a building's time step the force hardly moves its own drift within
    one step (|H| ~ 1e-12 m/N), so one law evaluation per device and sample is the rule.
-3. Outputs. The loop stores z_k = [xi_k; a_g,k; f_k] for a chunk of samples and
-   y = C_out [q; q'; q''] + D_out a_g (q'' from Eq. (12) of [004]) is one BLAS product
-   per chunk, y = W z.
+3. Block products around the loop. Only what the device forces feed back into stays in
+   the per-sample loop. Before it, one block product per chunk of samples computes
+   everything of a sample that depends on its input alone (E1 Ga a_k, E0 Ga a_k of the
+   modal state and Ua1 a_k, Ua0 a_k of the drift prediction;
+   :func:`modal_twin.twin.kernels.project_inputs`). The loop stores z_k = [xi_k; a_g,k;
+   f_k] and the drifts per sample, and after it y = C_out [q; q'; q''] + D_out a_g (q''
+   from Eq. (12) of [004]) is one BLAS product per chunk, y = W z.
 
-Cost of a step (benchmark building: 36 modes, 6 bidirectional devices, 42 outputs; CPU
-time on a shared 2-core AMD EPYC, ~1.1-1.2 us in the kernel plus ~0.2 us for the output
-product): the four Bouc-Wen laws ~0.17 us (their RK4 chains advanced together, see
-:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`), the other laws, force
-finishing and the Newton correction ~0.3 us, the drift prediction ``Q xi_p`` (24 x 72)
-~0.15-0.25 us, the device-force projection Gf ft (72 x 12) ~0.1 us, the input projection
-~0.1 us. The drift of the next sample is predicted as ``Q xi_p,k + Ua0 a_k + Ua1 a_k+1 +
-Hf ft_k`` (the same number as P xi_p,k+1 to rounding; see
-:func:`modal_twin.twin.kernels.run_block`), so that only a (24 x 12) product lies between
-two Newton solves.
+Cost of a step (benchmark building: 36 modes, 6 bidirectional devices, 42 outputs): the
+serial chain of the loop is ~8.6 kflop of linear algebra per sample -- the drift prediction
+``Q xi_p`` (24 x 72) and the force projection Gf ft (72 x 12) are 60 % of it, the short
+products Hf ft, H ft, Jinv R, H dft (24 x 12, 12 x 12) and the diagonal commit the rest --
+plus the six device laws (four Bouc-Wen RK4 chains advanced together, see
+:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`, the ESB pow, two bilinear),
+which cost more than the linear algebra. The input products (1.15 kflop per sample) and
+the output product (7.6 kflop) run as block products at BLAS-like rates. The drift of the
+next sample is predicted as ``Q xi_p,k + Ua0 a_k + Ua1 a_k+1 + Hf ft_k`` (the same number
+as P xi_p,k+1 to rounding; see :func:`modal_twin.twin.kernels.run_block`), so that only a
+(24 x 12) product lies between two Newton solves. test/benchmarks/bench_twin.py prints the
+figures of the machine it runs on.
+
+Why not fewer states in the loop: the map from the 12 device forces to the 24 drifts and
+velocities is a 72-state system (every mode is reached by the forces and seen by the
+drifts), so an exact loop cannot carry fewer numbers per sample; lifting it over L samples
+(device-coordinate Markov parameters inside a window, the modal state once per window)
+keeps the 24 x 72 and 72 x 12 products per sample and adds 144 (L - 1) multiply-adds.
 
 Tolerance: ``rtol`` = 1e-6 of the largest device force. On the benchmark building
 (test/benchmarks/bench_twin.py, 20 s) the drifts then differ from a solve with rtol = 1e-12
@@ -94,7 +106,8 @@ __all__ = ["Simulator", "simulate"]
 _log = logging.getLogger(__name__)
 _METHODS = ("modal-foh",)
 
-_CHUNK = 1024  # samples per kernel call: the output buffer Z stays in the L2 cache
+_CHUNK = 1024  # samples per kernel call (one output product per chunk)
+_SUB = 64  # samples per input block product inside the kernel (98 kB: stays in L2)
 # stiffness / damping a law can switch to that neither its tangent nor K_ref shows
 # (parameter index, -1 for none): Coulomb sticking (kt), gap contact (k, c), Prandtl Kb
 _JUMPS = {KIND_COULOMB: (2, -1), KIND_GAP: (0, 2), KIND_PRANDTL: (5, -1)}
@@ -262,6 +275,11 @@ class Simulator:
         self._Ua0T = c((Pc @ (e0[:, None] * Ga)).real.T)  # (n_in, 2 nf)
         self._Ua1T = c((Pc @ (e1[:, None] * Ga)).real.T)  # (n_in, 2 nf)
         self._HfT = c((Pc @ ((lam_d * e1 + e0)[:, None] * Gf)).real.T)  # (nf, 2 nf)
+        # everything of a sample that depends on its input alone, computed for a whole chunk
+        # before the per-sample loop: [E1 Ga; E0 Ga] a_k (split) and Ua1 a_k, Ua0 a_k
+        e1Ga, e0Ga = e1[:, None] * Ga, e0[:, None] * Ga
+        self._PinT = c(np.vstack([e1Ga.real, e1Ga.imag, e0Ga.real, e0Ga.imag,
+                                  self._Ua1T.T, self._Ua0T.T]).T)  # (n_in, 4 ns + 4 nf)
         # outputs from the kernel rows z = [xi; a_g; f]: q, q' from the modal state, q''
         # from Eq. (12) of [004]; y = C_out [q; q'; q''] + D_out a_g
         Lq, Lv = split(Vw[:n]), split(Vw[n:])
@@ -339,16 +357,19 @@ class Simulator:
         out_it = np.empty(nb, dtype=np.int64)
         W = self._Wall if self.modal_histories else self._Wy
         Z = np.empty((min(nb, _CHUNK), W.shape[1]))
+        Ain = np.empty((_SUB, self._PinT.shape[1]))
+        U = np.empty((min(nb, _CHUNK), nf))
+        col_f = W.shape[1] - nf  # Z rows: [xi; a_g; f]
         Y = np.empty((W.shape[0], nb))  # rows: y, then q, q', q'' if requested
         for k0 in range(0, nb, _CHUNK):
             k1 = min(nb, k0 + _CHUNK)
             m = k1 - k0
             status, idx = run_block(
-                ag, k0, k1, self._coef, self._GaT, self._GfT, self._Q, self._Ua0T,
-                self._Ua1T, self._HfT, self._HT, self.kinds, self._bw_idx, self.params,
+                ag, k0, k1, self._PinT, Ain, self._coef, self._GfT, self._Q, self._HfT, self._HT,
+                self.kinds, self._bw_idx, self.params,
                 self._consts, self.Kr, self.Cr, self._kjump, self._cjump, self._Xh,
                 self._base, self._ft, self._ft_old, self._Jinv, self._flags, self._states,
-                Z, out_u, out_f, out_it, self.rtol, self.max_iter,
+                Z, U, out_it, self.rtol, self.max_iter,
             )  # fmt: skip
             if status == STATUS_NONFINITE:
                 msg = (
@@ -363,6 +384,8 @@ class Simulator:
                 )
                 raise ConvergenceError(msg)
             np.matmul(W, Z[:m].T, out=Y[:, k0:k1])  # one BLAS product per chunk
+            out_u[:, k0:k1] = U[:m].T
+            out_f[:, k0:k1] = Z[:m, col_f:].T
         y = Y[:n_out]
         q = qd = qdd = None
         if self.modal_histories:

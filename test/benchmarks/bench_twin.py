@@ -22,11 +22,37 @@ force predictor, the device laws (the jitted law functions called one device at 
 Python), the Newton correction with the kept inverse Jacobian and its error bound, the
 commit and the output row y_k = W z_k. It runs on the first ``--ref-seconds`` of the record
 in the same process; its drifts are compared with the kernel's.
+
+The serial chain (``serial_chain_flops_per_step``, :func:`chain_flops`): the linear algebra
+that stays in the per-sample loop because it feeds the device forces back (drift
+prediction, force predictor, one Newton correction, force projection, diagonal commit; the
+laws are not counted); ``serial_chain_gflops_achieved`` divides it by the loop's CPU time
+per sample (the input block products subtracted, the laws included), and
+``machine_gflops_limit`` is the same chain alone on this machine: a numba loop of the same
+shapes and loop forms with a linear feedback in place of the laws
+(:func:`machine_chain_gflops`). ``us_per_step`` = input block products + loop + output
+product, CPU time.
+
+The vehicle twin (``rtf_vehicle``): the S2 trailer car (config/vehicles/trailer_car.yaml)
+at 400 Hz on 60 s of track at 300 km/h, CPU time; ``rtf_vehicle_devices`` with the
+secondary suspension as devices.
+
+The OpenSees peer (peer_opensees.py; skipped with a line saying so when openseespy is not
+importable, ``pip install -r requirements/bench.txt``): a shear-building equivalent of the
+same size (36 DOF, six bidirectional isolators at the same plan positions) simulated in
+both codes on the first ``--peer-seconds`` of the record (x, y, rz rows). The time ratio
+(``opensees_time_ratio``, CPU time of OpenSees' ``analyze`` / the twin's, one thread each)
+is given only when the linear case agrees: NRMSE of the base acceleration below 5 %
+(``opensees_nrmse_pct``); the bilinear-isolator case is reported beside it. The
+difference is Newmark's time discretisation in OpenSees: with OpenSees at dt / 4 (input
+interpolated linearly, as the twin's first-order hold assumes) it falls by ~10x
+(``opensees_nrmse_quarter_dt_pct``, first 5 s).
+
 Compile time is printed separately: "warm" loads the numba cache, ``--cold`` compiles into
 an empty temporary cache directory. Timings on a shared 2-core machine vary by up to a
 factor 2 between runs. Last line: one JSON object.
 
-Run: ``.venv/bin/python test/benchmarks/bench_twin.py [--cold] [--repeat 3]``
+Run: ``.venv/bin/python test/benchmarks/bench_twin.py [--cold] [--repeat 3] [--peer-seconds 10]``
 """
 
 from __future__ import annotations
@@ -48,6 +74,7 @@ if "--cold" in sys.argv:  # before numba is imported: compile into an empty cach
     os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="bench_twin_numba_")
 
 import numpy as np
+from numba import njit
 
 from modal_twin.models.devices import (
     table10_esb,
@@ -57,7 +84,11 @@ from modal_twin.models.devices import (
 from modal_twin.models.devices._dispatch import evaluate_law
 from modal_twin.models.devices.linear import LinearDevice
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
+from modal_twin.twin.kernels import gemv_dot4, gemv_t, project_inputs, run_block
 from modal_twin.twin.simulator import Simulator
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import peer_opensees
 
 
 def building(n: int = 36, seed: int = 1) -> ReducedSystem:
@@ -192,12 +223,191 @@ def numpy_reference(sim: Simulator, ag: np.ndarray) -> tuple[np.ndarray, np.ndar
     return out_u, y
 
 
+def chain_flops(sim: Simulator) -> int:
+    """Floating-point operations per sample of the loop's serial chain (the laws excluded).
+
+    The linear algebra that stays in the per-sample loop because it feeds the device forces
+    back: drift prediction (Hf ft, the (2 nf, 2 ns) product Q xi_p), force predictor and its
+    drifts (H ft), one Newton correction (Jinv R, H dft, bound, force finishing), the force
+    projection Gf ft and the diagonal first-order-hold commit of the modal state. The
+    correction is counted on every sample (the predictor rarely meets rtol by itself).
+    """
+    ns, nf = sim._ns, sim._ft.size
+    n2, nf2 = 2 * ns, 2 * nf
+    predict = nf2 + 2 * nf * nf2 + 2 * nf2 * n2 + n2 + 2 * nf + 2 * nf * nf2
+    residual = 8 * nf
+    newton = 2 * nf * nf + 2 * nf * nf2 + 14 * nf + nf + nf2 + 8 * nf
+    commit = 2 * nf * n2 + 24 * ns
+    return predict + residual + newton + commit
+
+
+@njit(cache=True, fastmath={"reassoc", "contract"})
+def _same_shape_chain(nt, Q, GfT, HfT, HT, Jinv, coef, Xh, ft, out):  # pragma: no cover
+    """The loop's linear algebra alone (same shapes, same loop forms, a linear feedback in
+    place of the laws): what this machine does with that serial chain at best."""
+    nf2, n2 = Q.shape
+    ns = n2 // 2
+    nf = GfT.shape[0]
+    base = np.zeros(nf2)
+    uv = np.empty(nf2)
+    duv = np.empty(nf2)
+    fg = np.empty(n2)
+    R = np.empty(nf)
+    Xp = np.empty(n2)
+    for k in range(nt):
+        for r in range(n2):
+            Xp[r] = Xh[r] + 1e-9
+        for i in range(nf2):
+            uv[i] = base[i]
+        gemv_t(uv, HfT, ft)
+        for i in range(nf2):
+            base[i] = 0.0
+        gemv_dot4(base, Q, Xp)
+        gemv_t(uv, HT, ft)
+        for i in range(nf):  # linear "law" and its residual
+            R[i] = ft[i] + 1e-3 * uv[i] + 1e-4 * uv[nf + i]
+        for i in range(nf):  # Newton correction with the kept inverse
+            acc = 0.0
+            for j in range(nf):
+                acc += Jinv[i, j] * R[j]
+            ft[i] -= acc
+        for i in range(nf2):
+            duv[i] = 0.0
+        gemv_t(duv, HT, ft)
+        for r in range(n2):
+            fg[r] = 0.0
+        gemv_t(fg, GfT, ft)
+        for r in range(ns):
+            xr = Xp[r] + coef[4, r] * fg[r] - coef[5, r] * fg[ns + r]
+            xi = Xp[ns + r] + coef[4, r] * fg[ns + r] + coef[5, r] * fg[r]
+            Xh[r] = coef[0, r] * xr - coef[1, r] * xi + coef[2, r] * fg[r]
+            Xh[ns + r] = coef[0, r] * xi + coef[1, r] * xr + coef[2, r] * fg[ns + r]
+        out[k] = uv[0] + duv[0]
+
+
+def machine_chain_gflops(sim: Simulator, repeat: int) -> float:
+    """GFLOP/s of :func:`_same_shape_chain` with the simulator's matrices (best of repeat)."""
+    nt = 20000
+    nf = sim._ft.size
+    Jinv = np.eye(nf) * 0.5
+    out = np.empty(nt)
+    _same_shape_chain(10, sim._Q, sim._GfT, sim._HfT, sim._HT, Jinv, sim._coef,
+                      np.zeros(2 * sim._ns), np.zeros(nf), out)
+    best = np.inf
+    for _ in range(repeat):
+        Xh = np.full(2 * sim._ns, 1e-3)
+        c0 = time.process_time()
+        _same_shape_chain(nt, sim._Q, sim._GfT, sim._HfT, sim._HT, Jinv, sim._coef, Xh,
+                          np.zeros(nf), out)
+        best = min(best, time.process_time() - c0)
+    return chain_flops(sim) * nt / best / 1e9
+
+
+def loop_seconds(sim: Simulator, ag: np.ndarray, repeat: int) -> tuple[float, float]:
+    """CPU time of the input block products alone and of the kernel calls (per-sample loop
+    and the input products it runs per sub-block before its samples), best of repeat."""
+    nb = ag.shape[1]
+    chunk = 1024
+    m = sim._PinT.shape[1]
+    ain_all = np.empty((chunk, m))
+    ain = np.empty((64, m))
+    nf = sim._ft.size
+    Z = np.empty((chunk, sim._Wy.shape[1]))
+    U = np.empty((chunk, nf))
+    out_it = np.empty(nb, dtype=np.int64)
+    t_in = t_loop = np.inf
+    for _ in range(repeat):
+        c0 = time.process_time()
+        for k0 in range(0, nb, 64):
+            project_inputs(ag, k0, min(nb, k0 + 64), sim._PinT, ain_all)
+        t_in = min(t_in, time.process_time() - c0)
+        sim.reset()
+        c0 = time.process_time()
+        for k0 in range(0, nb, chunk):
+            run_block(
+                ag, k0, min(nb, k0 + chunk), sim._PinT, ain, sim._coef, sim._GfT, sim._Q,
+                sim._HfT, sim._HT, sim.kinds, sim._bw_idx, sim.params, sim._consts, sim.Kr,
+                sim.Cr, sim._kjump, sim._cjump, sim._Xh, sim._base, sim._ft, sim._ft_old,
+                sim._Jinv, sim._flags, sim._states, Z, U, out_it, sim.rtol, sim.max_iter,
+            )  # fmt: skip
+        t_loop = min(t_loop, time.process_time() - c0)
+    return t_in, t_loop - t_in
+
+
+def vehicle_rtf(repeat: int, fs_hz: float, secondary_devices: bool) -> float:
+    """CPU real-time factor of the trailer-car twin (S2) on 60 s of track at 300 km/h."""
+    from modal_twin.models.track import random_profile, wheelset_inputs
+    from modal_twin.models.vehicle import build_vehicle, load_vehicle
+
+    T = 60.0
+    spec = load_vehicle()
+    u = wheelset_inputs(random_profile(spec.speed * T + 40.0, rng=1), spec.axle_x,
+                        spec.speed, fs_hz, T)
+    plant = build_vehicle(spec, secondary_devices=secondary_devices)
+    sim = Simulator(plant.system, 1.0 / fs_hz, modal_histories=False)
+    sim.step_block(u[:, :50])
+    best = np.inf
+    for _ in range(repeat):
+        sim.reset()
+        c0 = time.process_time()
+        plant.measure(sim.step_block(u))
+        best = min(best, time.process_time() - c0)
+    return T / best
+
+
+def opensees_peer(ag6: np.ndarray, dt: float, seconds: float) -> dict[str, float] | None:
+    """Run the shear-building peer (see peer_opensees.py) in both codes; print and return
+    the time ratio and the differences, or None (with a line saying why) without OpenSees."""
+    ok, info = peer_opensees.available()
+    if not ok:
+        print(f"OpenSees peer: skipped, openseespy not importable ({info}); "
+              "pip install -r requirements/bench.txt")
+        return None
+    nt = int(seconds / dt) + 1
+    ag = ag6[list(peer_opensees.INPUT_ROWS), :nt]
+    out: dict[str, float] = {}
+    for label, nonlinear in (("linear", False), ("bilinear", True)):
+        sim = Simulator(peer_opensees.twin_system(nonlinear), dt, modal_histories=False)
+        sim.step_block(ag[:, :50])
+        t_twin = np.inf
+        for _ in range(5):
+            sim.reset()
+            t0 = time.process_time()
+            res = sim.step_block(ag)
+            t_twin = min(t_twin, time.process_time() - t0)
+        y_ops, t_ops = peer_opensees.run_opensees(ag, dt, nonlinear)
+        err = peer_opensees.nrmse_pct(y_ops, res.y)
+        out[f"{label}_ratio"] = t_ops / t_twin
+        out[f"{label}_nrmse_base_pct"] = float(err[:2].max())
+        out[f"{label}_nrmse_roof_pct"] = float(err[2:].max())
+        if not nonlinear:  # the difference is Newmark's: it falls as dt^2 in OpenSees
+            n5 = min(nt, 5001)
+            t = np.arange(n5) * dt
+            t4 = np.arange(4 * (n5 - 1) + 1) * (dt / 4)
+            ag4 = np.vstack([np.interp(t4, t, a) for a in ag[:, :n5]])
+            y4, _ = peer_opensees.run_opensees(ag4, dt / 4, nonlinear)
+            y1, _ = peer_opensees.run_opensees(ag[:, :n5], dt, nonlinear)
+            e1 = peer_opensees.nrmse_pct(y1, res.y[:, :n5])[:2].max()
+            e4 = peer_opensees.nrmse_pct(y4[:, ::4], res.y[:, :n5])[:2].max()
+            out["linear_nrmse_quarter_dt_pct"] = float(e4)
+            print(f"OpenSees peer, linear, first {(n5 - 1) * dt:.0f} s: NRMSE base acc. "
+                  f"{e1:.3f} % at dt, {e4:.3f} % with OpenSees at dt / 4 (Newmark's error)")
+        print(f"OpenSees {info} peer, {label} isolators, {seconds:.0f} s (peak drift "
+              f"{np.abs(res.drift).max():.3f} m, yield {peer_opensees.UB_ISO} m): NRMSE base acc. "
+              f"x / y {err[0]:.2f} / {err[1]:.2f} %, roof {err[2]:.2f} / {err[3]:.2f} % "
+              f"(Newmark vs exact FOH); CPU OpenSees {t_ops:.2f} s, twin {t_twin:.4f} s "
+              f"-> twin {t_ops / t_twin:.0f}x faster")
+    return out
+
+
 def main() -> None:
     """Run the benchmark and print the JSON summary line."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cold", action="store_true", help="compile into an empty numba cache")
     ap.add_argument("--repeat", type=int, default=3, help="timed runs (the best is kept)")
     ap.add_argument("--ref-seconds", type=float, default=2.0, help="numpy reference length")
+    ap.add_argument("--peer-seconds", type=float, default=10.0,
+                    help="record length of the OpenSees peer (it runs ~1 ms per step)")
     args = ap.parse_args()
     dt = 1e-3
     T = 60.0
@@ -253,6 +463,14 @@ def main() -> None:
     err = np.abs(ref_u[ri] - res.drift[:, :n_ref]).max() / np.abs(res.drift[:, :n_ref]).max()
     err_y = np.abs(ref_y - res.y[:, :n_ref]).max() / np.abs(res.y[:, :n_ref]).max()
     it = res.newton_iterations[1:]
+    # the serial chain: loop alone vs the same linear algebra at this machine's best
+    t_in, t_loop = loop_seconds(sim, ag, args.repeat)
+    flops = chain_flops(sim)
+    gflops = flops * (nt - 1) / t_loop / 1e9
+    limit = machine_chain_gflops(sim, args.repeat)
+    rtf_veh = vehicle_rtf(args.repeat, 400.0, secondary_devices=False)
+    rtf_veh_dev = vehicle_rtf(args.repeat, 400.0, secondary_devices=True)
+    peer = opensees_peer(ag, dt, args.peer_seconds)
     cache = "cold (empty cache dir)" if args.cold else "warm (numba cache loaded if present)"
     print(f"compile, {cache}: {t_compile:.2f} s (cond V = {sim.cond_V:.2e})")
     print(f"numba kernel: {T:.0f} s simulated in {t_run:.3f} s -> RTF {rtf:.0f} "
@@ -268,8 +486,41 @@ def main() -> None:
     print(f"speed-up vs numpy: {rtf / rtf_ref:.0f}")
     print(f"where the time goes (CPU RTF): all devices linear {floor['linear_devices']:.0f}, "
           f"one output instead of {system.C_out.shape[0]}: {floor['one_output']:.0f}")
+    us = c_run / (nt - 1) * 1e6
+    us_in, us_loop = t_in / (nt - 1) * 1e6, t_loop / (nt - 1) * 1e6
+    print(f"per step (CPU): {us:.3f} us = input block products {us_in:.3f} + per-sample loop "
+          f"{us_loop:.3f} (laws included) + output product and the rest "
+          f"{us - us_in - us_loop:.3f}")
+    print(f"serial chain: {flops} flop per step (laws excluded) -> {gflops:.2f} GFLOP/s in the "
+          f"loop; the same chain alone (no laws) on this machine: {limit:.2f} GFLOP/s "
+          f"({flops / limit:.0f} ns per step); ratio {gflops / limit:.2f}")
+    print(f"vehicle twin (S2 trailer car, 400 Hz, 60 s of track): CPU RTF {rtf_veh:.0f}; with "
+          f"the secondary suspension as devices {rtf_veh_dev:.0f}")
+    ratio = nrmse = None
+    if peer is not None:
+        nrmse = peer["linear_nrmse_base_pct"]
+        if nrmse < 5.0:  # the gate: the models agree before their speeds are compared
+            ratio = peer["linear_ratio"]
+        else:
+            print(f"OpenSees peer DISAGREES: NRMSE {nrmse:.1f} % >= 5 %: no time ratio given")
     print(json.dumps({
         "rtf_building": round(rtf, 1),
+        "rtf_vehicle": round(rtf_veh, 1),
+        "rtf_vehicle_devices": round(rtf_veh_dev, 1),
+        "us_per_step": round(us, 3),
+        "us_per_step_loop": round(us_loop, 3),
+        "us_per_step_inputs": round(us_in, 3),
+        "serial_chain_flops_per_step": flops,
+        "serial_chain_gflops_achieved": round(gflops, 2),
+        "machine_gflops_limit": round(limit, 2),
+        "opensees_time_ratio": None if ratio is None else round(ratio, 1),
+        "opensees_nrmse_pct": None if nrmse is None else round(nrmse, 3),
+        "opensees_nrmse_quarter_dt_pct": None if peer is None else round(
+            peer["linear_nrmse_quarter_dt_pct"], 3),
+        "opensees_bilinear_time_ratio": None if peer is None else round(
+            peer["bilinear_ratio"], 1),
+        "opensees_bilinear_nrmse_pct": None if peer is None else round(
+            peer["bilinear_nrmse_base_pct"], 3),
         "rtf_building_cpu": round(T / c_run, 1),
         "rtf_streaming_100": round(T / t_stream, 1),
         "rtf_streaming_100_cpu": round(T / c_stream, 1),
