@@ -172,10 +172,12 @@ def added_mass_matrix(building: BuildingModel, theta: Mapping[str, float]) -> sp
         # vertical translation at the floor node nearest the plan centre
         nodes = list(f.nodes)
         dist = [float(np.linalg.norm(building.spec.model.xyz(n)[:2] - centre)) for n in nodes]
-        zdof = asm.dof_index(nodes[int(np.argmin(dist))], "uz")
-        rows.append(zdof)
-        cols.append(zdof)
-        vals.append(m)
+        zfull = asm.full_dof_index(nodes[int(np.argmin(dist))], "uz")
+        zdof = int(np.searchsorted(asm.free_dofs, zfull))
+        if zdof < asm.n_dof and asm.free_dofs[zdof] == zfull:  # not a supported DOF
+            rows.append(zdof)
+            cols.append(zdof)
+            vals.append(m)
     if not vals:
         return None
     n = asm.n_dof

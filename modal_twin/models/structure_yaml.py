@@ -418,7 +418,7 @@ def _guard(cx: _Ctx, where: str, call: Any) -> Any:
 
 def _materials(cx: _Ctx, doc: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
-    mats = doc.get("materials")
+    mats = doc.get("materials", {} if "links" in doc else None)
     if not isinstance(mats, Mapping):
         raise cx.config(at="materials", what="expected a mapping name -> {E, nu | G, param?}")
     for name, m in mats.items():
@@ -438,7 +438,7 @@ def _materials(cx: _Ctx, doc: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
 
 def _sections(cx: _Ctx, doc: Mapping[str, Any]) -> dict[str, dict[str, float]]:
     out: dict[str, dict[str, float]] = {}
-    secs = doc.get("sections")
+    secs = doc.get("sections", {} if "links" in doc else None)
     if not isinstance(secs, Mapping):
         raise cx.config(at="sections",
                         what="expected a mapping name -> {A, Iy, Iz, J, Asy?, Asz?}")
@@ -467,7 +467,8 @@ def _frames(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel,
             materials: dict[str, dict[str, Any]], sections: dict[str, dict[str, float]]
             ) -> list[_FrameEntry]:
     entries = []
-    for i, f in enumerate(cx.items(doc, "frames")):
+    # a model of links and masses needs no frames (nor materials and sections)
+    for i, f in enumerate(cx.items(doc, "frames", required="links" not in doc)):
         where = f"frames[{i}]"
         n1, n2 = cx.get(f, "n1", where), cx.get(f, "n2", where)
         where = f"frames[{i}] ({n1!r}-{n2!r})"
