@@ -73,7 +73,7 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
     e0 = float(r0 @ r0)
     out = []
     for name, nominal in values.items():
-        kind = next((KINDS[p] for p in prefixes if name.startswith(p)), None)
+        kind = next((KINDS[p] for p in prefixes if name.startswith(p) and p in KINDS), None)
         if kind is None or e0 <= 0:
             continue
         h = rel_step * abs(nominal)
