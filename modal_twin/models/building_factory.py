@@ -9,14 +9,11 @@ from pathlib import Path
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError
 from modal_twin.models.building import build_building, modal_reduction
-from modal_twin.models.building_parameters import (
-    ParameterInfo,
-    modal_parameters,
-    parameter_info,
-)
+from modal_twin.models.building_parameters import modal_parameters, parameter_info
 from modal_twin.models.devices import Device
 from modal_twin.models.effects import EffectSpec, effect_device
 from modal_twin.models.loading import merge_effects
+from modal_twin.models.parameter_info import ParameterInfo
 from modal_twin.models.plant import Plant, Source
 
 __all__ = ["INPUTS_6DOF", "BuildingFactory"]

@@ -27,14 +27,14 @@ plausible bounds, for screening and for reports ("stiffness at column line 1A").
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
+from modal_twin.models.parameter_info import Kind, ParameterInfo
 
 if TYPE_CHECKING:
     from modal_twin.models.building import BuildingModel
@@ -44,37 +44,6 @@ __all__ = ["ADDED_MASS_PREFIX", "ParameterInfo", "added_mass_matrix", "added_mas
            "damping_targets", "modal_parameters", "parameter_info", "split_theta"]
 
 ADDED_MASS_PREFIX = "madd_"
-Kind = Literal["stiffness", "mass", "damping"]
-
-
-@dataclass(frozen=True, slots=True)
-class ParameterInfo:
-    """What a parameter is and where it acts.
-
-    Attributes
-    ----------
-    name : str
-    kind : {"stiffness", "mass", "damping"}
-        The physical family it changes (an added mass's position is ``"mass"``).
-    place : str
-        Where, in words: ``"column line 1A"``, ``"storey 1"``, ``"floor R"``, ``"device ESB1 x"``.
-    nominal, lower, upper : float
-        Nominal value and plausible bounds, in ``unit``.
-    unit : str
-        ``"Pa"``, ``"N/m"``, ``"kg"``, ``"m"``, ``"1"`` (a factor), ``"1/s"``, ``"s"`` ...
-    family : str
-        ``modulus``, ``device``, ``mass``, ``group``, ``link``, ``added_mass``,
-        ``added_mass_x``, ``added_mass_y``, ``modal_damping``, ``rayleigh``, ``other``.
-    """
-
-    name: str
-    kind: Kind
-    place: str
-    nominal: float
-    lower: float
-    upper: float
-    unit: str
-    family: str
 
 
 def damping_targets(spec: DampingSpec, r: int, theta: Mapping[str, float]) -> FloatArray:

@@ -359,3 +359,21 @@ def test_factory_lists_the_new_candidates() -> None:
     assert np.all(heavier.mb.f_hz[3:8] < fac.mb.f_hz[3:8])
     with pytest.raises(OptionError, match=r"theta: unknown parameters \['kcol_9Z'\]"):
         fac.with_theta({"kcol_9Z": 1.2})
+
+
+def test_vehicle_parameter_info() -> None:
+    from modal_twin.models.vehicle_factory import VehicleFactory
+
+    path = DEFAULT_BUILDING_YAML.parents[1] / "vehicles"
+    files = sorted(path.glob("*.yaml"))
+    if not files:
+        pytest.skip("no vehicle file")
+    fac = VehicleFactory(files[0])
+    kinds = {n: fac.parameter_info(n).kind for n in fac.parameters()}
+    assert kinds["k_primary"] == "stiffness" and kinds["c_secondary"] == "damping"
+    assert kinds["zeta_carbody"] == "damping"
+    assert all(k == "mass" for n, k in kinds.items() if n.startswith("m_"))
+    info = fac.with_theta({"k_primary": 3e6}).parameter_info("k_primary")
+    assert info.nominal == fac.parameters()["k_primary"]  # the file's value
+    with pytest.raises(OptionError, match="parameter: expected one of"):
+        fac.parameter_info("k_tertiary")
