@@ -32,6 +32,8 @@ def _pieces(factory: ModelFactory, f: FittedEffect
                        FloatArray] | None:
     e = f.effect
     if e.law in PARAMETER_LAWS:
+        if len(e.params) > 1:
+            return None  # an added mass with its position: kept as found
         v = float(e.params[e.component])
         nom = factory.parameters()[e.component]
         lo, hi = min(0.3 * nom, 0.5 * v), max(5.0 * nom + 1.0, 2.0 * v)

@@ -51,7 +51,8 @@ def _flags(f: FittedEffect, nominal: Mapping[str, float], floor_mass: Mapping[st
     if f.effect.law == "added_mass":
         name = f.effect.component
         added = f.effect.params[name] - nominal.get(name, 0.0)
-        ref = floor_mass.get(name, nominal.get(name, 0.0))
+        floor = name.removeprefix("madd_").removeprefix("m_")
+        ref = floor_mass.get(f"m_{floor}", nominal.get(name, 0.0))
         if added < 0:
             flags.append(f"implausible: {name} loses {-added:.4g} kg (an added mass cannot "
                          "be negative)")

@@ -57,14 +57,43 @@ def _residual(factory: ModelFactory, theta: dict[str, float], rec: Record, decim
     return normalised_residual(plant, rec, decimate, scale)
 
 
+_KIND_LAW = {"mass": "added_mass", "stiffness": "stiffness", "damping": "damping"}
+
+
+def _info(factory: ModelFactory, name: str, nominal: float,
+          prefixes: Sequence[str]) -> tuple[str, float, float] | None:
+    """(law, lower, upper) of a parameter the diagnosis may change, None otherwise."""
+    info_of = getattr(factory, "parameter_info", None)
+    if not any(name.startswith(p) for p in prefixes):
+        return None
+    if info_of is not None:
+        try:
+            info = info_of(name)
+        except ModalTwinError:
+            info = None
+        if info is not None:
+            if info.family in ("added_mass_x", "added_mass_y"):
+                return None  # fitted with their added mass, never alone
+            law = _KIND_LAW[info.kind]
+            lo = {"added_mass": 0.0, "damping": 0.01 * nominal}.get(law, info.lower)
+            return law, float(min(lo, info.lower)), float(info.upper)
+    kind = next((KINDS[p] for p in KINDS if name.startswith(p)), None)
+    if kind is None:
+        return None
+    lo = {"added_mass": 0.0, "damping": 0.01 * nominal}.get(kind, 0.3 * nominal)
+    return kind, lo, nominal * 5.0 + 1.0
+
+
 def screen_parameters(factory: ModelFactory, train: Record, *,
                       prefixes: Sequence[str] | None = None, rel_step: float = 0.05,
                       decimate: int = 5) -> list[ParameterCandidate]:
     """Score every parameter whose name starts with one of ``prefixes`` (best first).
 
-    ``prefixes`` defaults to the factory's ``parameter_prefixes`` (the building: masses and
-    moduli -- its isolators' k and c are screened as device laws; the vehicle: also its
-    suspensions' k and c), else to every kind of :data:`KINDS`.
+    ``prefixes`` defaults to the factory's ``parameter_prefixes`` (the building: masses,
+    moduli, element groups, damping factors, the isolators' k and c and an added mass per
+    floor; the vehicle: also its suspensions' k and c), else to every kind of
+    :data:`KINDS`. The step is ``rel_step`` of the nominal value, or of the plausible range
+    for a parameter whose nominal value is 0 (an added mass).
     """
     if prefixes is None:
         prefixes = tuple(getattr(factory, "parameter_prefixes", tuple(KINDS)))
@@ -74,10 +103,13 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
     e0 = float(r0 @ r0)
     out = []
     for name, nominal in values.items():
-        kind = next((KINDS[p] for p in prefixes if name.startswith(p)), None)
-        if kind is None or e0 <= 0:
+        what = _info(factory, name, nominal, prefixes)
+        if what is None or e0 <= 0:
             continue
-        h = rel_step * abs(nominal)
+        kind, lo, hi = what
+        h = rel_step * (abs(nominal) if nominal else (hi - lo))
+        if h <= 0:
+            continue
         try:
             s = (_residual(factory, {name: nominal + h}, train, decimate, scale) - r0) / h
         except ModalTwinError:
@@ -87,14 +119,21 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
             continue
         alpha = -float(s @ r0) / ss  # least-squares step along the sensitivity
         gain = float((s @ r0) ** 2 / ss / e0)
-        out.append(ParameterCandidate(name, kind, float(nominal), float(nominal + alpha),
-                                      gain))
+        start = float(np.clip(nominal + alpha, lo, hi))
+        out.append(ParameterCandidate(name, kind, float(nominal), start, gain))
     return sorted(out, key=lambda c: -c.gain)
+
+
+def _companions(factory: ModelFactory, name: str) -> list[str]:
+    """The position parameters fitted together with an added mass (``madd_R_x``, ``_y``)."""
+    values = factory.parameters()
+    return [n for n in (f"{name}_x", f"{name}_y") if n in values]
 
 
 def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Records,
                   test: Record, *, decimate: int = 5, max_nfev: int = 30) -> FittedEffect:
-    """Fit one parameter by simulation on ``train``, judge on ``test``.
+    """Fit one parameter (an added mass with its plan position) by simulation on ``train``,
+    judge on ``test``.
 
     Raises
     ------
@@ -102,23 +141,37 @@ def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Record
         A start outside the physical range (negative mass or modulus).
     """
     t0 = time.perf_counter()
-    # a mass may be added from nothing; a damper may have all but failed; a stiffness or
-    # modulus is searched down to 30 %
-    lo = {"added_mass": 0.0, "damping": 0.01 * cand.nominal}.get(cand.kind, 0.3 * cand.nominal)
-    hi = cand.nominal * 5.0 + 1.0
-    x0 = float(np.clip(cand.start, lo + 1e-9 * hi, hi * (1 - 1e-9)))
-    if not lo < x0 < hi:
+    prefixes = tuple(getattr(factory, "parameter_prefixes", tuple(KINDS)))
+    what = _info(factory, cand.name, cand.nominal, (*prefixes, cand.name))
+    if what is None:
+        lo, hi = 0.0, cand.nominal * 5.0 + 1.0
+    else:
+        _, lo, hi = what
+    names = [cand.name, *_companions(factory, cand.name)]
+    values = factory.parameters()
+    info_of = getattr(factory, "parameter_info", None)
+    los, his, x0 = [lo], [hi], [cand.start]
+    for n in names[1:]:
+        info = info_of(n) if info_of is not None else None
+        los.append(info.lower if info else values[n] - 1.0)
+        his.append(info.upper if info else values[n] + 1.0)
+        x0.append(values[n])
+    lo_a, hi_a = np.asarray(los, float), np.asarray(his, float)
+    span = np.maximum(hi_a - lo_a, 1e-12)
+    x0_a = np.clip(np.asarray(x0, float), lo_a + 1e-9 * span, hi_a - 1e-9 * span)
+    if not np.all((lo_a < x0_a) & (x0_a < hi_a)):
         msg = f"{cand.name}: start {cand.start} outside ({lo}, {hi})"
         raise OptionError(msg)
 
     def to_params(x: FloatArray) -> dict[str, float]:
-        return {cand.name: float(x[0])}
+        return {n: float(v) for n, v in zip(names, x, strict=True)}
 
     objective = SimulationObjective(lambda x: factory.with_theta(to_params(x)).plant(),
                                     train, decimate)
-    sol = least_squares(objective, [x0], bounds=([lo], [hi]),
-                        x_scale=[abs(cand.nominal) or 1.0], diff_step=1e-3, max_nfev=max_nfev)
+    scale = [abs(cand.nominal) or float(span[0]) * 0.1, *span[1:] * 0.1]
+    sol = least_squares(objective, x0_a, bounds=(lo_a, hi_a), x_scale=scale, diff_step=1e-3,
+                        max_nfev=max_nfev)
     effect = EffectSpec(cand.name, cand.kind, to_params(sol.x))
     return judge_fit(effect, factory.with_theta(effect.params).plant(), factory.plant(), sol,
-                     1, train, test, objective, t0,
-                     _parameter_std(sol, to_params, [cand.name]))
+                     len(names), train, test, objective, t0,
+                     _parameter_std(sol, to_params, names))

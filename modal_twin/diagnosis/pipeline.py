@@ -26,6 +26,7 @@ One round (:func:`diagnose_round`) on a model (any version: its effects stay in 
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -322,8 +323,13 @@ def _judge(factory: ModelFactory, f: FittedEffect, before: Sequence[ErrorFigures
     cols = [f"{e.component}_d{a}" for a in "xy"]
     drift = (float(np.quantile(np.abs(records[0].channels(cols)), 0.99))
              if all(x in records[0].channel_names for x in cols) else None)
-    return judge(f, plant, before, records, noises, nominal_values=values, floor_mass=floor,
-                 nominal_k=k, nominal_c=c, drift_scale=drift)
+    out = judge(f, plant, before, records, noises, nominal_values=values, floor_mass=floor,
+                nominal_k=k, nominal_c=c, drift_scale=drift)
+    info_of = getattr(factory, "parameter_info", None)
+    if e.law in ("added_mass", "stiffness", "damping") and info_of is not None:
+        with contextlib.suppress(ModalTwinError):
+            out = replace(out, place=info_of(e.component).place)
+    return out
 
 
 def _apply(factory: ModelFactory, f: FittedEffect) -> ModelFactory:

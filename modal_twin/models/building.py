@@ -45,6 +45,11 @@ import scipy.sparse.linalg as spla
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError, OptionError
+from modal_twin.models.building_parameters import (
+    added_mass_matrix,
+    damping_targets,
+    split_theta,
+)
 from modal_twin.models.devices import Device
 from modal_twin.models.fe import FEAssembly, solve_modes
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
@@ -363,7 +368,10 @@ class ModalBuilding:
         Their feed-through of ``a_g``.
     channel_names : tuple of str
     theta : (n_theta,) float array
-        Parameters the model was built with.
+        Assembly parameters the model was built with.
+    theta_modal : mapping, optional
+        Damping and added-mass parameters it was built with
+        (:mod:`modal_twin.models.building_parameters`).
     """
 
     f_hz: FloatArray
@@ -383,6 +391,7 @@ class ModalBuilding:
     D_acc: FloatArray
     channel_names: tuple[str, ...]
     theta: FloatArray
+    theta_modal: Mapping[str, float] | None = None
 
     @property
     def n_modes(self) -> int:
@@ -487,7 +496,9 @@ def modal_reduction(building: BuildingModel, n_modes: int | None = None, *,
     n_modes : int, optional
         Number of modes r (default: YAML ``reduction.n_modes``, 36 as in Sec. 6 of [004]).
     theta : mapping or array, optional
-        Parameter values (concrete moduli ``E_*``, device ``k_*`` / ``c_*``); nominal if None.
+        Parameter values (concrete moduli ``E_*``, device ``k_*`` / ``c_*``, group factors,
+        and, in a mapping, the damping and added-mass parameters of
+        :mod:`~modal_twin.models.building_parameters`); nominal if None.
 
     Returns
     -------
@@ -507,23 +518,31 @@ def modal_reduction(building: BuildingModel, n_modes: int | None = None, *,
     if isinstance(r, bool) or not isinstance(r, int | np.integer) or not 1 <= r <= n_mass:
         msg = f"n_modes: expected an int in [1, {n_mass}] (DOFs with mass), got {r!r}"
         raise OptionError(msg)
+    if isinstance(theta, Mapping):
+        theta, modal = split_theta(building, theta)
+    else:
+        modal = split_theta(building, None)[1]
     th = par.theta_vector(theta)
     K, M, C = par.K(th), par.M(th), par.C(th)
     if theta is not None and not positive_definite(K)[0]:
         msg = "theta: K(theta) is not positive definite (a modulus or stiffness <= 0?)"
         raise ModelError(msg)
+    dM = added_mass_matrix(building, modal)
+    if dM is not None:
+        M = M + dM
     sol = solve_modes(K, M, int(r))
     Phi, omega = sol.Phi, sol.omega
     Cdev = Phi.T @ (C @ Phi)
     zeta_dev = np.diag(Cdev) / (2.0 * omega)
     spec = building.spec.damping
-    target = np.full(r, spec.default_zeta)
-    target[: spec.n_isolation_modes] = 0.0
-    ns = len(spec.superstructure_zeta)
+    target = damping_targets(spec, r, modal)
     lo = spec.n_isolation_modes
-    target[lo: lo + ns] = np.asarray(spec.superstructure_zeta)[: max(0, r - lo)]
     zeta_add = np.where(np.arange(r) >= lo, np.maximum(target - zeta_dev, 0.0), 0.0)
     Cr = Cdev + np.diag(2.0 * zeta_add * omega)  # Sec. 6 of [004]: added modal damping
+    alpha = modal.get(spec.alpha_param or "", spec.rayleigh_alpha)
+    beta = modal.get(spec.beta_param or "", spec.rayleigh_beta)
+    if alpha or beta:  # Phi' (alpha M + beta K) Phi = alpha I + beta diag(omega^2)
+        Cr = Cr + np.diag(alpha + beta * omega**2)
     Cr = 0.5 * (Cr + Cr.T)
     Gamma = Phi.T @ (M @ building.P)  # Eq. (12) of [004]: Phi' M P
     B = np.einsum("dij,jr->dir", building.G, Phi)
@@ -534,4 +553,4 @@ def modal_reduction(building: BuildingModel, n_modes: int | None = None, *,
         zeta_added=zeta_add, M=np.eye(r), C=Cr, K=np.diag(omega**2), Gamma=Gamma,
         device_names=building.device_names, B=B, k_dev=building._k_at(th),
         c_dev=building._c_at(th), C_acc=C_acc, D_acc=building.S_P.copy(),
-        channel_names=building.channel_names, theta=th)
+        channel_names=building.channel_names, theta=th, theta_modal=modal)

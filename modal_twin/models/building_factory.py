@@ -9,9 +9,11 @@ from pathlib import Path
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError
 from modal_twin.models.building import build_building, modal_reduction
+from modal_twin.models.building_parameters import modal_parameters, parameter_info
 from modal_twin.models.devices import Device
 from modal_twin.models.effects import EffectSpec, effect_device
 from modal_twin.models.loading import merge_effects, split_sensor_effects
+from modal_twin.models.parameter_info import ParameterInfo
 from modal_twin.models.plant import Plant, Source, with_sensor_effects
 
 __all__ = ["INPUTS_6DOF", "BuildingFactory"]
@@ -37,11 +39,16 @@ class BuildingFactory:
         Modes kept (the file's ``n_modes`` by default).
     """
 
-    # parameters the diagnosis screens as candidates (masses, moduli, the isolators' linear k
-    # and c); nonlinear laws at the isolators are screened on their force-state data
+    # parameters the diagnosis screens as candidates: floor masses, moduli, element-group
+    # stiffness (column lines kcol_, storeys kst_), damping factors (zeta_, rayleigh_) and the
+    # added mass of each floor with its position (madd_<floor>, _x, _y); the isolators'
+    # linear k and c (k_, c_); nonlinear laws at the isolators are screened on their
+    # force-state data. parameter_info(name) tells kind and
+    # place of each.
     base_effects: tuple[EffectSpec, ...] = ()  # a version's effects, kept in every plant
     label: str = ""  # the version's label, part of every plant's name
-    parameter_prefixes = ("m_", "E_", "k_", "c_")
+    parameter_prefixes = ("m_", "E_", "k_", "c_", "kcol_", "kst_", "zeta_", "rayleigh_",
+                          "madd_")
 
     def __init__(self, structure_file: str | Path, *, theta: Mapping[str, float] | None = None,
                  n_modes: int | None = None) -> None:
@@ -62,10 +69,26 @@ class BuildingFactory:
         return new
 
     def parameters(self) -> dict[str, float]:
-        """Current value of every model parameter (the structure's ``theta``)."""
+        """Current value of every model parameter: the assembly's ``theta`` (moduli, device
+        rates, floor masses, group and link factors), then the damping and added-mass
+        parameters (:mod:`~modal_twin.models.building_parameters`)."""
         par = self.bld.assembly.parametric
-        return dict(zip(par.names, (float(v) for v in par.theta_vector(self.theta or None)),
-                        strict=True))
+        out = {n: float(v) for n, v in zip(par.names, par.theta_vector(
+            {k: v for k, v in self.theta.items() if k in par.names} or None), strict=True)}
+        modal = modal_parameters(self.bld)
+        out.update({k: float(self.theta.get(k, v)) for k, v in modal.items()})
+        return out
+
+    def parameter_info(self, name: str) -> ParameterInfo:
+        """Kind (stiffness / mass / damping), place, nominal value and plausible bounds of a
+        parameter, e.g. ``kcol_1A`` -> stiffness at "column line 1A".
+
+        Raises
+        ------
+        OptionError
+            Unknown name.
+        """
+        return parameter_info(self.bld, name, omega=self.mb.omega)
 
     def attachments(self) -> tuple[str, ...]:
         """Rigidly attached masses that an ``elastic_mount`` effect could hang on springs

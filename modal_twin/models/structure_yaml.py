@@ -16,8 +16,25 @@ A structure file (``config/structures/*.yaml``) lists, in SI units:
     ``[{n1, n2, material, section, via?: [ids], n_elements?}]``; ``via`` lists existing
     intermediate nodes (one element between consecutive nodes).
 ``masses``
-    ``[{nodes: [ids] | node: id, m, inertia?: [Jxx, Jyy, Jzz]}]``; every listed node gets
-    ``m`` (kg) and ``inertia`` (kg m^2).
+    ``[{nodes: [ids] | node: id, m, inertia?: [Jxx, Jyy, Jzz], param?}]``; every listed node
+    gets ``m`` (kg) and ``inertia`` (kg m^2). A body at an eccentric position:
+    ``{m, at: id | [x, y, z], offset?: [dx, dy, dz], J?: [Jx, Jy, Jz], floor?, param?}`` is
+    rigidly attached to node ``at`` (at ``offset`` from it), or, for a position, to the
+    nearest node (of diaphragm ``floor`` if given); its 6x6 block
+    ``m [[I, -S(r)], [S(r), J/m - S(r)^2]]`` is linear in ``m`` (one parameter ``param``
+    scales translation, eccentricity and rotary inertia: :meth:`FEModel.add_point_mass`).
+``links``
+    ``[{name?, n1, n2?, k?: [kx, ky, kz], c?: [cx, cy, cz], kr?: [krx, kry, krz], cr?: [...],
+    param?, c_param?}]``: a zero-length spring and dashpot between any two nodes, or from
+    ``n1`` to ground when ``n2`` is omitted (storey springs of a rigid-diaphragm model).
+    ``param`` (``c_param``) names a dimensionless factor, nominal 1, on the link's whole
+    stiffness (damping): ``K(theta) = K0 + k_link (theta - 1)`` (Sec. 4 of [004]).
+``groups``
+    ``[{name, place?, nodes?: [ids or globs], between?: [floor, floor], sections?: [...],
+    frames?: [entry numbers], links?: [names]}]``: a dimensionless stiffness factor (nominal
+    1) of a set of frame entries and links: those with both end nodes matching ``nodes``
+    (``fnmatch`` patterns, e.g. ``"*_1A"`` for a column line), with one end on each floor of
+    ``between`` (a storey), optionally only of ``sections``; plus the listed ones.
 ``diaphragms``
     ``[{name, master, nodes: [ids]}]``: rigid floors (normal z); ``name`` labels the floor.
 ``supports``
@@ -32,8 +49,12 @@ A structure file (``config/structures/*.yaml``) lists, in SI units:
 ``input``
     ``{origin: [x, y, z]}``: point about which the 6-DOF base input is given.
 ``damping``
-    ``{n_isolation_modes, superstructure_zeta: [...], default_zeta}`` (see
-    :mod:`modal_twin.models.building`).
+    ``{n_isolation_modes, superstructure_zeta: [...], default_zeta, param?, mode_groups?,
+    rayleigh?}`` (see :mod:`modal_twin.models.building`): added modal damping targets;
+    ``param`` names a factor (nominal 1) on every target; ``mode_groups: [{name, modes:
+    [first, last]}]`` (1-based) a factor on the targets of those modes; ``rayleigh: {alpha,
+    beta} | {f_hz: [f1, f2], zeta: [z1, z2]}`` with ``alpha_param?`` / ``beta_param?`` adds
+    ``alpha M + beta K`` (``zeta(w) = alpha / (2 w) + beta w / 2``).
 ``reduction``
     ``{n_modes}``.
 
@@ -43,6 +64,7 @@ unknown node) :class:`ModelError`; both name the file and the entry.
 
 from __future__ import annotations
 
+import fnmatch
 import itertools
 import math
 from collections.abc import Mapping, Sequence
@@ -64,6 +86,8 @@ __all__ = [
     "DampingSpec",
     "DeviceSpec",
     "FloorSpec",
+    "GroupSpec",
+    "LinkSpec",
     "SensorSpec",
     "StructureSpec",
     "load_structure",
@@ -77,7 +101,7 @@ DEVICE_TYPES: tuple[str, ...] = tuple(LAWS)
 
 _TOP_KEYS = ("name", "description", "source", "gravity", "materials", "sections", "nodes",
              "frames", "masses", "diaphragms", "supports", "devices", "sensors", "input",
-             "damping", "reduction")
+             "damping", "reduction", "links", "groups")
 _DIRS = ("x", "y", "z")
 
 
@@ -132,8 +156,47 @@ class FloorSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class LinkSpec:
+    """A spring-dashpot between two nodes (``n2 = None``: to ground), global axes.
+
+    ``k``, ``c`` are (6,) diagonals on ``ux .. rz`` (N/m, N m/rad; N s/m, N m s/rad);
+    ``param`` / ``c_param`` name dimensionless factors (nominal 1) on them.
+    """
+
+    name: str
+    n1: NodeId
+    n2: NodeId | None
+    k: FloatArray
+    c: FloatArray
+    param: str | None = None
+    c_param: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class GroupSpec:
+    """A named stiffness factor (nominal 1) of a set of elements.
+
+    Attributes
+    ----------
+    name : str
+        Parameter name (e.g. ``kcol_1A``, ``kst_1``).
+    place : str
+        Where it acts, for reports (``column line 1A``).
+    frames : tuple of int
+        Frame entries (0-based, file order) in the group.
+    links : tuple of str
+        Link names in the group.
+    """
+
+    name: str
+    place: str
+    frames: tuple[int, ...]
+    links: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
 class DampingSpec:
-    """Added modal damping (see :func:`modal_twin.models.building.modal_reduction`).
+    """Added modal and Rayleigh damping (see :func:`modal_twin.models.building.modal_reduction`).
 
     Attributes
     ----------
@@ -143,11 +206,36 @@ class DampingSpec:
         Target total damping ratio of the next modes, in order.
     default_zeta : float
         Target of every later mode.
+    param : str or None
+        Name of a factor (nominal 1) on every target (e.g. ``zeta_sup``).
+    mode_groups : tuple of (name, first, last)
+        Factors (nominal 1) on the targets of modes ``first .. last`` (1-based, inclusive).
+    rayleigh_alpha, rayleigh_beta : float
+        ``C += alpha M + beta K`` (1/s, s).
+    alpha_param, beta_param : str or None
+        Their parameter names.
     """
 
     n_isolation_modes: int = 0
     superstructure_zeta: tuple[float, ...] = ()
     default_zeta: float = 0.0
+    param: str | None = None
+    mode_groups: tuple[tuple[str, int, int], ...] = ()
+    rayleigh_alpha: float = 0.0
+    rayleigh_beta: float = 0.0
+    alpha_param: str | None = None
+    beta_param: str | None = None
+
+    def parameters(self) -> dict[str, float]:
+        """Nominal value of every damping parameter this spec names."""
+        out = {name: 1.0 for name, _, _ in self.mode_groups}
+        if self.param:
+            out[self.param] = 1.0
+        if self.alpha_param:
+            out[self.alpha_param] = self.rayleigh_alpha
+        if self.beta_param:
+            out[self.beta_param] = self.rayleigh_beta
+        return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -171,6 +259,8 @@ class StructureSpec:
         m/s^2.
     yaml_mass : float
         Sum of all masses in the file, kg.
+    links, groups : tuples of specs
+        In file order.
     """
 
     name: str
@@ -184,6 +274,8 @@ class StructureSpec:
     n_modes: int
     gravity: float
     yaml_mass: float
+    links: tuple[LinkSpec, ...] = ()
+    groups: tuple[GroupSpec, ...] = ()
 
 
 class _Ctx:
@@ -281,9 +373,12 @@ def parse_structure(doc: Any, *, source: str = "<dict>") -> StructureSpec:
         fem.add_node(nid, cx.vector(xyz, 3, f"nodes[{nid!r}]"))
     materials = _materials(cx, doc)
     sections = _sections(cx, doc)
-    _frames(cx, doc, fem, materials, sections)
-    yaml_mass = _masses(cx, doc, fem)
-    floors = _diaphragms(cx, doc, fem)
+    entries = _frames(cx, doc, fem, materials, sections)
+    floors = _floors(cx, doc)
+    yaml_mass = _masses(cx, doc, fem, floors)
+    _diaphragms(cx, doc, fem, floors)
+    links = _links(cx, doc, fem)
+    groups = _groups(cx, doc, fem, entries, links, floors)
     for i, entry in enumerate(cx.items(doc, "supports", required=False)):
         where = f"supports[{i}]"
         dofs = entry.get("dofs", "all") if isinstance(entry, Mapping) else None
@@ -301,7 +396,8 @@ def parse_structure(doc: Any, *, source: str = "<dict>") -> StructureSpec:
     return StructureSpec(
         name=str(doc.get("name", Path(source).stem)), source=source, model=fem,
         devices=devices, sensors=sensors, floors=floors, input_origin=origin,
-        damping=damping, n_modes=n_modes, gravity=gravity, yaml_mass=yaml_mass)
+        damping=damping, n_modes=n_modes, gravity=gravity, yaml_mass=yaml_mass,
+        links=links[0], groups=groups)
 
 
 def _guard(cx: _Ctx, where: str, call: Any) -> Any:
@@ -314,7 +410,7 @@ def _guard(cx: _Ctx, where: str, call: Any) -> Any:
 
 def _materials(cx: _Ctx, doc: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
-    mats = doc.get("materials")
+    mats = doc.get("materials", {} if "links" in doc else None)
     if not isinstance(mats, Mapping):
         raise cx.config(at="materials", what="expected a mapping name -> {E, nu | G, param?}")
     for name, m in mats.items():
@@ -334,7 +430,7 @@ def _materials(cx: _Ctx, doc: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
 
 def _sections(cx: _Ctx, doc: Mapping[str, Any]) -> dict[str, dict[str, float]]:
     out: dict[str, dict[str, float]] = {}
-    secs = doc.get("sections")
+    secs = doc.get("sections", {} if "links" in doc else None)
     if not isinstance(secs, Mapping):
         raise cx.config(at="sections",
                         what="expected a mapping name -> {A, Iy, Iz, J, Asy?, Asz?}")
@@ -349,9 +445,22 @@ def _sections(cx: _Ctx, doc: Mapping[str, Any]) -> dict[str, dict[str, float]]:
     return out
 
 
+@dataclass(frozen=True, slots=True)
+class _FrameEntry:
+    """A frame entry of the file: its end nodes, section and frame numbers."""
+
+    n1: NodeId
+    n2: NodeId
+    section: str
+    numbers: range
+
+
 def _frames(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel,
-            materials: dict[str, dict[str, Any]], sections: dict[str, dict[str, float]]) -> None:
-    for i, f in enumerate(cx.items(doc, "frames")):
+            materials: dict[str, dict[str, Any]], sections: dict[str, dict[str, float]]
+            ) -> list[_FrameEntry]:
+    entries = []
+    # a model of links and masses needs no frames (nor materials and sections)
+    for i, f in enumerate(cx.items(doc, "frames", required="links" not in doc)):
         where = f"frames[{i}]"
         n1, n2 = cx.get(f, "n1", where), cx.get(f, "n2", where)
         where = f"frames[{i}] ({n1!r}-{n2!r})"
@@ -377,13 +486,20 @@ def _frames(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel,
                 for a, b in itertools.pairwise(chain):
                     fem.add_frame(a, b, **props)
 
+        first = fem.n_frames
         _guard(cx, where, add)
+        entries.append(_FrameEntry(n1, n2, str(sec_name), range(first, fem.n_frames)))
+    return entries
 
 
-def _masses(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> float:
+def _masses(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel,
+            floors: tuple[FloorSpec, ...]) -> float:
     total = 0.0
     for i, entry in enumerate(cx.items(doc, "masses")):
         where = f"masses[{i}]"
+        if isinstance(entry, Mapping) and "at" in entry:
+            total += _point_mass(cx, entry, where, fem, floors)
+            continue
         if isinstance(entry, Mapping) and "node" in entry:
             targets = [entry["node"]]
         else:
@@ -410,17 +526,197 @@ def _masses(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> float:
     return total
 
 
-def _diaphragms(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> tuple[FloorSpec, ...]:
+def _point_mass(cx: _Ctx, entry: Mapping[str, Any], where: str, fem: FEModel,
+                floors: tuple[FloorSpec, ...]) -> float:
+    """One body at an eccentric position (module docstring, ``masses`` with ``at``)."""
+    extra = sorted(set(entry) & {"node", "nodes", "inertia"})
+    if extra:
+        raise cx.config(at=where, what=f"'at' excludes {extra} (use 'offset' and 'J')")
+    at = entry["at"]
+    m = cx.number(cx.get(entry, "m", where), f"{where}.m", strict=True)
+    offset = cx.vector(entry.get("offset", [0.0, 0.0, 0.0]), 3, f"{where}.offset")
+    J = cx.vector(entry.get("J", [0.0, 0.0, 0.0]), 3, f"{where}.J")
+    if np.any(J < 0.0):
+        raise cx.model(at=f"{where}.J", what=f"expected values >= 0, got {list(J)}")
+    param = entry.get("param")
+    if param is not None and not isinstance(param, str):
+        raise cx.config(at=f"{where}.param", what=f"expected a name, got {param!r}")
+    if isinstance(at, Sequence) and not isinstance(at, str):
+        xyz = cx.vector(at, 3, f"{where}.at")
+        floor = entry.get("floor")
+        pool: Sequence[NodeId] = fem.nodes
+        if floor is not None:
+            hits = [f for f in floors if f.name == floor]
+            if not hits:
+                raise cx.config(at=f"{where}.floor", what=
+                                f"unknown floor {floor!r}; floors: {[f.name for f in floors]}")
+            pool = hits[0].nodes
+        dist = [float(np.linalg.norm(fem.xyz(n) - xyz)) for n in pool]
+        node = pool[int(np.argmin(dist))]
+        offset = offset + xyz - fem.xyz(node)
+    else:
+        node = at
+    _guard(cx, f"{where} (at {node!r})", lambda: fem.add_point_mass(
+        node, m, offset=offset, J=J, m_param=param))
+    return m
+
+
+def _floors(cx: _Ctx, doc: Mapping[str, Any]) -> tuple[FloorSpec, ...]:
     floors = []
     for i, d in enumerate(cx.items(doc, "diaphragms", required=False)):
         where = f"diaphragms[{i}]"
         master = cx.get(d, "master", where)
-        slaves = [n for n in cx.get(d, "nodes", where) if n != master]
-        name = str(d.get("name", master))
-        _guard(cx, f"{where} ({name})",
-               lambda m=master, s=slaves: fem.add_rigid_diaphragm(m, s))
-        floors.append(FloorSpec(name=name, master=master, nodes=(master, *slaves)))
+        nodes = cx.get(d, "nodes", where)
+        if not isinstance(nodes, list):
+            raise cx.config(at=f"{where}.nodes", what=f"expected a list, got {nodes!r}")
+        slaves = [n for n in nodes if n != master]
+        floors.append(FloorSpec(name=str(d.get("name", master)), master=master,
+                                nodes=(master, *slaves)))
+    names = [f.name for f in floors]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise cx.config(at="diaphragms", what=f"duplicate floor names {dup}")
     return tuple(floors)
+
+
+def _diaphragms(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel,
+                floors: tuple[FloorSpec, ...]) -> None:
+    for i, f in enumerate(floors):
+        _guard(cx, f"diaphragms[{i}] ({f.name})",
+               lambda f=f: fem.add_rigid_diaphragm(f.master, f.nodes[1:]))
+
+
+def _dof_diagonal(cx: _Ctx, entry: Mapping[str, Any], lin: str, rot: str, where: str
+                  ) -> FloatArray:
+    """(6,) diagonal from ``lin: [x, y, z]`` and ``rot: [rx, ry, rz]`` (both >= 0)."""
+    out = np.zeros(6)
+    for key, sl in ((lin, slice(0, 3)), (rot, slice(3, 6))):
+        if key in entry:
+            v = cx.vector(entry[key], 3, f"{where}.{key}")
+            if np.any(v < 0.0):
+                raise cx.model(at=f"{where}.{key}", what=f"expected values >= 0, got {list(v)}")
+            out[sl] = v
+    return out
+
+
+def _links(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel
+           ) -> tuple[tuple[LinkSpec, ...], dict[str, int]]:
+    out: list[LinkSpec] = []
+    numbers: dict[str, int] = {}
+    for i, e in enumerate(cx.items(doc, "links", required=False)):
+        where = f"links[{i}]"
+        n1 = cx.get(e, "n1", where)
+        n2 = e.get("n2")
+        name = str(e.get("name", f"link{i}"))
+        where = f"links[{i}] ({name}: {n1!r}-{n2!r})"
+        bad = sorted(set(e) - {"name", "n1", "n2", "k", "c", "kr", "cr", "param", "c_param"})
+        if bad:
+            raise cx.config(at=where, what=f"unknown keys {bad}; valid: name, n1, n2, k, c, "
+                            "kr, cr, param, c_param")
+        if n2 is not None and n2 == n1:
+            raise cx.model(at=where, what=f"expected two distinct nodes, got {n1!r} twice "
+                           "(omit n2 for a link to ground)")
+        if any(x.name == name for x in out):
+            raise cx.config(at=where, what=f"duplicate link name {name!r}")
+        k = _dof_diagonal(cx, e, "k", "kr", where)
+        c = _dof_diagonal(cx, e, "c", "cr", where)
+        if not (np.any(k > 0.0) or np.any(c > 0.0)):
+            raise cx.model(at=where, what="expected some stiffness (k, kr) or damping (c, cr) "
+                           "> 0, got none")
+        param, c_param = e.get("param"), e.get("c_param")
+        for key, val, arr in (("param", param, k), ("c_param", c_param, c)):
+            if val is not None and (not isinstance(val, str) or not np.any(arr > 0.0)):
+                raise cx.config(at=f"{where}.{key}", what=
+                                f"expected a name on a link with {key[:1]} > 0, got {val!r}")
+        number = _guard(cx, where, lambda n1=n1, n2=n2, k=k, c=c, p=param, q=c_param:
+                        fem.add_spring(n1, n2, k=k if np.any(k > 0.0) else None,
+                                       c=c if np.any(c > 0.0) else None, k_scale=p, c_scale=q))
+        out.append(LinkSpec(name, n1, n2, k, c, param, c_param))
+        numbers[name] = number
+    return tuple(out), numbers
+
+
+_GROUP_KEYS = ("name", "place", "nodes", "between", "sections", "frames", "links")
+
+
+def _groups(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel, entries: list[_FrameEntry],
+            links: tuple[tuple[LinkSpec, ...], dict[str, int]],
+            floors: tuple[FloorSpec, ...]) -> tuple[GroupSpec, ...]:
+    """Element-group stiffness factors (module docstring, ``groups``)."""
+    out: list[GroupSpec] = []
+    specs, numbers = links
+    ends = [(e.n1, e.n2, e.section) for e in entries]
+    ends_links = [(x.n1, x.n2, None) for x in specs]
+    for i, g in enumerate(cx.items(doc, "groups", required=False)):
+        where = f"groups[{i}]"
+        name = cx.get(g, "name", where)
+        where = f"groups[{i}] ({name})"
+        if not isinstance(name, str) or not name:
+            raise cx.config(at=where, what=f"expected a non-empty name, got {name!r}")
+        bad = sorted(set(g) - set(_GROUP_KEYS))
+        if bad:
+            raise cx.config(at=where, what=f"unknown keys {bad}; valid: {list(_GROUP_KEYS)}")
+        if any(x.name == name for x in out):
+            raise cx.config(at=where, what=f"duplicate group name {name!r}")
+        match = _group_selector(cx, g, where, floors)
+        frames = sorted({j for j, e in enumerate(ends) if match(*e)}
+                        | set(_listed(cx, g, "frames", where, range(len(entries)))))
+        names = [x.name for x in specs]
+        lk = sorted({names[j] for j, e in enumerate(ends_links) if match(*e)}
+                    | set(_listed(cx, g, "links", where, names)), key=names.index)
+        if not frames and not lk:
+            raise cx.model(at=where, what="expected at least one frame or link, got none "
+                           "(check nodes / between / sections)")
+        fr = [n for j in frames for n in entries[j].numbers]
+        _guard(cx, where, lambda n=name, fr=fr, lk=lk: fem.add_stiffness_group(
+            n, frames=fr, springs=[numbers[x] for x in lk]))
+        out.append(GroupSpec(name, str(g.get("place", name)), tuple(frames), tuple(lk)))
+    return tuple(out)
+
+
+def _listed(cx: _Ctx, g: Mapping[str, Any], key: str, where: str, valid: Sequence[Any]
+            ) -> list[Any]:
+    val = g.get(key, [])
+    if not isinstance(val, list):
+        raise cx.config(at=f"{where}.{key}", what=f"expected a list, got {val!r}")
+    bad = [v for v in val if v not in valid]
+    if bad:
+        raise cx.config(at=f"{where}.{key}", what=f"unknown entries {bad}")
+    return val
+
+
+def _group_selector(cx: _Ctx, g: Mapping[str, Any], where: str,
+                    floors: tuple[FloorSpec, ...]) -> Any:
+    """Return ``match(n1, n2, section) -> bool`` of a group's ``nodes`` / ``between`` /
+    ``sections`` (an element matches every selector given; none given: nothing matches)."""
+    pats = g.get("nodes")
+    between = g.get("between")
+    sections = g.get("sections")
+    if pats is not None and (not isinstance(pats, list) or not pats):
+        raise cx.config(at=f"{where}.nodes", what=f"expected a list of ids or globs, got {pats!r}")
+    sets: list[frozenset[NodeId]] = []
+    if between is not None:
+        fl = {f.name: f for f in floors}
+        if not isinstance(between, list) or len(between) != 2 or any(b not in fl for b in between):
+            raise cx.config(at=f"{where}.between", what=f"expected two floor names from "
+                            f"{list(fl)}, got {between!r}")
+        sets = [frozenset(fl[b].nodes) for b in between]
+    if sections is not None and not isinstance(sections, list):
+        raise cx.config(at=f"{where}.sections", what=f"expected a list, got {sections!r}")
+
+    def node_ok(n: NodeId | None) -> bool:
+        return n is not None and any(fnmatch.fnmatchcase(str(n), str(p)) for p in pats)
+
+    def match(n1: NodeId, n2: NodeId | None, section: str | None) -> bool:
+        if pats is None and between is None:
+            return False
+        if pats is not None and not (node_ok(n1) and node_ok(n2)):
+            return False
+        if sets and not ((n1 in sets[0] and n2 in sets[1]) or (n1 in sets[1] and n2 in sets[0])):
+            return False
+        return sections is None or section in sections
+
+    return match
 
 
 def _devices(cx: _Ctx, doc: Mapping[str, Any], fem: FEModel) -> tuple[DeviceSpec, ...]:
@@ -493,7 +789,73 @@ def _damping(cx: _Ctx, d: Mapping[str, Any]) -> DampingSpec:
     default = cx.number(d.get("default_zeta", 0.0), "damping.default_zeta")
     if max((*zeta, default)) >= 1.0:
         raise cx.model(at="damping", what=f"expected damping ratios < 1, got {[*zeta, default]}")
-    return DampingSpec(n_isolation_modes=n_iso, superstructure_zeta=zeta, default_zeta=default)
+    bad = sorted(set(d) - set(_DAMPING_KEYS))
+    if bad:
+        raise cx.config(at="damping", what=f"unknown keys {bad}; valid: {list(_DAMPING_KEYS)}")
+    param = _name(cx, d.get("param"), "damping.param")
+    groups = []
+    for i, g in enumerate(d.get("mode_groups") or []):
+        where = f"damping.mode_groups[{i}]"
+        modes = cx.get(g, "modes", where)
+        ok = (isinstance(modes, list) and len(modes) == 2
+              and all(isinstance(v, int) and not isinstance(v, bool) for v in modes)
+              and 1 <= modes[0] <= modes[1])
+        if not ok:
+            raise cx.config(at=f"{where}.modes",
+                            what=f"expected [first, last] with 1 <= first <= last, got {modes!r}")
+        groups.append((_name(cx, cx.get(g, "name", where), f"{where}.name"), *modes))
+    alpha, beta, a_param, b_param = _rayleigh(cx, d.get("rayleigh"))
+    names = [n for n in (param, a_param, b_param, *(g[0] for g in groups)) if n]
+    if len(set(names)) != len(names):
+        raise cx.config(at="damping", what=f"expected distinct parameter names, got {names}")
+    return DampingSpec(n_isolation_modes=n_iso, superstructure_zeta=zeta, default_zeta=default,
+                       param=param, mode_groups=tuple(groups), rayleigh_alpha=alpha,
+                       rayleigh_beta=beta, alpha_param=a_param, beta_param=b_param)
+
+
+_DAMPING_KEYS = ("n_isolation_modes", "superstructure_zeta", "default_zeta", "param",
+                 "mode_groups", "rayleigh")
+
+
+def _name(cx: _Ctx, val: Any, where: str) -> str | None:
+    if val is not None and (not isinstance(val, str) or not val):
+        raise cx.config(at=where, what=f"expected a parameter name, got {val!r}")
+    return val
+
+
+def _rayleigh(cx: _Ctx, r: Any) -> tuple[float, float, str | None, str | None]:
+    """Rayleigh ``(alpha, beta)`` from the coefficients or from two frequencies' ratios.
+
+    ``zeta(w) = alpha / (2 w) + beta w / 2`` through ``(w1, z1)`` and ``(w2, z2)``:
+    ``beta = 2 (z2 w2 - z1 w1) / (w2^2 - w1^2)``, ``alpha = 2 w1 w2 (z1 w2 - z2 w1) /
+    (w2^2 - w1^2)`` (Chopra, *Dynamics of Structures*, Eq. 11.4.9).
+    """
+    if r is None:
+        return 0.0, 0.0, None, None
+    w = "damping.rayleigh"
+    if not isinstance(r, Mapping):
+        raise cx.config(at=w, what=f"expected a mapping, got {r!r}")
+    bad = sorted(set(r) - {"alpha", "beta", "f_hz", "zeta", "alpha_param", "beta_param"})
+    if bad or (("f_hz" in r) == ("alpha" in r or "beta" in r)):
+        raise cx.config(at=w, what=f"expected {{alpha, beta}} or {{f_hz: [f1, f2], zeta: [z1, "
+                        f"z2]}} (with alpha_param / beta_param), got keys {sorted(r)}")
+    if "f_hz" in r:
+        f = cx.vector(r["f_hz"], 2, f"{w}.f_hz")
+        z = cx.vector(cx.get(r, "zeta", w), 2, f"{w}.zeta")
+        if not (0.0 < f[0] < f[1]) or np.any(z < 0.0) or np.any(z >= 1.0):
+            raise cx.model(at=w, what=f"expected 0 < f1 < f2 and 0 <= zeta < 1, got f_hz "
+                           f"{list(f)}, zeta {list(z)}")
+        w1, w2 = 2.0 * np.pi * f
+        beta = 2.0 * (z[1] * w2 - z[0] * w1) / (w2**2 - w1**2)
+        alpha = 2.0 * w1 * w2 * (z[0] * w2 - z[1] * w1) / (w2**2 - w1**2)
+        if alpha < 0.0 or beta < 0.0:
+            raise cx.model(at=w, what=f"these ratios need a negative coefficient (alpha "
+                           f"{alpha:.4g}, beta {beta:.4g}); choose others")
+    else:
+        alpha = cx.number(r.get("alpha", 0.0), f"{w}.alpha")
+        beta = cx.number(r.get("beta", 0.0), f"{w}.beta")
+    return (float(alpha), float(beta), _name(cx, r.get("alpha_param"), f"{w}.alpha_param"),
+            _name(cx, r.get("beta_param"), f"{w}.beta_param"))
 
 
 def make_device(spec: DeviceSpec, *, weight: float | None = None) -> Device:

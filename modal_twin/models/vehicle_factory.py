@@ -18,6 +18,7 @@ from pathlib import Path
 from modal_twin.errors import OptionError
 from modal_twin.models.effects import MOUNT_LAW, EffectSpec
 from modal_twin.models.loading import merge_effects, split_sensor_effects
+from modal_twin.models.parameter_info import Kind, ParameterInfo
 from modal_twin.models.plant import Plant, with_sensor_effects
 from modal_twin.models.vehicle import build_vehicle
 from modal_twin.models.vehicle_spec import (
@@ -30,6 +31,12 @@ from modal_twin.models.vehicle_spec import (
 )
 
 __all__ = ["VehicleFactory"]
+
+_PREFIX_INFO: dict[str, tuple[Kind, str, float, float]] = {
+    "m_": ("mass", "kg", 0.5, 2.0), "EI_": ("stiffness", "N m^2", 0.3, 3.0),
+    "k_": ("stiffness", "N/m", 0.3, 3.0), "c_": ("damping", "N s/m", 0.01, 5.0),
+    "zeta_": ("damping", "1", 0.1, 5.0)}
+"""Kind, unit and relative bounds of a vehicle parameter, by name prefix."""
 
 
 class VehicleFactory:
@@ -69,6 +76,25 @@ class VehicleFactory:
         """Current value of every parameter."""
         spec = apply_theta(self.spec, self.theta)
         return {n: parameter_value(spec, n) for n in theta_names(spec)}
+
+    def parameter_info(self, name: str) -> ParameterInfo:
+        """Kind (stiffness / mass / damping), place, nominal value (the file's) and plausible
+        bounds of a parameter, from its prefix (:data:`_PREFIX_INFO`).
+
+        Raises
+        ------
+        OptionError
+            Unknown name.
+        """
+        if name not in theta_names(self.spec):
+            msg = f"parameter: expected one of {list(theta_names(self.spec))}, got {name!r}"
+            raise OptionError(msg)
+        v = float(parameter_value(self.spec, name))
+        for prefix, (kind, unit, lo, hi) in _PREFIX_INFO.items():
+            if name.startswith(prefix):
+                return ParameterInfo(name, kind, name[len(prefix):].replace("_", " "), v,
+                                     lo * v, hi * v, unit, prefix.rstrip("_"))
+        return ParameterInfo(name, "stiffness", name, v, 0.3 * v, 3.0 * v, "", "other")
 
     def attachments(self) -> tuple[str, ...]:
         """The rigidly mounted equipment an ``elastic_mount`` effect can hang."""

@@ -71,6 +71,9 @@ def _claim_place(f: Any) -> str:
     """The place of a found effect as the truth names places (a floor for a mass, a
     column line / storey for a stiffness group, a device, a channel, an equipment item)."""
     place = f.place
+    comp = f.effect.component
+    if f.effect.law == "added_mass":
+        return comp.removeprefix("madd_").removeprefix("m_")  # the floor
     if f.effect.law == "stiffness" and f.effect.component.startswith("kcol_"):
         return f"columns:line_{f.effect.component[5:]}"
     if f.effect.law == "stiffness" and f.effect.component.startswith("kst_"):

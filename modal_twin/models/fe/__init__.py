@@ -11,7 +11,13 @@ from modal_twin.models.fe.elements import (
     frame_shear_factors,
     two_node_matrix,
 )
-from modal_twin.models.fe.model import Contribution, FEModel, NodeId
+from modal_twin.models.fe.model import (
+    Contribution,
+    FEModel,
+    NodeId,
+    rigid_body_mass_block,
+    skew,
+)
 from modal_twin.models.fe.parametric import ParametricMatrices
 
 __all__ = [
@@ -28,6 +34,8 @@ __all__ = [
     "frame_rotation",
     "frame_shear_factors",
     "lowest_eigenpairs",
+    "rigid_body_mass_block",
+    "skew",
     "solve_modes",
     "two_node_matrix",
 ]

@@ -193,7 +193,8 @@ def assemble_model(*, nodes: tuple[NodeId, ...], xyz: FloatArray,
         msg = "model: expected at least one node, got none"
         raise ModelError(msg)
     label = [f"{nodes[d // 6]!r}:{DOF_NAMES[d % 6]}" for d in range(n_full)]
-    full = {k: _coo(n_full, [t for t in contributions if t.kind == k], True) for k in "KMC"}
+    full = {k: _coo(n_full, [t for t in contributions if t.kind == k and t.nominal], True)
+            for k in "KMC"}
     names: list[str] = []
     kinds: list[Kind] = []
     theta0: list[float] = []

@@ -39,7 +39,7 @@ from modal_twin.models.fe.elements import (
 if TYPE_CHECKING:
     from modal_twin.models.fe.assembly import FEAssembly
 
-__all__ = ["Contribution", "FEModel", "NodeId"]
+__all__ = ["Contribution", "FEModel", "NodeId", "rigid_body_mass_block", "skew"]
 
 NodeId = int | str
 MatrixKind = Literal["K", "M", "C"]
@@ -50,6 +50,9 @@ class Contribution:
     """One term ``value * unit`` added to matrix ``kind`` on the full DOFs ``dofs``.
 
     ``param`` names the parameter ``theta`` the term is linear in (``None``: constant).
+    ``nominal=False`` marks an *increment* term: it is left out of the nominal matrices and
+    only gives the derivative ``unit`` of a scale factor ``theta`` (nominal ``value``), so
+    ``K(theta) = K0 + unit (theta - value)`` (element-group parameters).
     """
 
     kind: MatrixKind
@@ -57,6 +60,28 @@ class Contribution:
     unit: FloatArray
     value: float
     param: str | None
+    nominal: bool = True
+
+
+def skew(r: FloatArray) -> FloatArray:
+    """Return the cross-product matrix ``S(r)``: ``S(r) @ a == np.cross(r, a)``."""
+    x, y, z = (float(v) for v in r)
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def rigid_body_mass_block(r: FloatArray, J: FloatArray, m: float = 1.0) -> FloatArray:
+    """Return the 6x6 mass of a body (mass ``m``, rotary inertia ``J`` about its centre)
+    at offset ``r`` from a reference point, on the point's ``(u, theta)``.
+
+    ``[[m I, -m S(r)], [m S(r), J - m S(r)^2]]`` (see :meth:`FEModel.add_point_mass`).
+    """
+    S = skew(np.asarray(r, dtype=float))
+    out = np.zeros((6, 6))
+    out[:3, :3] = m * np.eye(3)
+    out[:3, 3:] = -m * S
+    out[3:, :3] = m * S
+    out[3:, 3:] = np.asarray(J, dtype=float) - m * S @ S
+    return out
 
 
 def _check_param_name(arg: str, name: str | None) -> None:
@@ -83,6 +108,9 @@ class FEModel:
         self._xyz: dict[NodeId, FloatArray] = {}
         self._index: dict[NodeId, int] = {}
         self._contribs: list[Contribution] = []
+        # frame / spring number -> indices of its stiffness terms in _contribs
+        self._frame_k: list[list[int]] = []
+        self._spring_k: list[list[int]] = []
         self._fixed: set[int] = set()
         # slave full DOF -> list of (master full DOF, coefficient)
         self._slaves: dict[int, list[tuple[int, float]]] = {}
@@ -141,8 +169,9 @@ class FEModel:
         return 6 * self._node_index(node) + np.arange(6, dtype=np.int64)
 
     def _add(self, kind: MatrixKind, dofs: IntArray, unit: FloatArray, value: float,
-             param: str | None) -> None:
+             param: str | None) -> int:
         self._contribs.append(Contribution(kind, dofs, unit, float(value), param))
+        return len(self._contribs) - 1
 
     # ------------------------------------------------------------------ elements
     def add_frame(
@@ -224,7 +253,7 @@ class FEModel:
                       *, E: float, rho: float, E_param: str | None, rho_param: str | None,
                       ) -> int:
         dofs = np.concatenate([self._node_dofs(n1), self._node_dofs(n2)])
-        self._add("K", dofs, k_unit, E, E_param)
+        self._frame_k.append([self._add("K", dofs, k_unit, E, E_param)])
         if rho > 0.0:
             self._add("M", dofs, m_unit, rho, rho_param)
         self.n_frames += 1
@@ -293,6 +322,7 @@ class FEModel:
         k: Mapping[str, float] | Sequence[float] | FloatArray | None = None,
         c: Mapping[str, float] | Sequence[float] | FloatArray | None = None,
         k_params: Mapping[str, str] | None = None, c_params: Mapping[str, str] | None = None,
+        k_scale: str | None = None, c_scale: str | None = None,
     ) -> int:
         """Add a zero-length 6-DOF spring and dashpot from ``n1`` to ``n2`` (or to ground).
 
@@ -306,6 +336,10 @@ class FEModel:
             Stiffness (N/m, N m/rad) and damping (N s/m, N m s/rad) in global axes.
         k_params, c_params : mapping DOF name -> parameter name, optional
             Name the diagonal entry ``k[dof, dof]`` (or ``c``) as a parameter.
+        k_scale, c_scale : str, optional
+            Name a dimensionless factor (nominal 1) on the whole ``k`` (or ``c``) matrix of
+            this element: ``K(theta) = K0 + k_el (theta - 1)`` (Sec. 4 of [004]). Elements
+            sharing a name scale together. Not combined with ``k_params`` / ``c_params``.
 
         Returns
         -------
@@ -324,13 +358,24 @@ class FEModel:
             msg = f"{label}: expected two distinct nodes, got {n1!r} twice"
             raise ModelError(msg)
         dofs = d1 if n2 is None else np.concatenate([d1, self._node_dofs(n2)])
-        for arg, val, params, kind in (("k", k, k_params, "K"), ("c", c, c_params, "C")):
+        terms: list[int] = []
+        for arg, val, params, scale, kind in (("k", k, k_params, k_scale, "K"),
+                                              ("c", c, c_params, c_scale, "C")):
             if val is None:
-                if params:
-                    msg = f"{label} {arg}_params: given without {arg}"
-                    raise ModelError(msg)
+                for what, given in ((f"{arg}_params", params), (f"{arg}_scale", scale)):
+                    if given:
+                        msg = f"{label} {what}: given without {arg}"
+                        raise ModelError(msg)
                 continue
             mat = self._six_by_six(f"{label} {arg}", val)
+            if scale is not None:
+                _check_param_name(f"{arg}_scale", scale)
+                if params:
+                    msg = f"{label}: give {arg}_params or {arg}_scale, not both"
+                    raise ModelError(msg)
+                j = self._add(kind, dofs, two_node_matrix(mat, grounded), 1.0, scale)  # type: ignore[arg-type]
+                terms += [j] if kind == "K" else []
+                continue
             for dof_name, pname in (params or {}).items():
                 if dof_name not in DOF_NAMES:
                     msg = (f"{label} {arg}_params: expected DOF names in {list(DOF_NAMES)}, "
@@ -340,10 +385,13 @@ class FEModel:
                 j = DOF_NAMES.index(dof_name)
                 unit6 = np.zeros((6, 6))
                 unit6[j, j] = 1.0
-                self._add(kind, dofs, two_node_matrix(unit6, grounded), mat[j, j], pname)  # type: ignore[arg-type]
+                i = self._add(kind, dofs, two_node_matrix(unit6, grounded), mat[j, j], pname)  # type: ignore[arg-type]
+                terms += [i] if kind == "K" else []
                 mat[j, j] = 0.0
             if np.any(mat != 0.0):
-                self._add(kind, dofs, two_node_matrix(mat, grounded), 1.0, None)  # type: ignore[arg-type]
+                i = self._add(kind, dofs, two_node_matrix(mat, grounded), 1.0, None)  # type: ignore[arg-type]
+                terms += [i] if kind == "K" else []
+        self._spring_k.append(terms)
         self.n_springs += 1
         return self.n_springs - 1
 
@@ -379,6 +427,105 @@ class FEModel:
             self._add("M", dofs, rot, 1.0, None)
         self.n_masses += 1
         return self.n_masses - 1
+
+    def add_point_mass(
+        self, node: NodeId, m: float, *, offset: Sequence[float] = (0.0, 0.0, 0.0),
+        J: Sequence[float] | FloatArray | None = None, m_param: str | None = None,
+    ) -> int:
+        """Add a rigid body of mass ``m`` at ``offset`` from ``node``, rigidly attached to it.
+
+        With ``r`` the offset and ``S(r)`` its cross-product matrix (``S(r) a = r x a``), the
+        body's velocity is ``v = v_n - S(r) omega_n``, so its kinetic energy gives the 6x6
+        mass matrix on the node's DOFs ``(u, theta)``::
+
+            M_b = [[m I, -m S(r)], [m S(r), J - m S(r)^2]]
+
+        (``-m S(r)^2 = m (|r|^2 I - r r')``: the parallel-axis term). The whole block is one
+        term linear in ``m`` (``J`` is taken per unit mass), so ``m_param`` scales the
+        translation, the eccentricity and the rotary inertia together.
+
+        Parameters
+        ----------
+        node : NodeId
+            Node the body is attached to (a diaphragm slave is fine: the constraint
+            transformation carries the block to the master).
+        m : float
+            Mass, kg (> 0).
+        offset : (3,) sequence
+            Position of the body's centre of mass relative to ``node``, m.
+        J : (3,) or (3, 3), optional
+            Rotary inertia about the body's own centre of mass, kg m^2 (global axes).
+        m_param : str, optional
+            Parameter name of ``m``.
+
+        Returns
+        -------
+        int
+            Mass number.
+
+        Raises
+        ------
+        ModelError
+            Unknown node, ``m <= 0``, a bad offset or inertia.
+        """
+        label = f"mass {self.n_masses} at node {node!r}"
+        dofs = self._node_dofs(node)
+        if not (isinstance(m, int | float) and math.isfinite(m) and m > 0.0):
+            msg = f"{label} m: expected a finite value > 0, got {m!r}"
+            raise ModelError(msg)
+        _check_param_name("m_param", m_param)
+        r = np.asarray(offset, dtype=float)
+        if r.shape != (3,) or not np.all(np.isfinite(r)):
+            msg = f"{label} offset: expected 3 finite values, got {offset!r}"
+            raise ModelError(msg)
+        jj = np.zeros((3, 3)) if J is None else np.asarray(J, dtype=float)
+        if jj.shape == (3,):
+            jj = np.diag(jj)
+        ok = jj.shape == (3, 3) and np.all(np.isfinite(jj)) and np.allclose(jj, jj.T)
+        if not ok or np.linalg.eigvalsh(jj).min() < -1e-12 * max(np.abs(jj).max(), 1e-300):
+            msg = (f"{label} J: expected (3,) >= 0 or a symmetric positive semi-definite "
+                   f"(3, 3), got {J!r}")
+            raise ModelError(msg)
+        self._add("M", dofs, rigid_body_mass_block(r, jj / m), float(m), m_param)
+        self.n_masses += 1
+        return self.n_masses - 1
+
+    def add_stiffness_group(self, param: str, *, frames: Iterable[int] = (),
+                            springs: Iterable[int] = ()) -> int:
+        """Name a dimensionless stiffness factor (nominal 1) of a set of elements.
+
+        Each element's nominal stiffness ``k_e`` gets an increment term, so that
+        ``K(theta) = K0 + sum_{e in group} k_e (theta - 1)`` (Sec. 4 of [004]): exact while
+        the element's other parameters (its modulus) stay nominal, first order otherwise.
+        An element may belong to several groups (a column line and a storey).
+
+        Returns
+        -------
+        int
+            Number of elements in the group.
+
+        Raises
+        ------
+        ModelError
+            Empty group, unknown frame or spring number, bad name.
+        """
+        _check_param_name("param", param)
+        fr, sg = list(frames), list(springs)
+        bad = ([f"frame {i}" for i in fr if not 0 <= i < self.n_frames]
+               + [f"spring {i}" for i in sg if not 0 <= i < self.n_springs])
+        if bad:
+            msg = f"stiffness group {param!r}: unknown elements {bad}"
+            raise ModelError(msg)
+        idx = ([j for i in fr for j in self._frame_k[i]]
+               + [j for i in sg for j in self._spring_k[i]])
+        if not idx:
+            msg = f"stiffness group {param!r}: expected at least one element, got none"
+            raise ModelError(msg)
+        for j in idx:
+            t = self._contribs[j]
+            self._contribs.append(Contribution("K", t.dofs, t.unit * t.value, 1.0, param,
+                                               nominal=False))
+        return len(fr) + len(sg)
 
     # ------------------------------------------------------------------ constraints
     def fix(self, node: NodeId, dofs: str | Iterable[str] = "all") -> None:
