@@ -71,6 +71,10 @@ def test_meshed_building_condenses_to_its_joints():
             g = {k: v for k, v in f.items() if k not in ("n1", "n2", "via")}
             frames.append({**g, "n1": a, "n2": b, "n_elements": 4})
     doc["frames"] = frames
+    # element-group factors overlap the moduli on every column DOF: a condensation that stays
+    # affine in theta needs one parameter per massless group, so the meshed variant updates
+    # the moduli only
+    doc.pop("groups", None)
     big = build_building(spec=parse_structure(doc, source="building split 4"))
     par = big.assembly.parametric
     c = condense_massless(par, np.flatnonzero(np.abs(big.S).sum(axis=0) > 0))
