@@ -60,9 +60,13 @@ def model_modes(plant: Plant, rows: list[int]) -> tuple[FloatArray, FloatArray, 
     return w / (2 * np.pi), -lam.real / w, shapes
 
 
-def modal_view(plant: Plant, rec: Record, *, fs_target_hz: float = 50.0,
-               f_max_hz: float = 20.0) -> ModalView:
+def modal_view(plant: Plant, rec: Record, *, fs_target_hz: float | None = None,
+               f_max_hz: float | None = None) -> ModalView:
     """Identify ``rec``'s modes (N4SID, table inputs) and pair them with the plant's.
+
+    The band defaults to the model's first twelve modes (10 % beyond the twelfth, at most
+    0.4 of the sampling rate) and the decimated rate to 2.5 times its top: derived from
+    the model and the record, not a fixed Hz.
 
     Raises
     ------
@@ -74,6 +78,11 @@ def modal_view(plant: Plant, rec: Record, *, fs_target_hz: float = 50.0,
     if not acc:
         msg = "modal view: the record has no acceleration channel of the model"
         raise SignalError(msg)
+    if f_max_hz is None:
+        f_all = model_modes(plant, [plant.channel_names.index(acc[0])])[0]
+        f_max_hz = float(min(1.1 * f_all[min(11, f_all.size - 1)], 0.4 * rec.fs_hz))
+    if fs_target_hz is None:
+        fs_target_hz = 2.5 * f_max_hz
     factor = max(1, round(rec.fs_hz / fs_target_hz))
     sd = np.std(rec.inputs, axis=1)
     active = [i for i, v in enumerate(sd) if v > 1e-2 * sd.max()]  # driven axes, not noise

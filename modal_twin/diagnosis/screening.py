@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.evidence import velocity_cutoff
 from modal_twin.diagnosis.restoring_force import state_derivatives
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.effects import EFFECT_LAWS, effect_device
@@ -89,7 +90,7 @@ def screen_components(
     fs_hz: float,
     *,
     laws: tuple[str, ...] = SCREEN_LAWS,
-    cutoff_hz: float = 25.0,
+    cutoff_hz: float | None = None,
 ) -> list[ScreenedCandidate]:
     """Screen every (component, law) on the measured force-state data.
 
@@ -102,8 +103,9 @@ def screen_components(
     weights : mapping component -> float
         Carried weight, N (for friction laws).
     fs_hz : float
-    cutoff_hz : float
-        Low-pass applied to the drift before differentiating it.
+    cutoff_hz : float, optional
+        Low-pass applied to the drift before differentiating it (default: from the drift's
+        own spectrum, :func:`~modal_twin.diagnosis.evidence.velocity_cutoff`).
 
     Returns
     -------
@@ -116,7 +118,7 @@ def screen_components(
             continue
         u = np.asarray(drifts[name], dtype=float)
         f = np.asarray(forces[name], dtype=float)
-        v = drift_velocity(u, fs_hz, cutoff_hz)
+        v = drift_velocity(u, fs_hz, cutoff_hz or velocity_cutoff(u, fs_hz))
         k, c = np.asarray(spec.k, float)[:, None], np.asarray(spec.c, float)[:, None]
         r = (f - (k * u + c * v)).ravel()  # residual restoring force, Eq. (20) of [003]
         f_var = float(np.sum((f - f.mean(axis=1, keepdims=True)) ** 2))

@@ -31,8 +31,9 @@ class UpdatingConfig:
     model_file: str = field(default="config/structures/building.yaml",
                             metadata={"doc": "model to update (structure or version file)"})
     versions_dir: str = field(default="runs/models", metadata={"doc": "model version folder"})
-    f_split_hz: float = field(default=2.0,
-                              metadata={"doc": "isolation modes below, superstructure above"})
+    f_split_hz: float = field(default=0.0,
+                              metadata={"doc": "isolation modes below, superstructure above "
+                                        "(0: the gap of the model's own modes)"})
     auto: bool = field(default=True, metadata={"doc": "update on every new set of modes"})
 
 

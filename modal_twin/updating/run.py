@@ -12,9 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
 from modal_twin.identification.modal_model import ModalModel
-from modal_twin.models.building import build_building
+from modal_twin.models.building import BuildingModel, build_building
+from modal_twin.models.fe import solve_modes
 from modal_twin.models.versions import (
     ModelVersion,
     latest_version,
@@ -42,11 +44,14 @@ def update_model(
     channel_names: tuple[str, ...],
     versions_dir: str | Path,
     *,
-    f_split_hz: float = 2.0,
+    f_split_hz: float | None = None,
     use_std: bool = True,
 ) -> ModelUpdate:
     """Run the two stages of [004] on ``modes`` (shapes at ``channel_names``) and write the
     updated parameters as the next version in ``versions_dir`` (v0 = the start, first).
+
+    ``f_split_hz`` (isolation modes below, superstructure modes above) defaults to the gap
+    of the model itself (:func:`isolation_split_hz`).
 
     Raises
     ------
@@ -68,6 +73,8 @@ def update_model(
                                  std_f_hz=modes.std_f_hz)
     par = bld.assembly.parametric
     theta0 = par.theta_vector(mv.theta) if mv.theta else None
+    if not f_split_hz:
+        f_split_hz = isolation_split_hz(bld, theta0)
     sup, iso = building_stages(par, f_split_hz=f_split_hz, prior_weight_devices=1.0,
                                global_stage=False)
     stages = [replace(sup, use_std=use_std), replace(iso, use_std=use_std)]
@@ -119,3 +126,13 @@ def pairs_table(upd: ModelUpdate) -> list[tuple[int, int, float, float, float, f
             out.append((i, j, float(f), float(fb), float(fa), float(b.mac[i]),
                         float(a.mac[i])))
     return out
+
+
+def isolation_split_hz(bld: BuildingModel, theta: FloatArray | None = None) -> float:
+    """The frequency between a building's isolation modes and its superstructure modes: the
+    geometric mean of the model's last isolation mode and first superstructure mode
+    (``damping.n_isolation_modes`` of the structure file)."""
+    n = int(bld.spec.damping.n_isolation_modes)
+    par = bld.assembly.parametric
+    f = solve_modes(par.K(theta), par.M(theta), n + 1).f_hz
+    return float(np.sqrt(f[n - 1] * f[n]))

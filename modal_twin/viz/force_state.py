@@ -36,9 +36,10 @@ def plot_force_state(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from modal_twin.diagnosis.evidence import velocity_cutoff
     from modal_twin.diagnosis.screening import drift_velocity
 
-    v = drift_velocity(drift, fs_hz, 25.0)
+    v = drift_velocity(drift, fs_hz, velocity_cutoff(drift, fs_hz))
     rows = 2 if fitted_force is not None else 1
     fig, axes = plt.subplots(rows, drift.shape[0], figsize=(9, 3.8 * rows), squeeze=False)
     step = max(1, drift.shape[1] // 8000)
