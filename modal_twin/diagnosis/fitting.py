@@ -203,10 +203,12 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
         return (["k3", "k"], lambda x: {"k3": float(x[0] * s), "k": k * float(x[1])},
                 lambda p: np.array([p["k3"] / s, p.get("k", k) / k]),
                 np.array([-50.0, 0.7]), np.array([50.0, 1.3]))
-    if law == "gap":
-        lg = np.log(start["g"])
-        return (["g"], lambda x: {"g": float(np.exp(x[0]))}, lambda p: np.array([np.log(p["g"])]),
-                np.array([lg - 3]), np.array([lg + 3]))
+    if law == "gap":  # clearance and contact stiffness; kp (the spring beside) as started
+        lg, kp = np.log(start["g"]), float(start.get("kp", 0.0))
+        return (["g", "k", "kp"],
+                lambda x: {"g": float(np.exp(x[0])), "k": k * float(np.exp(x[1])), "kp": kp},
+                lambda p: np.array([np.log(p["g"]), np.log(p.get("k", k) / k)]),
+                np.array([lg - 3, np.log(0.02)]), np.array([lg + 3, np.log(50.0)]))
     if law == "linear":
         return (["k", "ky", "c", "cy"],
                 lambda x: {"k": k * float(x[0]), "ky": k * float(x[1]),

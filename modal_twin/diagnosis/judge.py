@@ -68,10 +68,13 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
           nominal_values: Mapping[str, float] | None = None,
           floor_mass: Mapping[str, float] | None = None,
           nominal_k: float | None = None, nominal_c: float | None = None,
-          drift_scale: float | None = None) -> FittedEffect:
+          drift_scale: float | None = None, evidence_family: str = "",
+          lower_by: float = LOWER_BY) -> FittedEffect:
     """``f`` with its family, place, per-record errors, flags and rejection filled in.
 
-    ``records[0]`` is the training record and ``records[1]`` the held-out one.
+    ``records[0]`` is the training record and ``records[1]`` the held-out one. A law that
+    can be friction or hysteresis (bilinear hysteretic) takes the family the evidence named
+    at its place, when that is one of the two.
     """
     try:
         after = figures_on(plant, records, noises)
@@ -86,7 +89,7 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
         # pooled over the channels, and the median channel: neither may get worse
         for what, vb, va in (("", b.total, a.total),
                              ("median ", b.median_nrmse, a.median_nrmse)):
-            if must_lower and not va < (1 - LOWER_BY) * vb:
+            if must_lower and not va < (1 - lower_by) * vb:
                 rejected = (f"does not lower the {what}error on {name} "
                             f"({100 * vb:.2f} % -> {100 * va:.2f} %)")
             elif not must_lower and va > (1 + WORSE_BY) * vb:
@@ -95,8 +98,11 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
                 break
         if rejected:
             break
-    return replace(f, family=family_of(f.effect, nominal_k=nominal_k, nominal_c=nominal_c,
-                                       drift_scale=drift_scale),
+    family = family_of(f.effect, nominal_k=nominal_k, nominal_c=nominal_c,
+                       drift_scale=drift_scale)
+    if f.effect.law == "bilinear_hysteretic" and evidence_family in ("friction", "hysteresis"):
+        family = evidence_family
+    return replace(f, family=family,
                    place=place_of(f.effect), records=rows, rejected=rejected,
                    flags=_flags(f, nominal_values or {}, floor_mass or {}))
 

@@ -245,7 +245,7 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     screened, jobs = _device_jobs(factory, fit_on, evidence, drifts, forces, test, n_families)
     say("screening parameters (mass, stiffness, damping) by simulated sensitivities")
     params = screen_parameters(factory, train)
-    for pc in params[:n_fit]:
+    for pc in params[:n_fit + 2]:  # parameters are many and cheap to fit
         if pc.gain >= gain_threshold:
             jobs.append((f"{pc.kind} {pc.name}",
                          partial(fit_parameter, factory, pc, fit_on, test)))
@@ -264,8 +264,11 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     excluded = set(exclude)
     fitted = _run_jobs(jobs, mapper, skipped, say)
     fitted = [f for f in fitted if (f.effect.component, f.effect.law) not in excluded]
-    judged = [_judge(factory, f, before, records, noises) for f in fitted]
     ev_family = {e.component: _top_family(e) for e in evidence}
+    # a later round must earn its effect: 5 % lower, not 1 %
+    lower_by = 0.05 if factory.base_effects or excluded else 0.01
+    judged = [_judge(factory, f, before, records, noises, ev_family, lower_by)
+              for f in fitted]
     ranked = rank(judged, ev_family)
     usable = [f for f in ranked if not f.rejected and not f.flags]
     if usable:
@@ -309,7 +312,8 @@ def _call(job: Callable[[], FittedEffect]) -> FittedEffect | str:
 
 
 def _judge(factory: ModelFactory, f: FittedEffect, before: Sequence[ErrorFigures],
-           records: Sequence[Record], noises: Sequence[np.ndarray]) -> FittedEffect:
+           records: Sequence[Record], noises: Sequence[np.ndarray],
+           ev_family: dict[str, str], lower_by: float) -> FittedEffect:
     e = f.effect
     if e.law in ("added_mass", "stiffness", "damping"):
         plant = factory.with_theta(e.params).plant()
@@ -324,7 +328,8 @@ def _judge(factory: ModelFactory, f: FittedEffect, before: Sequence[ErrorFigures
     drift = (float(np.quantile(np.abs(records[0].channels(cols)), 0.99))
              if all(x in records[0].channel_names for x in cols) else None)
     out = judge(f, plant, before, records, noises, nominal_values=values, floor_mass=floor,
-                nominal_k=k, nominal_c=c, drift_scale=drift)
+                nominal_k=k, nominal_c=c, drift_scale=drift,
+                evidence_family=ev_family.get(e.component, ""), lower_by=lower_by)
     info_of = getattr(factory, "parameter_info", None)
     if e.law in ("added_mass", "stiffness", "damping") and info_of is not None:
         with contextlib.suppress(ModalTwinError):

@@ -65,8 +65,9 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
         return [{"uy": g * u_max, "alpha": a} for g in (0.2, 0.4, 0.6) for a in (0.05, 0.5)]
     if law == "cubic":
         return [{"k3": s * 0.3 * k / max(u_max, 1e-9) ** 2} for s in (-1.0, 1.0)]
-    if law == "gap":
-        return [{"g": g * u_max} for g in (0.3, 0.5, 0.7)]
+    if law == "gap":  # a stop beside the component's own spring-dashpot (kp = 1)
+        return [{"g": g * u_max, "k": r * k, "kp": 1.0} for g in (0.3, 0.5, 0.7)
+                for r in (0.5, 2.0)]
     return [{}]
 
 

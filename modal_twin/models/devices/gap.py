@@ -1,6 +1,8 @@
 """Gap / dead band: no force inside |u| <= g, a contact spring (and dashpot) beyond.
 
-Per direction, uncoupled: ``f = k (u - g sign(u)) + c u'`` for |u| > g, else 0.
+Per direction, uncoupled: ``f = k (u - g sign(u)) + c u'`` for |u| > g, else 0; plus an
+optional linear spring-dashpot beside it (``kp``, ``cp`` per direction: a bearing that
+hits a stop, zero by default).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ __all__ = ["GapSpring", "law_gap"]
 
 @njit(cache=True)
 def law_gap(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
-    """p = [k, g, c, n_dir]."""
+    """p = [k, g, c, n_dir, kpx, kpy, cpx, cpy]."""
     k = p[0]
     g = p[1]
     c = p[2]
@@ -29,14 +31,17 @@ def law_gap(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
         if i >= nd:
             continue
         x = u[i]
+        f[i] = p[4 + i] * x + p[6 + i] * v[i]
+        Kt[i, i] = p[4 + i]
+        Ct[i, i] = p[6 + i]
         if x > g:
-            f[i] = k * (x - g) + c * v[i]
+            f[i] += k * (x - g) + c * v[i]
         elif x < -g:
-            f[i] = k * (x + g) + c * v[i]
+            f[i] += k * (x + g) + c * v[i]
         else:
             continue
-        Kt[i, i] = k
-        Ct[i, i] = c
+        Kt[i, i] += k
+        Ct[i, i] += c
     carry_state(s, u, s_new)
 
 
@@ -55,18 +60,22 @@ class GapSpring(Device):
         1 or 2 (uncoupled) directions.
     name : str
         Label.
+    kp, cp : sequence of two float, optional
+        Linear spring and dashpot beside the gap, per direction (none by default).
     """
 
     kind = KIND_GAP
 
     def __init__(
-        self, k: float, g: float, c: float = 0.0, *, n_dir: int = 1, name: str = "gap"
+        self, k: float, g: float, c: float = 0.0, *, n_dir: int = 1, name: str = "gap",
+        kp: tuple[float, float] = (0.0, 0.0), cp: tuple[float, float] = (0.0, 0.0),
     ) -> None:
-        if k < 0 or g < 0 or c < 0:
-            msg = f"k, g, c: expected non-negative, got {k}, {g}, {c}"
+        if k < 0 or g < 0 or c < 0 or min(kp) < 0 or min(cp) < 0:
+            msg = f"k, g, c, kp, cp: expected non-negative, got {k}, {g}, {c}, {kp}, {cp}"
             raise ModelError(msg)
-        super().__init__([k, g, c, float(n_dir)], n_dir=n_dir, name=name)
+        super().__init__([k, g, c, float(n_dir), *map(float, kp), *map(float, cp)],
+                         n_dir=n_dir, name=name)
 
     def reference_stiffness(self) -> np.ndarray:
-        """Return zeros (open gap at rest)."""
-        return np.zeros((2, 2))
+        """Return the spring beside the gap (the gap is open at rest)."""
+        return np.diag(self.params[4:6])

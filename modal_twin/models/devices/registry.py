@@ -215,7 +215,7 @@ _STICK_SLIP = {"mu_s": 0.09, "mu_k": 0.06, "kt_factor": 1.0}
 _BILINEAR = {"ratio": 0.75, "ub": 0.03}
 _BOUC_WEN = {"alpha": 0.3, "uy": 0.03}
 _CUBIC = {"k3": 0.0}
-_GAP = {"g": 0.01}
+_GAP = {"g": 0.01, "kp": 0.0}
 
 
 def _rel_linear(p: dict[str, Any], site: Site) -> Device:
@@ -262,8 +262,14 @@ def _rel_cubic(p: dict[str, Any], site: Site) -> Device:
 
 
 def _rel_gap(p: dict[str, Any], site: Site) -> Device:
+    # kp: the share of the component's own spring-dashpot kept beside the gap (0: a bare
+    # dead band, the default; 1: a bearing that hits a stop)
+    share = _take(p, "kp", _GAP["kp"])
+    kp = (share * float(site.k[0]), share * float(site.k[1]))
+    cp = (share * float(site.c[0]), share * float(site.c[1]))
     return GapSpring(_take(p, "k", _kmean(site)), _take(p, "g", _GAP["g"]),
-                     float(np.mean(site.c)), n_dir=2, name=site.name)
+                     0.0 if share else float(np.mean(site.c)), n_dir=2, name=site.name,
+                     kp=kp, cp=cp)
 
 
 _NOM_C = {"c": "nominal c"}
@@ -298,7 +304,8 @@ _ENTRIES = (
              ("k1", "k3", "c"), _NOM_C, "Eq. (3) of [003], K1 and K3 terms", _abs_cubic,
              ("k", "k3"), _CUBIC, build_relative=_rel_cubic),
     LawEntry("gap", GapSpring, law_gap, ("gap",), ("k", "g", "c"),
-             {"c": "mean nominal c"}, "dead band, contact spring", _abs_gap, ("k", "g"), _GAP,
+             {"c": "mean nominal c"}, "dead band, contact spring", _abs_gap, ("k", "g", "kp"),
+             _GAP,
              build_relative=_rel_gap),
     LawEntry("prandtl", PrandtlJoint, law_prandtl, ("hysteresis", "friction"),
              ("K1", "K2", "K3", "D1", "Fs", "Kb"),
