@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from modal_twin.errors import ModalTwinError
+from modal_twin.progress import Verbosity, set_verbosity
 from modal_twin.runtime import THREAD_ENV
 
 # one BLAS thread (modal_twin.runtime), set before numpy loads (neither import above does)
@@ -201,7 +202,11 @@ def _cmd_demo(a: argparse.Namespace) -> int:
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="modal-twin", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("-v", "--verbose", action="store_true")
+    talk = p.add_mutually_exclusive_group()
+    talk.add_argument("-v", "--verbose", action="store_true",
+                      help="debug logging; progress lines every second")
+    talk.add_argument("-q", "--quiet", action="store_true",
+                      help="no progress and no info logging (errors only)")
     sub = p.add_subparsers(dest="cmd", required=True)
     la = sub.add_parser("launch", help="run a scenario's nodes")
     la.add_argument("scenario", help="scenario YAML (path or name in config/scenarios)")
@@ -270,7 +275,10 @@ def main(argv: list[str] | None = None) -> int:
 
         return replay_main(argv[1:])
     a = _parser().parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if a.verbose else logging.INFO,
+    level = Verbosity.QUIET if a.quiet else Verbosity.VERBOSE if a.verbose else Verbosity.NORMAL
+    set_verbosity(level)
+    logging.basicConfig(level={Verbosity.QUIET: logging.WARNING, Verbosity.NORMAL: logging.INFO,
+                               Verbosity.VERBOSE: logging.DEBUG}[level],
                         format="%(levelname)s %(name)s: %(message)s")
     try:
         return int(a.func(a))

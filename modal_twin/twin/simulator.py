@@ -65,6 +65,7 @@ device stiffness).
 from __future__ import annotations
 
 import logging
+from contextlib import nullcontext
 from typing import Literal
 
 import numpy as np
@@ -82,6 +83,7 @@ from modal_twin.models.devices.base import (
     N_STATE,
 )
 from modal_twin.models.devices.bouc_wen import esb_pressure_factor
+from modal_twin.progress import Progress
 from modal_twin.twin.kernels import (
     STATUS_DIVERGED,
     STATUS_NONFINITE,
@@ -95,6 +97,7 @@ _log = logging.getLogger(__name__)
 _METHODS = ("modal-foh",)
 
 _CHUNK = 1024  # samples per kernel call: the output buffer Z stays in the L2 cache
+_SHOW_PROGRESS = 64 * _CHUNK  # blocks from this length on report progress (not live frames)
 # stiffness / damping a law can switch to that neither its tangent nor K_ref shows
 # (parameter index, -1 for none): Coulomb sticking (kt), gap contact (k, c), Prandtl Kb
 _JUMPS = {KIND_COULOMB: (2, -1), KIND_GAP: (0, 2), KIND_PRANDTL: (5, -1)}
@@ -340,29 +343,12 @@ class Simulator:
         W = self._Wall if self.modal_histories else self._Wy
         Z = np.empty((min(nb, _CHUNK), W.shape[1]))
         Y = np.empty((W.shape[0], nb))  # rows: y, then q, q', q'' if requested
-        for k0 in range(0, nb, _CHUNK):
-            k1 = min(nb, k0 + _CHUNK)
-            m = k1 - k0
-            status, idx = run_block(
-                ag, k0, k1, self._coef, self._GaT, self._GfT, self._Q, self._Ua0T,
-                self._Ua1T, self._HfT, self._HT, self.kinds, self._bw_idx, self.params,
-                self._consts, self.Kr, self.Cr, self._kjump, self._cjump, self._Xh,
-                self._base, self._ft, self._ft_old, self._Jinv, self._flags, self._states,
-                Z, out_u, out_f, out_it, self.rtol, self.max_iter,
-            )  # fmt: skip
-            if status == STATUS_NONFINITE:
-                msg = (
-                    f"state became non-finite at sample {self._k0 + idx} "
-                    "(unstable device law or step too large)"
-                )
-                raise SignalError(msg)
-            if status == STATUS_DIVERGED:
-                msg = (
-                    f"device-force Newton did not converge in {self.max_iter} iterations at "
-                    f"sample {self._k0 + idx} (rtol = {self.rtol:g})"
-                )
-                raise ConvergenceError(msg)
-            np.matmul(W, Z[:m].T, out=Y[:, k0:k1])  # one BLAS product per chunk
+        bar = Progress("simulation", nb, unit="sample") if nb >= _SHOW_PROGRESS else None
+        with bar or nullcontext():
+            for k0 in range(0, nb, _CHUNK):
+                self._run_chunk(ag, k0, min(nb, k0 + _CHUNK), W, Z, Y, out_u, out_f, out_it)
+                if bar is not None:
+                    bar.update(min(nb, k0 + _CHUNK) - k0)
         y = Y[:n_out]
         q = qd = qdd = None
         if self.modal_histories:
@@ -374,6 +360,32 @@ class Simulator:
             t=t, y=y, q=q, qd=qd, qdd=qdd, drift=out_u[ri], force=out_f[ri], rows=self.rows,
             newton_iterations=out_it, cond_V=self.cond_V, method="modal-foh",
         )  # fmt: skip
+
+    def _run_chunk(self, ag: FloatArray, k0: int, k1: int, W: FloatArray, Z: FloatArray,
+                   Y: FloatArray, out_u: FloatArray, out_f: FloatArray,
+                   out_it: np.ndarray) -> None:
+        """Integrate samples ``k0:k1`` of the block (one kernel call) and map them out."""
+        m = k1 - k0
+        status, idx = run_block(
+            ag, k0, k1, self._coef, self._GaT, self._GfT, self._Q, self._Ua0T,
+            self._Ua1T, self._HfT, self._HT, self.kinds, self._bw_idx, self.params,
+            self._consts, self.Kr, self.Cr, self._kjump, self._cjump, self._Xh,
+            self._base, self._ft, self._ft_old, self._Jinv, self._flags, self._states,
+            Z, out_u, out_f, out_it, self.rtol, self.max_iter,
+        )  # fmt: skip
+        if status == STATUS_NONFINITE:
+            msg = (
+                f"state became non-finite at sample {self._k0 + idx} "
+                "(unstable device law or step too large)"
+            )
+            raise SignalError(msg)
+        if status == STATUS_DIVERGED:
+            msg = (
+                f"device-force Newton did not converge in {self.max_iter} iterations at "
+                f"sample {self._k0 + idx} (rtol = {self.rtol:g})"
+            )
+            raise ConvergenceError(msg)
+        np.matmul(W, Z[:m].T, out=Y[:, k0:k1])  # one BLAS product per chunk
 
 
 def simulate(

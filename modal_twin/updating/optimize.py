@@ -28,6 +28,7 @@ import scipy.optimize as so
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
+from modal_twin.progress import Progress
 from modal_twin.updating.problem import UpdatingProblem
 from modal_twin.updating.reduced_basis import reduced_problem
 from modal_twin.updating.results import UpdateResult
@@ -66,6 +67,7 @@ def _map_of(workers: Workers) -> int | Callable[..., Any]:
 def global_search(
     problem: UpdatingProblem, *, maxiter: int = 30, popsize: int = 10, seed: int | None = 0,
     workers: Workers = 1, tol: float = 1e-3, x0: FloatArray | None = None,
+    label: str = "global search",
 ) -> tuple[FloatArray, float, int]:
     """Minimise Eq. (3) of [004] by differential evolution within the bounds.
 
@@ -80,6 +82,9 @@ def global_search(
         Where the population is evaluated (module docstring).
     x0 : (p,) float array, optional
         A starting member (parameter units), e.g. the nominal model.
+    label : str
+        Name of the step in the progress display (:mod:`modal_twin.progress`; one step per
+        generation, the best cost beside it).
 
     Returns
     -------
@@ -91,10 +96,15 @@ def global_search(
     mapper = _map_of(workers)
     p = problem.theta0.size
     start = None if x0 is None else np.clip((np.asarray(x0) - f.lo) / f.rng, 0.0, 1.0)
-    res = so.differential_evolution(
-        f, [(0.0, 1.0)] * p, maxiter=maxiter, popsize=popsize, tol=tol, seed=seed,
-        workers=mapper, updating="immediate" if mapper == 1 else "deferred", polish=False,
-        x0=start, init="latinhypercube")
+    with Progress(label, total=maxiter, unit="generation") as bar:
+
+        def generation_done(intermediate_result: so.OptimizeResult) -> None:
+            bar.update(note=f"cost {intermediate_result.fun:.4g}")
+
+        res = so.differential_evolution(
+            f, [(0.0, 1.0)] * p, maxiter=maxiter, popsize=popsize, tol=tol, seed=seed,
+            workers=mapper, updating="immediate" if mapper == 1 else "deferred", polish=False,
+            x0=start, init="latinhypercube", callback=generation_done)
     return f.theta(res.x), float(res.fun), int(res.nfev)
 
 
@@ -123,7 +133,7 @@ def update(
     problem: UpdatingProblem, *, theta_start: FloatArray | None = None,
     global_stage: bool = True, maxiter: int = 30, popsize: int = 10, seed: int | None = 0,
     workers: Workers = 1, max_nfev: int = 60, fraction: float = 0.1,
-    reduced: bool = False, full_nfev: int = 8,
+    reduced: bool = False, full_nfev: int = 8, label: str = "global search",
 ) -> UpdateResult:
     """Update the parameters: global search (optional), gradient refinement, uncertainty.
 
@@ -144,6 +154,8 @@ def update(
         Run the global search and a first refinement on a Ritz reduced model
         (:func:`~modal_twin.updating.reduced_basis.reduced_problem`), enrich its basis at that
         estimate, refine again, then finish with at most ``full_nfev`` full-model steps.
+    label : str
+        Name of the global search in the progress display.
 
     Returns
     -------
@@ -165,7 +177,7 @@ def update(
         search = reduced_problem(problem, seed=0 if seed is None else seed)
     if global_stage:
         th_g, c_g, n_glob = global_search(search, maxiter=maxiter, popsize=popsize,
-                                          seed=seed, workers=workers, x0=start)
+                                          seed=seed, workers=workers, x0=start, label=label)
         if problem.cost(th_g) < cost0:
             theta = th_g
         msg = f"global: cost {cost0:.4g} -> {c_g:.4g} in {n_glob} evaluations; "

@@ -168,7 +168,8 @@ def staged_update(
             theta=th, n_modes=nm, w_mac=st.w_mac, prior_weight=st.prior_weight, r_f=r_f,
             r_mac=r_mac, f_scale=_f_scale(sub, st.use_std))
         res = update(pr, global_stage=st.global_stage, maxiter=maxiter, popsize=popsize,
-                     seed=seed, workers=workers, max_nfev=max_nfev, reduced=reduced)
+                     seed=seed, workers=workers, max_nfev=max_nfev, reduced=reduced,
+                     label=f"stage {st.name!r}: global search")
         for nme, val in zip(res.names, res.theta, strict=True):
             th[par.index(nme)] = val
         out.append(res)
