@@ -8,6 +8,8 @@
     modal-twin diagnose MODEL --train BAG --test BAG
     modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
     modal-twin effects history DIR [--png FILE]
+    modal-twin view MODEL [--n-modes N] [--html OUT]
+    modal-twin report RUN_DIR [--out FILE]
     modal-twin demo
 """
 
@@ -19,6 +21,7 @@ import os
 import sys
 from pathlib import Path
 
+from modal_twin.commands import report, view
 from modal_twin.errors import ModalTwinError
 from modal_twin.progress import Verbosity, set_verbosity
 from modal_twin.runtime import THREAD_ENV
@@ -257,6 +260,8 @@ def _parser() -> argparse.ArgumentParser:
     eh.add_argument("folder", type=Path)
     eh.add_argument("--png", type=Path, default=None)
     ef.set_defaults(func=_cmd_effects)
+    view.register(sub)
+    report.register(sub)
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)

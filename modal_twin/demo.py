@@ -135,6 +135,8 @@ def run_demo(run_dir: Path | None = None) -> int:
           f"\n   nominal (v0) {before:.2f} %  ->  with {best.effect.law} at "
           f"{best.effect.component} ({mv.label}) {after:.2f} %   ({before / after:.1f}x lower)")
     png = plot_error_history(versions, out / "error_history.png")
-    print(f"error history: {png}\nmodel versions: {versions}\n"
+    from modal_twin.commands.report import make_report
+
+    print(f"error history: {png}\nmodel versions: {versions}\nreport: {make_report(out)}\n"
           f"demo took {time.monotonic() - t0:.0f} s")
     return 0 if before / max(after, 1e-12) >= 3.0 else 1
