@@ -89,7 +89,7 @@ class MeshcatServer:
     """
 
     def __init__(self, *, zmq_port: int = 6000, web_port: int = 7000,
-                 pid_file: str | Path | None = None, timeout_s: float = 20.0) -> None:
+                 pid_file: str | Path | None = None, timeout_s: float = 60.0) -> None:
         self.zmq_port, self.web_port = zmq_port, web_port
         self.pid_file = Path(pid_file) if pid_file is not None else default_pid_file()
         self.timeout_s = timeout_s
