@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from modal_twin.errors import ModalTwinError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.progress import track
 
@@ -69,6 +70,65 @@ def _device_data(bag: Path, blamed: set[str]) -> tuple[dict[str, Any], dict[str,
     return loops, states
 
 
+def _model_frf(structure: Path, names: list[str], f_hz: np.ndarray) -> np.ndarray:
+    """Absolute-acceleration FRF of the linear model to table acceleration x.
+
+    ``q'' + C q' + K q = -Gamma a_g``, ``y = C_acc [q; q'; q''] + D_acc a_g`` (Eq. (12) of
+    [004] in modal form, :class:`~modal_twin.models.building.ModalBuilding`).
+    """
+    from modal_twin.models.building import build_building, modal_reduction
+
+    red = modal_reduction(build_building(structure))
+    rows = [red.channel_names.index(n) for n in names]
+    r = red.n_modes
+    H = np.empty((len(names), f_hz.size), complex)
+    for k, w in enumerate(2 * np.pi * f_hz):
+        Q = np.linalg.solve(-w * w * red.M + 1j * w * red.C + red.K, -red.Gamma[:, 0])
+        z = np.concatenate([Q, 1j * w * Q, -w * w * Q])
+        H[:, k] = red.C_acc[rows, : 3 * r] @ z + red.D_acc[rows, 0]
+    return H
+
+
+def _identification(bag: Path, structure: Path) -> dict[str, Any]:
+    """Modes of a (low-level) record by N4SID, paired with the model's; measured vs model
+    FRF to table x (H1, Welch)."""
+    import scipy.signal as ss
+
+    from modal_twin.identification.metrics import mac
+    from modal_twin.identification.node import IdentificationConfig, identify_window
+    from modal_twin.io.bag import read_blocks
+    from modal_twin.models.building import build_building, modal_reduction
+    from modal_twin.signal_block import concatenate_blocks
+
+    blk = concatenate_blocks(read_blocks(bag, "/measurement/frames"))
+    cfg = IdentificationConfig(method="n4sid", fs_target_hz=100.0, max_order=40,
+                               outputs="[FR]*_[xyz]")
+    modes, diagram, outs = identify_window(blk, cfg)
+    bld = build_building(structure)
+    red = modal_reduction(bld, 12)
+    rows = [bld.channel_names.index(n) for n in outs]
+    Phi_m = (bld.S @ red.Phi)[rows]
+    M = mac(modes.shapes, Phi_m)
+    best = np.argmax(M, axis=1) if M.size else np.zeros(0, int)
+    out: dict[str, Any] = {
+        "stabilization": diagram, "selected_f_hz": modes.f_hz,
+        "modes": {"f_id_hz": modes.f_hz, "zeta_id": modes.zeta,
+                  "f_model_hz": red.f_hz[best], "zeta_model": red.zeta[best],
+                  "mac": M[np.arange(best.size), best]},
+        "mac": (M, [f"id {k + 1}: {f:.2f} Hz" for k, f in enumerate(modes.f_hz)],
+                [f"model {k + 1}: {f:.2f} Hz" for k, f in enumerate(red.f_hz)])}
+    names = list(blk.channel_names)
+    x = blk.data[names.index("table_ax")]
+    fr = [n for n in outs if n.endswith("_x")]
+    Y = blk.data[[names.index(n) for n in fr]]
+    nper = int(blk.fs_hz * 20.0 / 8)
+    f, Pxx = ss.welch(x, blk.fs_hz, nperseg=nper)
+    _, Pxy = ss.csd(x[None, :], Y, blk.fs_hz, nperseg=nper)
+    band = (f > 0.2) & (f < 20.0)
+    out["frf"] = (f[band], (Pxy / Pxx)[:, band], fr, _model_frf(structure, fr, f[band]))
+    return out
+
+
 def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
     """Gather a run folder's data into a :class:`~modal_twin.viz.report.RunData`."""
     from modal_twin.models.versions import history
@@ -96,8 +156,18 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
 
         cmds, caption = model_scene(versions[-1].path, n_modes)
         scene = static_html(cmds, caption=caption)
+    notes = [f"run folder: {run_dir.resolve()}"]
+    ident: dict[str, Any] = {}
+    low = sorted(run_dir.glob("*low*/bag"))
+    if low and versions:
+        try:
+            ident = _identification(low[0], versions[0].structure)
+            notes.append(f"identification and FRF: N4SID on {low[0].parent.name} (table x "
+                         "input for the FRF), paired with the nominal model by MAC")
+        except ModalTwinError as err:
+            notes.append(f"identification of {low[0].parent.name} failed: {err}")
     return RunData(f"modal_twin run {run_dir.name}", records, versions, scene, images=images,
-                   notes=[f"run folder: {run_dir.resolve()}"])
+                   notes=notes, **ident)
 
 
 def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: int = 4
