@@ -35,11 +35,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 def _metrics(bag: Path) -> tuple[Any, dict[str, tuple[str, str, str]]]:
-    from modal_twin.io.bag import read_messages
+    from modal_twin.io.bag import bag_info, read_messages
     from modal_twin.io.convert import channel_map_from_msg
 
     last, meta = None, {}
-    for topic, _, msg in read_messages(bag, ["/twin/metrics", "/measurement/channels"]):
+    present = {t.name for t in bag_info(bag).topics}
+    wanted = [t for t in ("/twin/metrics", "/measurement/channels") if t in present]
+    for topic, _, msg in read_messages(bag, wanted) if wanted else ():
         if topic == "/twin/metrics":
             last = msg
         else:

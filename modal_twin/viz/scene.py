@@ -25,6 +25,7 @@ import base64
 import html
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -103,11 +104,16 @@ def _edges_from_stiffness(K_full: Any) -> IntArray:
     return pairs.astype(np.int64)
 
 
-def building_geometry(structure_file: str | Path) -> StructureGeometry:
-    """Wireframe, sensors and devices of a structure file (``config/structures/...``)."""
+@lru_cache(maxsize=2)
+def _building(resolved: str) -> Any:
     from modal_twin.models.building import build_building
 
-    bld = build_building(structure_file)
+    return build_building(resolved)
+
+
+def building_geometry(structure_file: str | Path) -> StructureGeometry:
+    """Wireframe, sensors and devices of a structure file (``config/structures/...``)."""
+    bld = _building(str(Path(structure_file).resolve()))
     asm = bld.assembly
     idx = {n: i for i, n in enumerate(asm.nodes)}
     sensors = {s.name: asm.xyz[idx[s.node]] for s in bld.spec.sensors}
@@ -118,9 +124,9 @@ def building_geometry(structure_file: str | Path) -> StructureGeometry:
 
 def building_modes(structure_file: str | Path, n_modes: int = 6) -> SceneModes:
     """The lowest ``n_modes`` model modes of a structure file, on all its nodes."""
-    from modal_twin.models.building import build_building, modal_reduction
+    from modal_twin.models.building import modal_reduction
 
-    bld = build_building(structure_file)
+    bld = _building(str(Path(structure_file).resolve()))
     red = modal_reduction(bld, max(n_modes, 1))
     full = bld.assembly.T @ red.Phi[:, :n_modes]  # every node, slaves included
     n_nodes = len(bld.assembly.nodes)
