@@ -9,6 +9,7 @@ exit, Ctrl-C ends the view) and its address printed.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 from pathlib import Path
@@ -62,12 +63,17 @@ def run(args: argparse.Namespace) -> int:
         args.html.write_text(static_html(cmds, caption=caption, title=args.model.name))
         print(f"scene: {args.html}")
         return ExitCode.OK
-    with MeshcatServer(zmq_port=args.zmq_port, web_port=args.web_port) as server:
-        send_commands(server.zmq_url, cmds)
-        print(f"scene: {server.web_url} (Ctrl-C to stop the server, pid {server.proc.pid})")
-        try:
+    def _terminate(*_: object) -> None:  # SIGTERM ends the view like Ctrl-C (server stopped)
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, _terminate)
+    try:
+        with MeshcatServer(zmq_port=args.zmq_port, web_port=args.web_port) as server:
+            send_commands(server.zmq_url, cmds)
+            print(f"scene: {server.web_url} (Ctrl-C to stop the server, pid "
+                  f"{server.proc.pid if server.proc else '?'})", flush=True)
             while server.proc is not None and server.proc.poll() is None:
                 time.sleep(0.5)
-        except KeyboardInterrupt:
-            return ExitCode.INTERRUPTED
+    except KeyboardInterrupt:
+        return ExitCode.INTERRUPTED
     return ExitCode.FAILED

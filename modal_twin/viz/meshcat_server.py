@@ -93,7 +93,7 @@ class MeshcatServer:
         self.zmq_port, self.web_port = zmq_port, web_port
         self.pid_file = Path(pid_file) if pid_file is not None else default_pid_file()
         self.timeout_s = timeout_s
-        self.proc: subprocess.Popen[str] | None = None
+        self.proc: subprocess.Popen[bytes] | None = None
         self.zmq_url = f"tcp://{HOST}:{zmq_port}"
         self.web_url = f"http://{HOST}:{web_port}/static/"
 
@@ -103,20 +103,32 @@ class MeshcatServer:
         cmd = [sys.executable, "-m", _MARK, "--zmq-port", str(self.zmq_port),
                "--web-port", str(self.web_port)]
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                     text=True, preexec_fn=_die_with_parent)
+                                     preexec_fn=_die_with_parent)
         self.pid_file.write_text(f"{self.proc.pid}\n")
-        t0 = time.monotonic()
+        try:
+            self._wait_ready()
+        except BaseException:  # not up, port in use, Ctrl-C: the child goes too
+            self.stop()
+            raise
+        return self
+
+    def _wait_ready(self) -> None:
+        assert self.proc is not None
         assert self.proc.stdout is not None
+        fd, buf = self.proc.stdout.fileno(), b""
+        t0 = time.monotonic()
         while time.monotonic() - t0 < self.timeout_s:
-            ready, _, _ = select.select([self.proc.stdout], [], [], 0.2)
-            if ready:
-                line = self.proc.stdout.readline()
-                if line.startswith("web_url="):
-                    return self
-                if line.startswith("meshcat server:") or not line:
-                    self.stop()
-                    raise LaunchError(line.strip() or "meshcat server: exited on start")
-        self.stop()
+            ready, _, _ = select.select([fd], [], [], 0.2)
+            if not ready:
+                continue
+            chunk = os.read(fd, 65536)  # raw reads: no line left behind in a buffer
+            buf += chunk
+            lines = buf.decode(errors="replace").splitlines()
+            if any(ln.startswith("web_url=") for ln in lines):
+                return
+            err = [ln for ln in lines if ln.startswith("meshcat server:")]
+            if err or not chunk:
+                raise LaunchError(err[0] if err else "meshcat server: exited on start")
         msg = f"meshcat server: not up within {self.timeout_s:g} s"
         raise LaunchError(msg)
 
