@@ -205,11 +205,7 @@ def _cmd_demo(a: argparse.Namespace) -> int:
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="modal-twin", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    talk = p.add_mutually_exclusive_group()
-    talk.add_argument("-v", "--verbose", action="store_true",
-                      help="debug logging; progress lines every second")
-    talk.add_argument("-q", "--quiet", action="store_true",
-                      help="no progress and no info logging (errors only)")
+    _verbosity_flags(p)
     sub = p.add_subparsers(dest="cmd", required=True)
     la = sub.add_parser("launch", help="run a scenario's nodes")
     la.add_argument("scenario", help="scenario YAML (path or name in config/scenarios)")
@@ -265,7 +261,27 @@ def _parser() -> argparse.ArgumentParser:
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)
+    _flags_on_commands(sub)  # also after the command: modal-twin demo --quiet
     return p
+
+
+def _flags_on_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    for name, sp in sub.choices.items():
+        if name in ("record", "replay"):  # parsed by their own mains
+            continue
+        nested = [a for a in sp._actions if isinstance(a, argparse._SubParsersAction)]
+        for n in nested:
+            _flags_on_commands(n)
+        if not nested:
+            _verbosity_flags(sp, default=argparse.SUPPRESS)
+
+
+def _verbosity_flags(p: argparse.ArgumentParser, default: object = False) -> None:
+    talk = p.add_mutually_exclusive_group()
+    talk.add_argument("-v", "--verbose", action="store_true", default=default,
+                      help="debug logging; progress lines every second")
+    talk.add_argument("-q", "--quiet", action="store_true", default=default,
+                      help="no progress and no info logging (errors only)")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -139,6 +139,10 @@ def test_cli_flags_set_the_level(level) -> None:
 
     a = _parser().parse_args(["--quiet", "demo"])
     assert a.quiet and not a.verbose
+    a = _parser().parse_args(["bag", "info", "some.bag", "--verbose"])  # after the command
+    assert a.verbose and not a.quiet
+    a = _parser().parse_args(["demo"])
+    assert not (a.quiet or a.verbose)
     with pytest.raises(SystemExit):
         _parser().parse_args(["--quiet", "--verbose", "demo"])
 
