@@ -62,8 +62,9 @@ def plot_where(names: Sequence[str], errors: ArrayLike, *, meta: Groups | None =
         x = np.arange(len(keys))
         ax.bar(x, [np.mean(by[k]) for k in keys], color="tab:orange", label="mean")
         ax.plot(x, [np.max(by[k]) for k in keys], "kv", ms=5, label="largest")
-        ax.set_xticks(x, keys, rotation=45 if len(keys) > 6 else 0, ha="right"
-                      if len(keys) > 6 else "center", fontsize=8)
+        tilt = len(keys) > 6 or max((len(k) for k in keys), default=0) > 6
+        ax.set_xticks(x, keys, rotation=40 if tilt else 0, ha="right" if tilt else "center",
+                      fontsize=8)
         ax.set_title(f"by {what}", fontsize=9)
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].set_ylabel(metric)
