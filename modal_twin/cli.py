@@ -12,6 +12,8 @@
     modal-twin identify BAG [--method n4sid|ssi-cov|polymax] [--out DIR]
     modal-twin update MODEL.mat|.npz --modes FILE [--out DIR]
     modal-twin export modes|frf|model SRC --out FILE
+    modal-twin view MODEL [--n-modes N] [--html OUT]
+    modal-twin report RUN_DIR [--out FILE]
     modal-twin demo
 """
 
@@ -24,10 +26,11 @@ import sys
 import time
 from pathlib import Path
 
-from modal_twin.commands import campaign, export, identify, import_, update
+from modal_twin.commands import campaign, export, identify, import_, report, update, view
 from modal_twin.commands.model_matrix import check_model_kind, matrix_info
 from modal_twin.errors import ModalTwinError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.progress import Verbosity, set_verbosity
 from modal_twin.runtime import THREAD_ENV
 
 # one BLAS thread (modal_twin.runtime), set before numpy loads (neither import above does)
@@ -205,7 +208,7 @@ def _cmd_demo(a: argparse.Namespace) -> int:
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="modal-twin", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("-v", "--verbose", action="store_true")
+    _verbosity_flags(p)
     sub = p.add_subparsers(dest="cmd", required=True)
     la = sub.add_parser("launch", help="run a scenario's nodes")
     la.add_argument("scenario", help="scenario YAML (path or name in config/scenarios)")
@@ -266,12 +269,34 @@ def _parser() -> argparse.ArgumentParser:
     eh.add_argument("folder", type=Path)
     eh.add_argument("--png", type=Path, default=None)
     ef.set_defaults(func=_cmd_effects)
+    view.register(sub)
+    report.register(sub)
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)
     for mod in (import_, identify, export, update, campaign):
         mod.register(sub)
+    _flags_on_commands(sub)  # also after the command: modal-twin demo --quiet
     return p
+
+
+def _flags_on_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    for name, sp in sub.choices.items():
+        if name in ("record", "replay"):  # parsed by their own mains
+            continue
+        nested = [a for a in sp._actions if isinstance(a, argparse._SubParsersAction)]
+        for n in nested:
+            _flags_on_commands(n)
+        if not nested:
+            _verbosity_flags(sp, default=argparse.SUPPRESS)
+
+
+def _verbosity_flags(p: argparse.ArgumentParser, default: object = False) -> None:
+    talk = p.add_mutually_exclusive_group()
+    talk.add_argument("-v", "--verbose", action="store_true", default=default,
+                      help="debug logging; progress lines every second")
+    talk.add_argument("-q", "--quiet", action="store_true", default=default,
+                      help="no progress and no info logging (errors only)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -286,7 +311,10 @@ def main(argv: list[str] | None = None) -> int:
 
         return replay_main(argv[1:])
     a = _parser().parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if a.verbose else logging.INFO,
+    level = Verbosity.QUIET if a.quiet else Verbosity.VERBOSE if a.verbose else Verbosity.NORMAL
+    set_verbosity(level)
+    logging.basicConfig(level={Verbosity.QUIET: logging.WARNING, Verbosity.NORMAL: logging.INFO,
+                               Verbosity.VERBOSE: logging.DEBUG}[level],
                         format="%(levelname)s %(name)s: %(message)s")
     try:
         return int(a.func(a))

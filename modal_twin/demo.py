@@ -151,6 +151,8 @@ def run_demo(run_dir: Path | None = None) -> int:
           f"{after / max(noise, 1e-12):.2f})\n   Eq. (8) of [004] (difference of RMS values, "
           f"not a waveform error): {eq8_before:.2f} % -> {eq8_after:.2f} %")
     png = plot_error_history(versions, out / "error_history.png")
-    print(f"error history: {png}\nmodel versions: {versions}\n"
+    from modal_twin.commands.report import make_report
+
+    print(f"error history: {png}\nmodel versions: {versions}\nreport: {make_report(out)}\n"
           f"demo took {time.monotonic() - t0:.0f} s")
     return 0 if before / max(after, 1e-12) >= 3.0 else 1

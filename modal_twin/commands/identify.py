@@ -189,8 +189,9 @@ def _write(out: Path, method: str, outs: list[ChannelSpec], ins: list[ChannelSpe
     from modal_twin.identification import automac
     from modal_twin.io.imported import atomic_file
     from modal_twin.io.uff import AXIS_CODES, write_uff55
-    from modal_twin.viz.mac import save_mac
-    from modal_twin.viz.stabilization import save_stabilization
+    from modal_twin.viz._figure import save_figure
+    from modal_twin.viz.mac import plot_mac
+    from modal_twin.viz.stabilization import plot_stabilization
 
     out.mkdir(parents=True, exist_ok=True)
     nodes = sorted({c.node or c.location or c.name for c in outs})
@@ -216,9 +217,10 @@ def _write(out: Path, method: str, outs: list[ChannelSpec], ins: list[ChannelSpe
         tmp.unlink()
         write_uff55(tmp, mm.f_hz, mm.zeta, mm.shapes, [int(str(d["node"])) for d in dofs],
                     [AXIS_CODES.get(str(d["direction"]), 1) for d in dofs])
-    save_stabilization(out / "stabilization.png", list(diag.orders),
-                       [p.f_hz for p in diag.poles], list(diag.stable), selected_hz=mm.f_hz,
-                       band_hz=s.band_hz, title=f"stabilization diagram ({method})")
-    labels = [f"{f:.2f}" for f in mm.f_hz]
-    save_mac(out / "mac.png", automac(mm.shapes), labels, labels, title="auto-MAC, Hz")
+    save_figure(plot_stabilization(diag, selected_f_hz=mm.f_hz, f_max_hz=s.band_hz[1],
+                                   title=f"stabilization diagram ({method})"),
+                out / "stabilization.png")
+    labels = [f"{f:.2f} Hz" for f in mm.f_hz]
+    save_figure(plot_mac(automac(mm.shapes), labels, labels, title="auto-MAC"),
+                out / "mac.png")
     print(f"identify: wrote {out}/modes.json, modes.uff, stabilization.png, mac.png")

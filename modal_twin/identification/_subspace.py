@@ -24,6 +24,7 @@ import scipy.linalg as sla
 from modal_twin._types import ComplexArray, FloatArray, IntArray
 from modal_twin.errors import ModelError, OptionError
 from modal_twin.identification.modal_model import PoleSet, normalize_shapes
+from modal_twin.progress import track
 
 __all__ = ["check_orders", "default_block_rows", "leading_eigh", "poles_over_orders"]
 
@@ -136,7 +137,7 @@ def poles_over_orders(
     blk = [_shift_solver(Gb, l) for Gb in G_blocks]
     nb = len(blk)
     out = []
-    for n in orders:
+    for n in track(orders, "model orders", unit="order"):
         A = R[:n, :n] @ M[:n, :n]  # R holds R^-1 here
         if not np.all(np.isfinite(A)):
             msg = f"orders: order {n} exceeds the rank of the observability matrix"

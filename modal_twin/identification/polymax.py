@@ -42,6 +42,7 @@ from modal_twin.errors import OptionError, ShapeError, SignalError
 from modal_twin.identification._subspace import check_orders
 from modal_twin.identification.lsfd import lsfd_shapes
 from modal_twin.identification.modal_model import PoleSet, PoleSweep, normalize_shapes
+from modal_twin.progress import track
 
 __all__ = ["polymax", "polymax_poles"]
 
@@ -189,7 +190,7 @@ def _sweep(
     o = np.asarray(orders, dtype=np.int64)
     T, C, Lc, W3 = _reduced_normal(H, f_hz, int(o.max()), dt_s)
     out = []
-    for p in o:
+    for p in track(o, "polynomial orders", unit="order"):
         mp, qm = m * int(p), m * (int(p) + 1)
         Mp = 2.0 * (T[:qm, :qm] - C[int(p), :qm, :qm])  # reduced normal equations
         Mp = 0.5 * (Mp + Mp.T)

@@ -77,6 +77,7 @@ device stiffness).
 from __future__ import annotations
 
 import logging
+from contextlib import nullcontext
 from typing import Literal
 
 import numpy as np
@@ -95,6 +96,7 @@ from modal_twin.models.devices.base import (
 )
 from modal_twin.models.devices.bouc_wen import esb_pressure_factor
 from modal_twin.models.reduced import ReducedSystem, SimResult
+from modal_twin.progress import Progress
 from modal_twin.twin.kernels import (
     STATUS_DIVERGED,
     STATUS_NONFINITE,
@@ -108,6 +110,7 @@ _METHODS = ("modal-foh",)
 
 _CHUNK = 1024  # samples per kernel call (one output product per chunk)
 _SUB = 64  # samples per input block product inside the kernel (98 kB: stays in L2)
+_SHOW_PROGRESS = 64 * _CHUNK  # blocks from this length on report progress (not live frames)
 # stiffness / damping a law can switch to that neither its tangent nor K_ref shows
 # (parameter index, -1 for none): Coulomb sticking (kt), gap contact (k, c), Prandtl Kb
 _JUMPS = {KIND_COULOMB: (2, -1), KIND_GAP: (0, 2), KIND_PRANDTL: (5, -1)}
@@ -361,31 +364,35 @@ class Simulator:
         U = np.empty((min(nb, _CHUNK), nf))
         col_f = W.shape[1] - nf  # Z rows: [xi; a_g; f]
         Y = np.empty((W.shape[0], nb))  # rows: y, then q, q', q'' if requested
-        for k0 in range(0, nb, _CHUNK):
-            k1 = min(nb, k0 + _CHUNK)
-            m = k1 - k0
-            status, idx = run_block(
-                ag, k0, k1, self._PinT, Ain, self._coef, self._GfT, self._Q, self._HfT, self._HT,
-                self.kinds, self._bw_idx, self.params,
-                self._consts, self.Kr, self.Cr, self._kjump, self._cjump, self._Xh,
-                self._base, self._ft, self._ft_old, self._Jinv, self._flags, self._states,
-                Z, U, out_it, self.rtol, self.max_iter,
-            )  # fmt: skip
-            if status == STATUS_NONFINITE:
-                msg = (
-                    f"state became non-finite at sample {self._k0 + idx} "
-                    "(unstable device law or step too large)"
-                )
-                raise SignalError(msg)
-            if status == STATUS_DIVERGED:
-                msg = (
-                    f"device-force Newton did not converge in {self.max_iter} iterations at "
-                    f"sample {self._k0 + idx} (rtol = {self.rtol:g})"
-                )
-                raise ConvergenceError(msg)
-            np.matmul(W, Z[:m].T, out=Y[:, k0:k1])  # one BLAS product per chunk
-            out_u[:, k0:k1] = U[:m].T
-            out_f[:, k0:k1] = Z[:m, col_f:].T
+        bar = Progress("simulation", nb, unit="sample") if nb >= _SHOW_PROGRESS else None
+        with bar or nullcontext():
+            for k0 in range(0, nb, _CHUNK):
+                k1 = min(nb, k0 + _CHUNK)
+                m = k1 - k0
+                status, idx = run_block(
+                    ag, k0, k1, self._PinT, Ain, self._coef, self._GfT, self._Q, self._HfT,
+                    self._HT, self.kinds, self._bw_idx, self.params,
+                    self._consts, self.Kr, self.Cr, self._kjump, self._cjump, self._Xh,
+                    self._base, self._ft, self._ft_old, self._Jinv, self._flags, self._states,
+                    Z, U, out_it, self.rtol, self.max_iter,
+                )  # fmt: skip
+                if status == STATUS_NONFINITE:
+                    msg = (
+                        f"state became non-finite at sample {self._k0 + idx} "
+                        "(unstable device law or step too large)"
+                    )
+                    raise SignalError(msg)
+                if status == STATUS_DIVERGED:
+                    msg = (
+                        f"device-force Newton did not converge in {self.max_iter} iterations at "
+                        f"sample {self._k0 + idx} (rtol = {self.rtol:g})"
+                    )
+                    raise ConvergenceError(msg)
+                np.matmul(W, Z[:m].T, out=Y[:, k0:k1])  # one BLAS product per chunk
+                out_u[:, k0:k1] = U[:m].T
+                out_f[:, k0:k1] = Z[:m, col_f:].T
+                if bar is not None:
+                    bar.update(m)
         y = Y[:n_out]
         q = qd = qdd = None
         if self.modal_histories:

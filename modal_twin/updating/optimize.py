@@ -34,6 +34,7 @@ from modal_twin.executors import (
     map_ordered,
     mapper,
 )
+from modal_twin.progress import Progress
 from modal_twin.updating.problem import UpdatingProblem
 from modal_twin.updating.reduced_basis import reduced_problem
 from modal_twin.updating.results import UpdateResult
@@ -62,6 +63,7 @@ class _ScaledCost:
 def global_search(
     problem: UpdatingProblem, *, maxiter: int = 30, popsize: int = 10, seed: int | None = 0,
     executor: ExecutorSpec = 1, tol: float = 1e-3, x0: FloatArray | None = None,
+    label: str = "global search",
 ) -> tuple[FloatArray, float, int]:
     """Minimise Eq. (3) of [004] by differential evolution within the bounds.
 
@@ -77,6 +79,9 @@ def global_search(
         the result does not depend on it.
     x0 : (p,) float array, optional
         A starting member (parameter units), e.g. the nominal model.
+    label : str
+        Name of the step in the progress display (:mod:`modal_twin.progress`; one step per
+        generation, the best cost beside it).
 
     Returns
     -------
@@ -87,11 +92,16 @@ def global_search(
     f = _ScaledCost(problem)
     p = problem.theta0.size
     start = None if x0 is None else np.clip((np.asarray(x0) - f.lo) / f.rng, 0.0, 1.0)
-    with make_executor(executor) as ex:
+    with make_executor(executor) as ex, Progress(label, total=maxiter,
+                                                 unit="generation") as bar:
+
+        def generation_done(intermediate_result: so.OptimizeResult) -> None:
+            bar.update(note=f"cost {intermediate_result.fun:.4g}")
+
         res = so.differential_evolution(
             f, [(0.0, 1.0)] * p, maxiter=maxiter, popsize=popsize, tol=tol, seed=seed,
             workers=mapper(ex), updating="deferred", polish=False, x0=start,
-            init="latinhypercube")
+            init="latinhypercube", callback=generation_done)
     return f.theta(res.x), float(res.fun), int(res.nfev)
 
 
@@ -182,6 +192,7 @@ def update(
     global_stage: bool = True, maxiter: int = 30, popsize: int = 10, seed: int | None = 0,
     executor: ExecutorSpec = 1, max_nfev: int = 60, fraction: float = 0.1,
     reduced: bool = False, full_nfev: int = 8, n_starts: int = 0,
+    label: str = "global search",
 ) -> UpdateResult:
     """Update the parameters: global search (optional), gradient refinement, uncertainty.
 
@@ -208,6 +219,8 @@ def update(
     n_starts : int
         Latin-hypercube starts refined beside the best estimate so far (:func:`multi_start`,
         on the full model, before the final refinement); 0 = none.
+    label : str
+        Name of the global search in the progress display.
 
     Returns
     -------
@@ -229,7 +242,7 @@ def update(
         if global_stage:
             n_before = search.n_eigen_solves
             th_g, c_g, n_glob = global_search(search, maxiter=maxiter, popsize=popsize,
-                                              seed=seed, executor=ex, x0=start)
+                                              seed=seed, executor=ex, x0=start, label=label)
             n_in_process = search.n_eigen_solves - n_before
             if problem.cost(th_g) < cost0:
                 theta = th_g

@@ -180,7 +180,7 @@ def staged_update(
             pr = _stage_problem(par, S, targets, st, th, n_modes=n_modes, r_f=r_f, r_mac=r_mac)
             res = update(pr, global_stage=st.global_stage, maxiter=maxiter, popsize=popsize,
                          seed=seed, executor=ex, max_nfev=max_nfev, reduced=reduced,
-                         n_starts=n_starts)
+                         n_starts=n_starts, label=f"stage {st.name!r}: global search")
             for nme, val in zip(res.names, res.theta, strict=True):
                 th[par.index(nme)] = val
             out.append(res)

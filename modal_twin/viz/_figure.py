@@ -1,24 +1,68 @@
-"""Figure helpers shared by the viz modules: a headless figure and a save helper."""
+"""Figures without pyplot: an Agg canvas per figure (no global state, no display needed)."""
 
 from __future__ import annotations
 
+import base64
+import io
+import re
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
-__all__ = ["new_figure", "save_figure"]
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
+__all__ = ["channel_parts", "new_figure", "png_bytes", "png_data_uri", "save_figure"]
 
-def new_figure(figsize: tuple[float, float]) -> tuple[Any, Any]:
-    """A matplotlib ``(Figure, Axes)`` drawn without a display (no pyplot state kept)."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize)
-    return fig, fig.add_subplot(1, 1, 1)
+_PART = re.compile(r"^(?P<place>[A-Za-z]+\d*)(?:_(?P<mid>.+?))?_(?P<code>[a-z]+)$")
+_QUANTITY = {"d": "drift", "f": "force", "v": "velocity", "a": "acceleration"}
 
 
-def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> Path:
-    """Save ``fig`` as ``path`` (PNG / SVG / PDF by suffix) and return the path."""
-    p = Path(path)
-    fig.tight_layout()
-    fig.savefig(p, dpi=dpi)
-    return p
+def new_figure(width_in: float, height_in: float) -> Figure:
+    """A figure on its own Agg canvas (constrained layout: labels are never cut)."""
+    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def png_bytes(fig: Figure, *, dpi: int = 100) -> bytes:
+    """PNG encoding of ``fig``."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
+
+
+def png_data_uri(fig: Figure, *, dpi: int = 100) -> str:
+    """``data:image/png;base64,...`` of ``fig`` (for a self-contained HTML page)."""
+    return "data:image/png;base64," + base64.b64encode(png_bytes(fig, dpi=dpi)).decode()
+
+
+def channel_parts(name: str) -> tuple[str, str, str]:
+    """Place, direction and quantity of a channel named ``<place>[_<sensor>]_<code>``.
+
+    ``F0_C1_x`` -> ``("F0", "x", "acceleration")``; ``ESB1_dx`` -> ``("ESB1", "x",
+    "drift")``; ``ESB1_fy`` -> ``("ESB1", "y", "force")``. Only a fallback for channels
+    without metadata (the channel map's location / direction / quantity come first).
+    """
+    m = _PART.match(name)
+    if m is None:
+        return name, "?", "?"
+    code = m["code"]
+    if len(code) == 2 and code[0] in _QUANTITY and code[1] in "xyz":
+        return m["place"], code[1], _QUANTITY[code[0]]
+    if code in ("x", "y", "z", "rx", "ry", "rz"):
+        return m["place"], code, "acceleration"
+    return m["place"], code, "?"
+
+
+def short_labels(labels: Sequence[str], width: int = 14) -> list[str]:
+    """Labels cut to ``width`` characters (with an ellipsis) for crowded axes."""
+    return [s if len(s) <= width else s[: width - 1] + "\u2026" for s in labels]
+
+
+def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
+    """Write ``fig`` as a PNG at ``path`` (parents made) and return the path: the command
+    line's figures are the report's, written to files."""
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_bytes(png_bytes(fig, dpi=dpi))
+    return out

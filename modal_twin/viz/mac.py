@@ -1,48 +1,59 @@
-"""MAC matrix figure (auto-MAC of one mode set, or MAC between two).
-
-Plain arrays in, a matplotlib Figure out (:func:`mac_figure`); :func:`save_mac` writes it.
-"""
+"""MAC / AutoMAC matrix (Eq. (6) of [002]) as a heat map with its values."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
-from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 
-from modal_twin._types import FloatArray
-from modal_twin.viz._figure import new_figure, save_figure
+from modal_twin.errors import ShapeError
+from modal_twin.viz._figure import new_figure, short_labels
 
-__all__ = ["mac_figure", "save_mac"]
+__all__ = ["plot_mac"]
+
+_ANNOTATE_MAX = 16  # cells per side up to which the values are written in the cells
 
 
-def mac_figure(M: FloatArray, row_labels: Sequence[str], col_labels: Sequence[str], *,
-               title: str = "MAC") -> Any:
-    """A MAC matrix as a heat map with its values written in the cells.
+def plot_mac(mac: ArrayLike, labels_row: Sequence[str], labels_col: Sequence[str], *,
+             title: str = "MAC") -> Figure:
+    """Plot a MAC matrix (rows: e.g. identified modes, columns: model modes).
 
     Parameters
     ----------
-    M : ndarray, shape (n_rows, n_cols)
-        MAC values in [0, 1].
-    row_labels, col_labels : sequences of str
-        Labels (e.g. frequencies) of the rows and columns.
+    mac : (n_row, n_col) array_like
+        Values in [0, 1].
+    labels_row, labels_col : sequence of str
+        One label per row / column (e.g. ``"1: 0.45 Hz"``).
+    title : str
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The values are written in the cells up to 16 x 16 (texts of the axes).
+
+    Raises
+    ------
+    ShapeError
+        ``mac`` not 2-D, or label counts that do not match its shape.
     """
-    M = np.asarray(M, dtype=float)
-    n_r, n_c = M.shape
-    fig, ax = new_figure((1.2 + 0.55 * max(n_c, 3), 1.0 + 0.5 * max(n_r, 3)))
-    im = ax.imshow(M, vmin=0.0, vmax=1.0, cmap="Blues")
-    for r in range(n_r):
-        for c in range(n_c):
-            ax.text(c, r, f"{M[r, c]:.2f}", ha="center", va="center", fontsize=7,
-                    color="white" if M[r, c] > 0.6 else "black")
-    ax.set_xticks(range(n_c), list(col_labels), rotation=45, fontsize=7)
-    ax.set_yticks(range(n_r), list(row_labels), fontsize=7)
+    M = np.asarray(mac, dtype=float)
+    if M.ndim != 2 or len(labels_row) != M.shape[0] or len(labels_col) != M.shape[1]:
+        msg = (f"mac: expected (n_row, n_col) = ({len(labels_row)}, {len(labels_col)}) "
+               f"from the labels, got {M.shape}")
+        raise ShapeError(msg)
+    side = 2.5 + 0.45 * max(M.shape)
+    fig = new_figure(min(side + 1.5, 16.0), min(side, 14.0))
+    ax = fig.add_subplot()
+    im = ax.imshow(M, vmin=0.0, vmax=1.0, cmap="viridis", aspect="equal")
+    ax.set_xticks(np.arange(M.shape[1]), short_labels(labels_col), rotation=60, ha="right",
+                  fontsize=8)
+    ax.set_yticks(np.arange(M.shape[0]), short_labels(labels_row), fontsize=8)
+    if max(M.shape) <= _ANNOTATE_MAX:
+        for (i, j), v in np.ndenumerate(M):
+            ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=7,
+                    color="k" if v > 0.6 else "w")
+    fig.colorbar(im, ax=ax, label="MAC", shrink=0.8)
     ax.set_title(title)
-    fig.colorbar(im, ax=ax, fraction=0.046)
     return fig
-
-
-def save_mac(path: str | Path, *args: Any, **kwargs: Any) -> Path:
-    """Draw :func:`mac_figure` and save it to ``path``."""
-    return save_figure(mac_figure(*args, **kwargs), path)

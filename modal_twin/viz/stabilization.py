@@ -1,65 +1,67 @@
-"""Stabilization diagram: poles per model order, marked by what they keep stable.
+"""Stabilization diagram: poles over model orders, marked by the stability rule of [004].
 
-Plain arrays in, a matplotlib Figure out (:func:`stabilization_figure`); the report code
-reuses it. :func:`save_stabilization` writes it.
+Stable (frequency, damping and MAC within the tolerances of Sec. 3 of [004]) as filled
+dots, stable in frequency only as open circles, the rest as small grey points; selected
+modes as vertical lines. Legend outside the axes, so that it never covers poles.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 
-from modal_twin._types import FloatArray
-from modal_twin.viz._figure import new_figure, save_figure
+from modal_twin.viz._figure import new_figure
 
-__all__ = ["save_stabilization", "stabilization_figure"]
+__all__ = ["plot_stabilization"]
 
 
-def stabilization_figure(orders: Sequence[int], f_hz: Sequence[FloatArray],
-                         stable: Sequence[np.ndarray], *, selected_hz: FloatArray | None
-                         = None, band_hz: tuple[float, float] | None = None,
-                         spectrum: tuple[FloatArray, FloatArray] | None = None,
-                         title: str = "stabilization diagram") -> Any:
-    """Poles (x = frequency, y = model order): stable filled, others hollow.
+def plot_stabilization(diagram: Any, *, selected_f_hz: Any = None,
+                       f_max_hz: float | None = None, title: str = "") -> Figure:
+    """Plot a :class:`~modal_twin.identification.modal_model.StabilizationDiagram`.
 
     Parameters
     ----------
-    orders : sequence of int
-        Model orders, one per row.
-    f_hz : sequence of arrays
-        Pole frequencies per order, Hz.
-    stable : sequence of bool arrays
-        Fully stable poles per order (same shapes as ``f_hz``).
-    selected_hz : array, optional
-        Selected modes, drawn as vertical lines.
-    band_hz : (float, float), optional
-        x range.
-    spectrum : (f_hz, psd), optional
-        A spectrum drawn on a second (log) axis behind the poles.
+    diagram : StabilizationDiagram
+        Poles per order with their ``stable_f`` and ``stable`` flags.
+    selected_f_hz : (n_modes,) float array, optional
+        Frequencies of the selected modes (vertical lines), Hz.
+    f_max_hz : float, optional
+        Upper frequency of the axis (default: highest pole).
+    title : str
+        Figure title (default: the method's name).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axes; its collections are, in order: unstable, stable in frequency, stable.
     """
-    fig, ax = new_figure((8.0, 5.0))
-    for o, f, s in zip(orders, f_hz, stable, strict=True):
-        s = np.asarray(s, dtype=bool)
-        ax.plot(f[~s], np.full((~s).sum(), o), "o", mfc="none", mec="0.6", ms=3)
-        ax.plot(f[s], np.full(s.sum(), o), "o", color="C0", ms=3.5)
-    for fm in [] if selected_hz is None else selected_hz:
-        ax.axvline(fm, color="C3", lw=0.8, alpha=0.7)
-    if spectrum is not None:
-        ax2 = ax.twinx()
-        ax2.semilogy(spectrum[0], spectrum[1], color="0.4", lw=0.7)
-        ax2.set_ylabel("output PSD (sum)")
-    if band_hz is not None:
-        ax.set_xlim(*band_hz)
+    fig = new_figure(9.0, 5.0)
+    ax = fig.add_subplot()
+    groups: dict[str, tuple[list[float], list[float]]] = {
+        k: ([], []) for k in ("other", "f", "stable")}
+    for ps, sf, st in zip(diagram.poles, diagram.stable_f, diagram.stable, strict=True):
+        f = np.asarray(ps.f_hz, dtype=float)
+        kind = np.where(np.asarray(st), "stable", np.where(np.asarray(sf), "f", "other"))
+        for key in groups:
+            sel = f[kind == key]
+            groups[key][0].extend(sel)
+            groups[key][1].extend([ps.order] * sel.size)
+    ax.scatter(*groups["other"], s=4, c="0.75", label="new / unstable", zorder=1)
+    ax.scatter(*groups["f"], s=18, facecolors="none", edgecolors="tab:blue",
+               label=f"stable f ({100 * diagram.rel_tol_f:g} %)", zorder=2)
+    ax.scatter(*groups["stable"], s=16, c="tab:red",
+               label=f"stable f, zeta, MAC > {diagram.mac_min:g}", zorder=3)
+    for k, f in enumerate(np.atleast_1d(selected_f_hz) if selected_f_hz is not None else []):
+        ax.axvline(float(f), color="k", lw=0.8, ls="--",
+                   label="selected mode" if k == 0 else None, zorder=0)
+    all_f = groups["other"][0] + groups["f"][0] + groups["stable"][0]
+    top = f_max_hz if f_max_hz is not None else (max(all_f) * 1.05 if all_f else 1.0)
+    ax.set_xlim(0.0, top)
     ax.set_xlabel("frequency, Hz")
     ax.set_ylabel("model order")
-    ax.set_title(title)
     ax.grid(True, alpha=0.3)
+    ax.set_title(title or f"stabilization diagram ({diagram.method})")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     return fig
-
-
-def save_stabilization(path: str | Path, *args: Any, **kwargs: Any) -> Path:
-    """Draw :func:`stabilization_figure` and save it to ``path``."""
-    return save_figure(stabilization_figure(*args, **kwargs), path)

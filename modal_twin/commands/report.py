@@ -1,0 +1,190 @@
+"""``modal-twin report RUN_DIR [--out FILE]``: one self-contained HTML report of a run.
+
+A run folder (what ``modal-twin demo`` writes) holds sub-runs ``<name>/bag`` (twin
+metrics, channel map, measurement frames), model versions ``models/vNNNN.yaml`` and the
+PNGs of the diagnosis. Each present kind of data gives its section
+(:func:`modal_twin.viz.report.render_report`); the default output is
+``RUN_DIR/report.html``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modal_twin.errors import ModalTwinError
+from modal_twin.exit_codes import ExitCode
+from modal_twin.progress import track
+
+__all__ = ["load_run", "make_report", "register", "run"]
+
+_DEVICE_SUFFIX = ("_dx", "_dy")
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Add the ``report`` parser."""
+    p = sub.add_parser("report", help="one self-contained HTML report of a run folder")
+    p.add_argument("run_dir", type=Path, help="run folder (e.g. runs/demo_...)")
+    p.add_argument("--out", type=Path, default=None, help="HTML file (RUN_DIR/report.html)")
+    p.add_argument("--n-modes", type=int, default=4, help="model modes in the 3D scene")
+    p.set_defaults(func=run)
+
+
+def _metrics(bag: Path) -> tuple[Any, dict[str, tuple[str, str, str]]]:
+    from modal_twin.io.bag import bag_info, read_messages
+    from modal_twin.io.convert import channel_map_from_msg
+
+    last, meta = None, {}
+    present = {t.name for t in bag_info(bag).topics}
+    wanted = [t for t in ("/twin/metrics", "/measurement/channels") if t in present]
+    for topic, _, msg in read_messages(bag, wanted) if wanted else ():
+        if topic == "/twin/metrics":
+            last = msg
+        else:
+            meta = {c.name: (c.location, c.direction, c.quantity)
+                    for c in channel_map_from_msg(msg)}
+    return last, meta
+
+
+def _device_data(bag: Path, blamed: set[str]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Measured loops of every device, force-state samples of the blamed ones."""
+    from modal_twin.diagnosis.screening import drift_velocity
+    from modal_twin.diagnosis.workflow import record_from_bag
+
+    rec = record_from_bag(bag)
+    names = list(rec.channel_names)
+    loops, states = {}, {}
+    for ch in names:
+        if not ch.endswith(_DEVICE_SUFFIX):
+            continue
+        dev, d = ch[:-3], ch[-1]
+        f_name = f"{dev}_f{d}"
+        if f_name not in names:
+            continue
+        u, f = rec.data[names.index(ch)], rec.data[names.index(f_name)]
+        loops[f"{dev} {d}"] = (u, f)
+        if dev in blamed:
+            states[f"{dev} {d}"] = (u, drift_velocity(u, rec.fs_hz, 25.0)[0], f)
+    return loops, states
+
+
+def _model_frf(structure: Path, names: list[str], f_hz: np.ndarray) -> np.ndarray:
+    """Absolute-acceleration FRF of the linear model to table acceleration x.
+
+    ``q'' + C q' + K q = -Gamma a_g``, ``y = C_acc [q; q'; q''] + D_acc a_g`` (Eq. (12) of
+    [004] in modal form, :class:`~modal_twin.models.building.ModalBuilding`).
+    """
+    from modal_twin.models.building import build_building, modal_reduction
+
+    red = modal_reduction(build_building(structure))
+    rows = [red.channel_names.index(n) for n in names]
+    r = red.n_modes
+    H = np.empty((len(names), f_hz.size), complex)
+    for k, w in enumerate(2 * np.pi * f_hz):
+        Q = np.linalg.solve(-w * w * red.M + 1j * w * red.C + red.K, -red.Gamma[:, 0])
+        z = np.concatenate([Q, 1j * w * Q, -w * w * Q])
+        H[:, k] = red.C_acc[rows, : 3 * r] @ z + red.D_acc[rows, 0]
+    return H
+
+
+def _identification(bag: Path, structure: Path) -> dict[str, Any]:
+    """Modes of a (low-level) record by N4SID, paired with the model's; measured vs model
+    FRF to table x (H1, Welch)."""
+    import scipy.signal as ss
+
+    from modal_twin.identification.metrics import mac
+    from modal_twin.identification.node import IdentificationConfig, identify_window
+    from modal_twin.io.bag import read_blocks
+    from modal_twin.models.building import build_building, modal_reduction
+    from modal_twin.signal_block import concatenate_blocks
+
+    blk = concatenate_blocks(read_blocks(bag, "/measurement/frames"))
+    cfg = IdentificationConfig(method="n4sid", fs_target_hz=100.0, max_order=40,
+                               outputs="[FR]*_[xyz]")
+    modes, diagram, outs = identify_window(blk, cfg)
+    bld = build_building(structure)
+    red = modal_reduction(bld, 12)
+    rows = [bld.channel_names.index(n) for n in outs]
+    Phi_m = (bld.S @ red.Phi)[rows]
+    M = mac(modes.shapes, Phi_m)
+    best = np.argmax(M, axis=1) if M.size else np.zeros(0, int)
+    out: dict[str, Any] = {
+        "stabilization": diagram, "selected_f_hz": modes.f_hz,
+        "modes": {"f_id_hz": modes.f_hz, "zeta_id": modes.zeta,
+                  "f_model_hz": red.f_hz[best], "zeta_model": red.zeta[best],
+                  "mac": M[np.arange(best.size), best]},
+        "mac": (M, [f"id {k + 1}: {f:.2f} Hz" for k, f in enumerate(modes.f_hz)],
+                [f"model {k + 1}: {f:.2f} Hz" for k, f in enumerate(red.f_hz)])}
+    names = list(blk.channel_names)
+    x = blk.data[names.index("table_ax")]
+    fr = [n for n in outs if n.endswith("_x")]
+    Y = blk.data[[names.index(n) for n in fr]]
+    nper = int(blk.fs_hz * 20.0 / 8)
+    f, Pxx = ss.welch(x, blk.fs_hz, nperseg=nper)
+    _, Pxy = ss.csd(x[None, :], Y, blk.fs_hz, nperseg=nper)
+    band = (f > 0.2) & (f < 20.0)
+    out["frf"] = (f[band], (Pxy / Pxx)[:, band], fr, _model_frf(structure, fr, f[band]))
+    return out
+
+
+def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
+    """Gather a run folder's data into a :class:`~modal_twin.viz.report.RunData`."""
+    from modal_twin.models.versions import history
+    from modal_twin.viz.report import RecordData, RunData
+
+    versions = history(run_dir / "models") if (run_dir / "models").is_dir() else []
+    blamed = {e.component: e.law for e in versions[-1].effects} if versions else {}
+    records = []
+    bags = sorted(p for p in run_dir.glob("*/bag") if p.is_dir())
+    for bag in track(bags, "report: records", unit="bag"):
+        m, meta = _metrics(bag)
+        loops, states = ({}, {}) if "replay" in bag.parent.name else _device_data(bag,
+                                                                                set(blamed))
+        records.append(RecordData(
+            bag.parent.name,
+            tuple(m.channel_names) if m is not None else (),
+            np.asarray(m.rms_error, dtype=float) if m is not None else np.zeros(0),
+            str(m.model_version) if m is not None else "", meta, loops, states))
+    images = [(p.stem.replace("_", " "), p.read_bytes())
+              for p in sorted(run_dir.glob("*.png")) if p.name != "error_history.png"]
+    scene = None
+    if versions:
+        from modal_twin.commands.view import model_scene
+        from modal_twin.viz.scene import static_html
+
+        cmds, caption = model_scene(versions[-1].path, n_modes)
+        scene = static_html(cmds, caption=caption)
+    notes = [f"run folder: {run_dir.resolve()}"]
+    ident: dict[str, Any] = {}
+    low = sorted(run_dir.glob("*low*/bag"))
+    if low and versions:
+        try:
+            ident = _identification(low[0], versions[0].structure)
+            notes.append(f"identification and FRF: N4SID on {low[0].parent.name} (table x "
+                         "input for the FRF), paired with the nominal model by MAC")
+        except ModalTwinError as err:
+            notes.append(f"identification of {low[0].parent.name} failed: {err}")
+    return RunData(f"modal_twin run {run_dir.name}", records, versions, scene, images=images,
+                   notes=notes, **ident)
+
+
+def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: int = 4
+                ) -> Path:
+    """Write the report of ``run_dir`` (default ``run_dir/report.html``); return its path."""
+    from modal_twin.viz.report import write_report
+
+    rd = Path(run_dir)
+    return write_report(load_run(rd, n_modes=n_modes), out or rd / "report.html")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Write the report and print its path."""
+    if not args.run_dir.is_dir():
+        print(f"modal-twin report: run folder {args.run_dir} not found", file=sys.stderr)
+        return ExitCode.USAGE
+    print(f"report: {make_report(args.run_dir, args.out, n_modes=args.n_modes)}")
+    return ExitCode.OK

@@ -1,0 +1,334 @@
+"""meshcat 3D scene of a structure: wireframe, sensors, devices, animated mode shapes.
+
+The scene is a list of meshcat commands (``meshcat.commands``) built without a server, so
+that it can be
+
+* written as one static HTML page (:func:`static_html`: meshcat's viewer script inline and
+  the commands as base64 msgpack, the same page meshcat's own server writes for
+  ``Visualizer.static_html()``, here without starting any server), or
+* sent to a running server (:mod:`modal_twin.viz.meshcat_server`).
+
+Layout: copy 0 is the structure with its sensors (blue) and devices (green; blamed places
+red); copies 1..n to its right (towards -y) are the model's lowest modes, each animated as
+``x(t) = x0 + a phi sin(2 pi t / T)`` with ``a`` a fraction of the structure's size. meshcat
+animates transforms, not vertices, so every element is a unit segment whose position,
+rotation and length follow its two end nodes. Frequency and damping of each mode (and the
+blamed places with their family) are listed in an overlay of the HTML page.
+
+Only ``meshcat.commands`` / ``meshcat.geometry`` / ``meshcat.animation`` are used (no
+``meshcat.Visualizer``: it imports IPython and PIL), and never meshcat's ngrok tunnel.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modal_twin._types import FloatArray, IntArray
+from modal_twin.errors import ShapeError
+
+__all__ = [
+    "SceneModes",
+    "StructureGeometry",
+    "building_geometry",
+    "building_modes",
+    "scene_commands",
+    "static_html",
+]
+
+ROOT_PATH = "/modal_twin"
+
+
+@dataclass(frozen=True, slots=True)
+class StructureGeometry:
+    """Wireframe of a structure.
+
+    Attributes
+    ----------
+    name : str
+    node_xyz : (n_nodes, 3) float array
+        Node coordinates, m.
+    edges : (n_edges, 2) int array
+        Node index pairs joined by an element.
+    sensors : mapping name -> (3,) float array
+        Sensor positions, m.
+    devices : mapping name -> (3,) float array
+        Device (isolator, damper) positions, m.
+    """
+
+    name: str
+    node_xyz: FloatArray
+    edges: IntArray
+    sensors: Mapping[str, FloatArray] = field(default_factory=dict)
+    devices: Mapping[str, FloatArray] = field(default_factory=dict)
+
+    @property
+    def size_m(self) -> float:
+        """Largest extent of the structure, m."""
+        return float(np.ptp(self.node_xyz, axis=0).max()) or 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class SceneModes:
+    """Mode shapes on the nodes of a :class:`StructureGeometry`.
+
+    Attributes
+    ----------
+    f_hz, zeta : (n_modes,) float arrays
+        Frequency (Hz) and damping ratio (fraction).
+    shapes : (n_modes, n_nodes, 3) float array
+        Node translations of each mode (any scale).
+    source : str
+        ``"model"`` or ``"identified"``.
+    """
+
+    f_hz: FloatArray
+    zeta: FloatArray
+    shapes: FloatArray
+    source: str = "model"
+
+
+def _edges_from_stiffness(K_full: Any) -> IntArray:
+    """Node pairs coupled by the stiffness matrix (6 DOFs per node): the elements."""
+    coo = K_full.tocoo()
+    a, b = coo.row // 6, coo.col // 6
+    keep = (a < b) & (coo.data != 0.0)
+    pairs = np.unique(np.stack([a[keep], b[keep]], axis=1), axis=0)
+    return pairs.astype(np.int64)
+
+
+@lru_cache(maxsize=2)
+def _building(resolved: str) -> Any:
+    from modal_twin.models.building import build_building
+
+    return build_building(resolved)
+
+
+def building_geometry(structure_file: str | Path) -> StructureGeometry:
+    """Wireframe, sensors and devices of a structure file (``config/structures/...``)."""
+    bld = _building(str(Path(structure_file).resolve()))
+    asm = bld.assembly
+    idx = {n: i for i, n in enumerate(asm.nodes)}
+    sensors = {s.name: asm.xyz[idx[s.node]] for s in bld.spec.sensors}
+    devices = {d.name: asm.xyz[idx[d.node]] for d in bld.spec.devices}
+    return StructureGeometry(bld.spec.name, asm.xyz.copy(), _edges_from_stiffness(asm.K_full),
+                             sensors, devices)
+
+
+def building_modes(structure_file: str | Path, n_modes: int = 6) -> SceneModes:
+    """The lowest ``n_modes`` model modes of a structure file, on all its nodes."""
+    from modal_twin.models.building import modal_reduction
+
+    bld = _building(str(Path(structure_file).resolve()))
+    red = modal_reduction(bld, max(n_modes, 1))
+    full = bld.assembly.T @ red.Phi[:, :n_modes]  # every node, slaves included
+    n_nodes = len(bld.assembly.nodes)
+    shapes = np.asarray(full).reshape(n_nodes, 6, -1)[:, :3, :].transpose(2, 0, 1)
+    return SceneModes(red.f_hz[:n_modes].copy(), red.zeta[:n_modes].copy(), shapes)
+
+
+# -- meshcat commands ---------------------------------------------------------------------
+def _quaternion_x_to(d: FloatArray) -> list[float]:
+    """Quaternion ``[x, y, z, w]`` (three.js order) turning the x axis onto unit ``d``."""
+    c = float(np.clip(d[0], -1.0, 1.0))
+    axis = np.array([0.0, -d[2], d[1]])  # e_x cross d
+    s = float(np.linalg.norm(axis))
+    if s < 1e-12:
+        return [0.0, 0.0, 0.0, 1.0] if c > 0 else [0.0, 0.0, 1.0, 0.0]
+    half = 0.5 * np.arctan2(s, c)
+    v = axis / s * np.sin(half)
+    return [float(v[0]), float(v[1]), float(v[2]), float(np.cos(half))]
+
+
+def _segment_pose(p1: FloatArray, p2: FloatArray) -> tuple[list[float], list[float], list[float]]:
+    d = p2 - p1
+    length = float(np.linalg.norm(d)) or 1e-9
+    return [float(x) for x in p1], _quaternion_x_to(d / length), [length, 1.0, 1.0]
+
+
+def _lines(xyz: FloatArray, edges: IntArray, color: int, path: Any) -> Any:
+    import meshcat.commands as mc
+    import meshcat.geometry as mg
+
+    pts = xyz[edges.reshape(-1)].T.astype(np.float32)  # 3 x 2 m
+    return mc.SetObject(mg.LineSegments(mg.PointsGeometry(pts), mg.LineBasicMaterial(
+        color=color)), path=path)
+
+
+def _dots(points: Mapping[str, FloatArray], radius: float, color: int, base: Any,
+          ) -> list[Any]:
+    import meshcat.commands as mc
+    import meshcat.geometry as mg
+
+    out = []
+    for name, p in points.items():
+        path = base.append(name)
+        out.append(mc.SetObject(mg.Sphere(radius), mg.MeshLambertMaterial(color=color),
+                                path=path))
+        T = np.eye(4)
+        T[:3, 3] = p
+        out.append(mc.SetTransform(T, path=path))
+    return out
+
+
+def _mode_copy(geom: StructureGeometry, shape: FloatArray, base: Any, anim: Any,
+               amplitude: float, n_frames: int) -> list[Any]:
+    import meshcat.commands as mc
+    import meshcat.geometry as mg
+    from meshcat.animation import AnimationFrameVisualizer
+
+    cmds: list[Any] = [_lines(geom.node_xyz, geom.edges, 0xBBBBBB, base.append("rest"))]
+    peak = float(np.abs(shape).max()) or 1.0
+    u = shape * (amplitude / peak)
+    unit = mg.PointsGeometry(np.array([[0.0, 1.0], [0.0, 0.0], [0.0, 0.0]], np.float32))
+    for e, (i, j) in enumerate(geom.edges):
+        path = base.append("edges").append(f"e{e}")
+        cmds.append(mc.SetObject(mg.LineSegments(unit, mg.LineBasicMaterial(color=0xE4572E)),
+                                 path=path))
+        clip = AnimationFrameVisualizer(anim, path, 0).get_clip()
+        for k in range(n_frames + 1):
+            sn = np.sin(2.0 * np.pi * k / n_frames)
+            pos, quat, scale = _segment_pose(geom.node_xyz[i] + sn * u[i],
+                                             geom.node_xyz[j] + sn * u[j])
+            clip.set_property(k, "position", "vector3", pos)
+            clip.set_property(k, "quaternion", "quaternion", quat)
+            clip.set_property(k, "scale", "vector3", scale)
+    return cmds
+
+
+def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
+                   blamed: Mapping[str, str] | None = None, n_frames: int = 24,
+                   amplitude_fraction: float = 0.08, fps: int = 24) -> list[Any]:
+    """meshcat commands drawing the structure and (optionally) its animated modes.
+
+    Parameters
+    ----------
+    geom : StructureGeometry
+    modes : SceneModes, optional
+        Each mode is drawn as its own animated copy to the right of the structure.
+    blamed : mapping place -> family, optional
+        Devices (or sensors) the diagnosis blames: drawn larger, in red.
+    n_frames : int
+        Frames per period of the animation (one period = ``n_frames / fps`` s).
+    amplitude_fraction : float
+        Largest displacement drawn, as a fraction of the structure's size.
+    fps : int
+        Frame rate of the animation.
+
+    Returns
+    -------
+    list of meshcat commands
+        The last one is the ``SetAnimation`` when modes are given.
+
+    Raises
+    ------
+    ShapeError
+        Mode shapes that do not have one row per node.
+    """
+    import meshcat.animation as ma
+    import meshcat.commands as mc
+    from meshcat.path import Path as MPath
+
+    blamed = dict(blamed or {})
+    root = MPath(tuple(p for p in ROOT_PATH.split("/") if p))
+    size = geom.size_m
+    n_modes = 0 if modes is None else int(modes.f_hz.size)
+    if modes is not None and modes.shapes.shape != (n_modes, geom.node_xyz.shape[0], 3):
+        msg = (f"modes.shapes: expected ({n_modes}, {geom.node_xyz.shape[0]}, 3) "
+               f"(mode, node, xyz), got {modes.shapes.shape}")
+        raise ShapeError(msg)
+    lo, hi = geom.node_xyz.min(axis=0), geom.node_xyz.max(axis=0)
+    step = 1.4 * float(hi[1] - lo[1]) + 0.3 * size  # copies side by side along -y
+    # scale the whole scene into a few metres around the origin (the default camera looks
+    # along -x from +x, y to the left)
+    width = step * n_modes + float(hi[1] - lo[1])
+    s = 5.5 / max(width, float(hi[2] - lo[2]))
+    T = np.diag([s, s, s, 1.0])
+    T[:3, 3] = -s * np.array([(lo[0] + hi[0]) / 2, lo[1] - width / 2 + (hi[1] - lo[1]),
+                              (lo[2] + hi[2]) / 2])
+    cam = mc.SetProperty("position", [3.2, 0.6, 0.0],
+                         MPath(("Cameras", "default", "rotated", "<object>")))
+    cmds: list[Any] = [mc.Delete(root), mc.SetTransform(T, path=root), cam]
+    base = root.append("structure")
+    cmds.append(_lines(geom.node_xyz, geom.edges, 0x333333, base.append("frame")))
+    r = 0.012 * size
+    cmds += _dots({k: v for k, v in geom.sensors.items() if k not in blamed}, r, 0x1F77B4,
+                  base.append("sensors"))
+    cmds += _dots({k: v for k, v in geom.devices.items() if k not in blamed}, 1.5 * r,
+                  0x2CA02C, base.append("devices"))
+    places = {**geom.sensors, **geom.devices}
+    cmds += _dots({k: places[k] for k in blamed if k in places}, 3.0 * r, 0xD62728,
+                  base.append("blamed"))
+    if modes is None:
+        return cmds
+    anim = ma.Animation(default_framerate=fps)
+    for m in range(n_modes):
+        mbase = root.append(f"mode_{m + 1}")
+        shift = np.eye(4)
+        shift[1, 3] = -step * (m + 1)
+        cmds.append(mc.SetTransform(shift, path=mbase))
+        cmds += _mode_copy(geom, modes.shapes[m], mbase, anim, amplitude_fraction * size,
+                           n_frames)
+    cmds.append(mc.SetAnimation(anim, play=True, repetitions=100000))
+    return cmds
+
+
+# -- static HTML --------------------------------------------------------------------------
+def _viewer_js() -> str:
+    import meshcat
+
+    return (Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js").read_text()
+
+
+def _command_js(cmd: Any) -> str:
+    import umsgpack
+
+    data = base64.b64encode(umsgpack.packb(cmd.lower())).decode()
+    return (f'fetch("data:application/octet-binary;base64,{data}")'
+            ".then(r => r.arrayBuffer())"
+            ".then(b => viewer.handle_command_bytearray(new Uint8Array(b)));\n")
+
+
+def overlay_html(geom: StructureGeometry, modes: SceneModes | None,
+                 blamed: Mapping[str, str] | None = None) -> str:
+    """The caption of the scene: modes with f and zeta, blamed places with their family."""
+    items = [f"<b>{html.escape(geom.name)}</b>: structure at the right (sensors blue, "
+             "devices green), modes from right to left"]
+    if modes is not None:
+        items += [f"mode {k + 1}: {f:.3f} Hz, &zeta; {100 * z:.2f} %"
+                  for k, (f, z) in enumerate(zip(modes.f_hz, modes.zeta, strict=True))]
+    for place, family in (blamed or {}).items():
+        items.append(f'<span style="color:#d62728">blamed: {html.escape(place)} '
+                     f"({html.escape(family)})</span>")
+    return ('<div id="caption" style="position:absolute;top:8px;left:8px;font:13px sans-serif;'
+            'background:rgba(255,255,255,0.85);padding:6px 8px;border-radius:4px">'
+            + "<br>".join(items) + "</div>")
+
+
+def static_html(commands: Sequence[Any], *, caption: str = "", title: str = "modal_twin scene"
+                ) -> str:
+    """One self-contained HTML page showing the scene (no server, no network).
+
+    The page sets ``document.body.dataset.sceneCommands`` to the number of commands it
+    handled (a marker for headless checks).
+    """
+    cmds = "".join(_command_js(c) for c in commands)
+    return f"""<!DOCTYPE html>
+<html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
+<style>body {{margin: 0;}} #meshcat-pane {{width: 100vw; height: 100vh; overflow: hidden;}}
+</style></head>
+<body><div id="meshcat-pane"></div>{caption}
+<script>{_viewer_js()}</script>
+<script>
+var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
+{cmds}
+document.body.dataset.sceneCommands = "{len(commands)}";
+</script></body></html>
+"""
