@@ -4,7 +4,8 @@
   the RMS over the channels, on every record (training, held-out, and any other level).
 - A candidate must **lower** the error on the training and the held-out record (by 1 %
   at least, pooled over the channels and for the median channel) and must **not raise**
-  it on any other record (by more than 1 %, either way: a record at a
+  it on any other record (by more than three standard errors of an RMS estimated from its
+  samples, 3 / sqrt(2 N), at least 1 %, either way: a record at a
   level where the effect does not engage, such as a low-level record for a friction
   effect, cannot be improved); otherwise it is rejected, naming the record it failed on.
 - A fit that ends on a bound of its parameters, or with an implausible value (an added mass
@@ -44,6 +45,12 @@ def figures_on(plant: Plant, records: Sequence[Record], noises: Sequence[np.ndar
         pred = simulate_record(plant, rec)[:, rec.skip:]
         out.append(error_figures(pred, rec.scored, rec.channel_names, nz, rec.source))
     return tuple(out)
+
+
+def _worse_tol(rec: Record) -> float:
+    """How much higher an error may come out on a record before it counts as worse: three
+    standard errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %."""
+    return max(WORSE_BY, 3.0 / np.sqrt(2.0 * rec.scored.shape[-1]))
 
 
 def _flags(f: FittedEffect, nominal: Mapping[str, float], floor_mass: Mapping[str, float]
@@ -92,7 +99,7 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
             if must_lower and not va < (1 - lower_by) * vb:
                 rejected = (f"does not lower the {what}error on {name} "
                             f"({100 * vb:.2f} % -> {100 * va:.2f} %)")
-            elif not must_lower and va > (1 + WORSE_BY) * vb:
+            elif not must_lower and va > (1 + _worse_tol(records[i])) * vb:
                 rejected = f"makes {what}{name} worse ({100 * vb:.2f} % -> {100 * va:.2f} %)"
             if rejected:
                 break
