@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from modal_twin.errors import ModalTwinError
+from modal_twin.exit_codes import ExitCode
 from modal_twin.runtime import THREAD_ENV
 
 # one BLAS thread (modal_twin.runtime), set before numpy loads (neither import above does)
@@ -48,7 +49,9 @@ def _cmd_launch(a: argparse.Namespace) -> int:
     from modal_twin.launch import Launcher
     from modal_twin.scenario import load_scenario
 
-    sc = load_scenario(_scenario_path(a.scenario))
+    sc = load_scenario(_scenario_path(a.scenario), allow_external=a.allow_external)
+    if a.network:
+        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SUBNET"
     if a.duration is not None:
         from dataclasses import replace
 
@@ -75,10 +78,10 @@ def _cmd_bag(a: argparse.Namespace) -> int:
             }))
         else:
             print(info.format())
-        return 0
+        return ExitCode.OK
     info = salvage(a.bag, a.out)
     print(f"salvaged into {info.path}\n{info.format()}")
-    return 0
+    return ExitCode.OK
 
 
 def _cmd_model(a: argparse.Namespace) -> int:
@@ -95,7 +98,7 @@ def _cmd_model(a: argparse.Namespace) -> int:
     info = model_info(bld.assembly, red.f_hz, red.Phi, red.zeta, name=bld.spec.name,
                       groups=[f.nodes for f in bld.spec.floors], n_show=a.show)
     print(json.dumps(info.to_dict(), indent=1) if a.json else info.table())
-    return 0
+    return ExitCode.OK
 
 
 def _vehicle_info(a: argparse.Namespace) -> int:
@@ -106,14 +109,14 @@ def _vehicle_info(a: argparse.Namespace) -> int:
     info = vehicle_info(assemble_vehicle(load_vehicle(a.file)), n_show=a.show)
     if a.json:
         print(json.dumps(info, indent=1))
-        return 0
+        return ExitCode.OK
     print(f"{info['name']}: {info['n_dof']} DOFs ({info['n_cb_modes']} CB modes), total "
           f"mass {info['total_mass_kg'] / 1e3:.2f} t, free-free carbody "
           + ", ".join(f"{f:.2f}" for f in info["carbody_f_free_hz"]) + " Hz")
     print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>8}  part")
     for m in info["modes"]:
         print(f"{m['number']:>4d} {m['f_hz']:9.4f} {100 * m['zeta']:8.2f}  {m['part']}")
-    return 0
+    return ExitCode.OK
 
 
 def _cmd_diagnose(a: argparse.Namespace) -> int:
@@ -128,7 +131,7 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
         for png in force_state_plots(a.model, d, train, a.plots):
             print(f"force-state map: {png}")
-    return 0
+    return ExitCode.OK
 
 
 def _cmd_effects(a: argparse.Namespace) -> int:
@@ -142,25 +145,25 @@ def _cmd_effects(a: argparse.Namespace) -> int:
             print(f"{v.label:>5}  mean held-out NMSE {mean:8.3f} %  {v.note}")
         if a.png:
             print(f"plot: {plot_error_history(a.folder, a.png)}")
-        return 0
+        return ExitCode.OK
     train, test = record_from_bag(a.train), record_from_bag(a.test)
     if a.auto:
         d = diagnose_model(a.model, train, test)
         if d.best is None:
             print(f"nothing to add: {d.summary}")
-            return 1
+            return ExitCode.FAILED
         component, law, start = d.best.effect.component, d.best.effect.law, d.best.effect.params
     else:
         if not (a.component and a.law):
             print("modal-twin effects add: give --component and --law, or --auto",
                   file=sys.stderr)
-            return 2
+            return ExitCode.USAGE
         component, law, start = a.component, a.law, _start_params(a)
     mv, fitted = add_effect(a.model, component, law, dict(start), train, test, a.out)
     print(f"wrote {mv.path}: {mv.note}")
     print(f"held-out NMSE {fitted.test_nmse_nominal_pct:.3f} % -> {fitted.test_nmse_pct:.3f} %"
           f" ({fitted.error_ratio:.1f}x), parameters {fitted.effect.params}")
-    return 0
+    return ExitCode.OK
 
 
 def _start_params(a: argparse.Namespace) -> dict[str, float]:
@@ -209,6 +212,10 @@ def _parser() -> argparse.ArgumentParser:
     la.add_argument("--run-dir", type=Path, default=None)
     la.add_argument("--duration", type=float, default=None, help="override launch.duration_s")
     la.add_argument("--no-record", action="store_true")
+    la.add_argument("--allow-external", action="store_true",
+                    help="let the scenario start executables that are not this package's nodes")
+    la.add_argument("--network", action="store_true",
+                    help="discover nodes on the network, not only this host (see README)")
     la.set_defaults(func=_cmd_launch)
     sub.add_parser("record", help="record topics to a bag", add_help=False)
     sub.add_parser("replay", help="republish a bag", add_help=False)
@@ -261,6 +268,8 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``modal-twin``."""
     argv = sys.argv[1:] if argv is None else argv
+    if "--network" not in argv:  # discovery stays on this host unless asked (README: network)
+        os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     if argv and argv[0] == "record":
         from modal_twin.io.recorder import main as record_main
 
@@ -274,9 +283,19 @@ def main(argv: list[str] | None = None) -> int:
                         format="%(levelname)s %(name)s: %(message)s")
     try:
         return int(a.func(a))
+    except KeyboardInterrupt:
+        return ExitCode.INTERRUPTED
     except ModalTwinError as err:
-        print(f"modal-twin {a.cmd}: {err}", file=sys.stderr)
-        return 2
+        print(f"modal-twin {a.cmd}: {_one_line(err)}", file=sys.stderr)
+        return ExitCode.USAGE
+    except Exception as err:  # unreadable or foreign input: one line, never a traceback
+        print(f"modal-twin {a.cmd}: {type(err).__name__}: {_one_line(err)}", file=sys.stderr)
+        return ExitCode.USAGE
+
+
+def _one_line(err: BaseException) -> str:
+    lines = str(err).strip().splitlines()
+    return lines[0][:500] if lines else ""
 
 
 if __name__ == "__main__":

@@ -8,6 +8,11 @@ supervise them, stop them cleanly.
   publishes and another subscribes has both ends discovered.
 - Ctrl-C / SIGTERM are forwarded as SIGINT to the nodes (recorder last); a node that dies
   stops the run, which exits 1 and names it.
+- The nodes die with the launcher even when it is killed (SIGKILL): each is started with
+  ``PR_SET_PDEATHSIG`` = SIGTERM (Linux).
+- Discovery stays on this host (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) unless the
+  environment or the scenario (``launch.network: true``) asks for the network; files and
+  shared-memory segments the nodes create are not world-readable (umask 007).
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import rclpy
 from rclpy.context import Context
 
 from modal_twin.errors import ConfigError
+from modal_twin.exit_codes import ExitCode
 from modal_twin.runtime import runtime_env
 from modal_twin.scenario import Scenario, load_scenario
 
@@ -35,7 +41,19 @@ __all__ = ["LaunchResult", "Launcher", "launch"]
 
 log = logging.getLogger(__name__)
 
-EXIT_OK, EXIT_NODE_DIED, EXIT_CONFIG, EXIT_NOT_READY = 0, 1, 2, 3
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:
+    """``preexec_fn`` of every node: SIGTERM when the launcher dies, files not world-readable."""
+    import ctypes
+
+    os.umask(0o007)
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: the nodes' own shutdown still applies
+        pass
 
 
 @dataclass(slots=True)
@@ -99,13 +117,15 @@ class Launcher:
         env["PYTHONUNBUFFERED"] = "1"
         env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
         env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
+        if not self.sc.extra.get("network", False):
+            env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         return runtime_env(env)  # one BLAS thread, allocator (modal_twin.runtime)
 
     def _spawn(self, name: str, cmd: list[str]) -> None:
         logf = (self.run_dir / "logs" / f"{name}.log").open("wb")
         self.procs[name] = subprocess.Popen(
             cmd, stdout=logf, stderr=subprocess.STDOUT, env=self._env(),
-            start_new_session=True, cwd=os.getcwd(),
+            start_new_session=True, cwd=os.getcwd(), preexec_fn=_die_with_parent,
         )
         logf.close()
 
@@ -207,13 +227,13 @@ class Launcher:
             self._stop_requested = True
 
         old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-        code, message = EXIT_OK, ""
+        code, message = ExitCode.OK, ""
         try:
             self.say(f"launch: {self.sc.name} in {self.run_dir} (ROS_DOMAIN_ID={self.domain_id})")
             self.start()
             missing = self.wait_ready(self.sc.ready_timeout_s)
             if missing:
-                code, message = EXIT_NOT_READY, (
+                code, message = ExitCode.NOT_READY, (
                     f"not ready after {self.sc.ready_timeout_s:.0f} s: missing {missing}")
             elif not self.dead():
                 self.say(f"launch: {len(self.procs)} processes up and matched")
@@ -222,7 +242,7 @@ class Launcher:
                 died = self.dead()
                 if died:
                     name, rc = died[0]
-                    code = EXIT_NODE_DIED
+                    code = ExitCode.FAILED
                     message = (f"node {name!r} died with exit code {rc}; last lines of its "
                                f"log:\n{self.log_tail(name)}")
                     break

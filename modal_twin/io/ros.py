@@ -16,7 +16,10 @@ from modal_twin.errors import ConfigError
 from modal_twin.io.topics import TOPICS, QosKind
 
 __all__ = [
+    "guarded",
+    "guarded_service",
     "message_class",
+    "one_line",
     "qos_for",
     "qos_profile",
     "report",
@@ -95,6 +98,46 @@ def wait_for_subscribers(
             return False
         rclpy.spin_once(node, timeout_sec=0.05)
     return True
+
+
+def one_line(err: BaseException, limit: int = 300) -> str:
+    """``Type: first line of the message``, cut to ``limit`` characters."""
+    text = str(err).strip().splitlines()
+    line = f"{type(err).__name__}: {text[0] if text else ''}"
+    return line if len(line) <= limit else line[: limit - 3] + "..."
+
+
+def guarded(node: Node, what: str, fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Wrap a subscription or timer callback: any exception is one logged line, and the
+    node keeps running (a hostile message never ends a node)."""
+
+    def call(*args: Any) -> Any:
+        try:
+            return fn(*args)
+        except Exception as err:  # every error: the node must survive any input
+            node.get_logger().error(f"{what} refused: {one_line(err)}",
+                                    throttle_duration_sec=1.0)
+            return None
+
+    return call
+
+
+def guarded_service(node: Node, what: str, fn: Callable[[Any, Any], Any],
+                    ok_field: str = "success") -> Callable[[Any, Any], Any]:
+    """Wrap a service callback: any exception answers ``ok_field = False`` with a one-line
+    ``message`` naming the field, is logged once, and the node keeps running."""
+
+    def call(req: Any, res: Any) -> Any:
+        try:
+            return fn(req, res)
+        except Exception as err:  # every error: the node must survive any request
+            text = one_line(err)
+            node.get_logger().error(f"{what} refused: {text}")
+            setattr(res, ok_field, False)
+            res.message = text
+            return res
+
+    return call
 
 
 _last_report: dict[tuple[str, str], float] = {}

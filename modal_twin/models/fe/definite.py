@@ -39,8 +39,10 @@ def _bad_entry(name: str, Ac: sp.csc_matrix, positive_diagonal: bool) -> tuple[i
     wrong = ~(d > 0.0) if positive_diagonal else d < 0.0
     if wrong.any():
         j = int(np.flatnonzero(wrong)[0])
-        want = "> 0 (no DOF without stiffness)" if positive_diagonal else ">= 0"
-        return j, f"{name}: expected a diagonal {want}, got {d[j]:.6g} at DOF {j}"
+        if positive_diagonal:
+            return j, (f"{name}: expected positive definite (every diagonal entry > 0), got "
+                       f"{d[j]:.6g} at DOF {j} (no stiffness there, or negative)")
+        return j, f"{name}: expected a diagonal >= 0, got {d[j]:.6g} at DOF {j}"
     return None
 
 
