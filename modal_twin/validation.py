@@ -33,8 +33,8 @@ __all__ = [
     "check_request_path",
 ]
 
-MEMORY_BUDGET_BYTES = 1 << 30
-"""Largest float64 array a single request may make a node allocate (1 GiB)."""
+MEMORY_BUDGET_BYTES = 1 << 28
+"""Largest float64 array a single request may make a node allocate (256 MiB)."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -98,7 +98,7 @@ def test_command_limits_checked_before_any_drive(tmp_path: Path) -> None:
     with pytest.raises(OptionError, match=r"command.sample_rate_hz"):
         config_from_command(_command(sample_rate_hz=float("nan")), base, [tmp_path])
     with pytest.raises(OptionError, match=r"duration_s x sample_rate_hz x channels: expected "
-                                          r"at most 1024 MiB"):
+                                          r"at most 256 MiB"):
         config_from_command(_command(duration_s=86_000.0, sample_rate_hz=1e5), base, [tmp_path])
     with pytest.raises(OptionError, match=r"command.record_path: expected a file inside"):
         config_from_command(_command(kind="record", record_path="/etc/passwd"), base, [tmp_path])
