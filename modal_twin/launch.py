@@ -5,7 +5,8 @@ supervise them, stop them cleanly.
   --params-file <run>/params/<name>.yaml`` and logs to ``<run>/logs/<name>.log``.
 - A run gets its own ``ROS_DOMAIN_ID`` (unless one is set), so parallel runs never meet.
 - Ready = every node visible in the graph and every topic that one launched node
-  publishes and another subscribes has both ends discovered.
+  publishes and another subscribes has both ends discovered. Only then are the
+  excitation nodes started (``~/start``), so the first sample reaches the bag.
 - Ctrl-C / SIGTERM are forwarded as SIGINT to the nodes (recorder last); a node that dies
   stops the run, which exits 1 and names it.
 - The nodes die with the launcher even when it is killed (SIGKILL): each is started with
@@ -28,6 +29,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 import rclpy
 from rclpy.context import Context
@@ -35,7 +37,7 @@ from rclpy.context import Context
 from modal_twin.errors import ConfigError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.runtime import runtime_env
-from modal_twin.scenario import Scenario, load_scenario
+from modal_twin.scenario import Scenario, load_scenario, with_parameters
 
 __all__ = ["LaunchResult", "Launcher", "launch"]
 
@@ -108,6 +110,7 @@ class Launcher:
         self.record = record and bool(scenario.record_topics)
         self.bag = self.run_dir / "bag" if self.record else None
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self.deferred: list[str] = []  # excitation nodes started once every reader matched
         self._stop_requested = False
 
     # -- processes ---------------------------------------------------------------------
@@ -136,9 +139,14 @@ class Launcher:
         if self.record and self.bag is not None:
             self._spawn("recorder", [*_executable("recorder_node"), "-o", str(self.bag),
                                      *self.sc.record_topics])
-        for node in self.sc.nodes:
+        sc = self.sc
+        for node in sc.nodes:  # the excitation starts when the launcher says ready
+            if node.executable == "excitation_node" and node.parameters.get("autostart", True):
+                sc = with_parameters(sc, node.name, autostart=False)
+                self.deferred.append(node.name)
+        for node in sc.nodes:
             pfile = self.run_dir / "params" / f"{node.name}.yaml"
-            pfile.write_text(self.sc.params_file_text(node.name))
+            pfile.write_text(sc.params_file_text(node.name))
             cmd = [*_executable(node.executable), *node.args, "--ros-args",
                    "-r", f"__node:={node.name}", "--params-file", str(pfile)]
             self._spawn(node.name, cmd)
@@ -212,13 +220,40 @@ class Launcher:
                     if probe.count_publishers(t) == 0 or probe.count_subscribers(t) == 0
                 )
                 if not unmatched:
-                    return ""
+                    return self._start_deferred(probe, ctx, end)
                 missing = "topics " + ", ".join(unmatched)
                 time.sleep(0.2)
             return missing
         finally:
             probe.destroy_node()
             rclpy.try_shutdown(context=ctx)
+
+    def _start_deferred(self, probe: Any, ctx: Context, end: float) -> str:
+        """Call ``~/start`` of each deferred excitation node: its first block goes out
+        only after every recorder and reader of the graph has matched."""
+        from modal_twin_msgs.msg import ExcitationCommand
+        from modal_twin_msgs.srv import StartExcitation
+        from rclpy.executors import SingleThreadedExecutor
+
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(probe)
+        try:
+            for name in self.deferred:
+                client = probe.create_client(StartExcitation, f"/{name}/start")
+                fut = None
+                while time.monotonic() < end and not (fut and fut.done()):
+                    if fut is None and client.service_is_ready():
+                        fut = client.call_async(StartExcitation.Request(
+                            command=ExcitationCommand(kind="", reason="launcher: ready")))
+                    ex.spin_once(timeout_sec=0.05)
+                if fut is None or not fut.done():
+                    return f"a start answer from /{name}/start"
+                if not fut.result().accepted:
+                    return f"an accepted start of {name}: {fut.result().message}"
+        finally:
+            ex.remove_node(probe)
+            ex.shutdown()
+        return ""
 
     # -- the whole run -----------------------------------------------------------------
     def run(self) -> LaunchResult:

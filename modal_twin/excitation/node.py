@@ -82,7 +82,7 @@ class ExcitationNode(Node):
             self.player = None
             return "stopped"
         self._start(config_from_command(msg, self.cfg, self.record_roots))
-        return f"started {msg.kind}"
+        return f"started {self.cfg.kind}"
 
     def _on_start(self, req: StartExcitation.Request, res: StartExcitation.Response):  # type: ignore[no-untyped-def]
         res.message = self._command(req.command)

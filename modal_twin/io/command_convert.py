@@ -17,7 +17,7 @@ def config_from_command(msg: Any, base: ExcitationConfig,
                         record_roots: Sequence[str | Path]) -> ExcitationConfig:
     """``ExcitationCommand`` -> the configuration it asks for, on top of ``base``.
 
-    Zero / empty fields keep the value of ``base``. Every field is checked against
+    Zero / empty fields (``kind`` too) keep the value of ``base``. Every field is checked against
     :data:`~modal_twin.validation.LIMITS` and the drive's size against the memory budget
     before anything is generated; ``record_path`` must be a regular file inside
     ``record_roots``.
@@ -27,7 +27,7 @@ def config_from_command(msg: Any, base: ExcitationConfig,
     OptionError
         Naming the first field out of its limits.
     """
-    fields: dict[str, Any] = {"kind": str(msg.kind)}
+    fields: dict[str, Any] = {"kind": str(msg.kind)} if msg.kind else {}
     if msg.channels:
         fields["channels"] = tuple(str(c) for c in msg.channels)
         check_field(len(fields["channels"]), "command.channels (count)", "n_channels")

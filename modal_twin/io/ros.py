@@ -16,6 +16,7 @@ from modal_twin.errors import ConfigError
 from modal_twin.io.topics import TOPICS, QosKind
 
 __all__ = [
+    "BURST_LIMIT_BLOCKS",
     "guarded",
     "guarded_service",
     "message_class",
@@ -29,16 +30,23 @@ __all__ = [
 ]
 
 
+BURST_LIMIT_BLOCKS = 20_000
+"""Blocks a signal topic holds for a slow reader (20 s of 1 kHz data in 1 ms blocks, 400 s
+in the usual 50-sample blocks)."""
+
+
 def qos_profile(kind: QosKind) -> QoSProfile:
     """QoS of a topic kind (measured choices, see ../shared/ROS_WHEELS.md).
 
-    Signal blocks: reliable with a deep history (bursts of blocks are not dropped).
-    Maps and models: reliable + transient local, so late joiners get the last one.
+    Signal blocks: reliable, history :data:`BURST_LIMIT_BLOCKS` deep on both ends, so a
+    burst of up to that many blocks that a reader has not yet taken is delivered whole
+    (beyond it the oldest are dropped; the readers' stream monitors then log the gap with
+    its sample range). Maps and models: reliable + transient local, so late joiners get
+    the last one.
     """
     if kind is QosKind.STREAM:
-        return QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE
-        )
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=BURST_LIMIT_BLOCKS,
+                          reliability=ReliabilityPolicy.RELIABLE)
     if kind is QosKind.LATCHED:
         return QoSProfile(
             history=HistoryPolicy.KEEP_LAST,

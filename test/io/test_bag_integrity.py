@@ -77,7 +77,7 @@ def test_foreign_topic_type_is_one_clear_error(tmp_path: Path) -> None:
     with BagWriter(tmp_path / "bag", {"/rig/raw": "std_msgs/msg/String"}) as w:
         S = st.types["std_msgs/msg/String"]
         w.write("/rig/raw", 1, st.serialize_cdr(S(data="hello"), "std_msgs/msg/String"))
-    with pytest.raises(BagError, match="holds std_msgs/msg/String, expected .*SignalBlock"):
+    with pytest.raises(BagError, match=r"holds std_msgs/msg/String, expected .*SignalBlock"):
         read_blocks(tmp_path / "bag", "/rig/raw")
 
 

@@ -56,7 +56,7 @@ diagnosis:
 """
 
 
-class Tester:
+class HostileClient:
     """Publishers and clients for every topic and service of the graph, one Context."""
 
     def __init__(self, domain_id: int) -> None:
@@ -117,7 +117,7 @@ def _block(msg_mod: object, k: int, names: tuple[str, ...]) -> object:
     return block_to_msg(SignalBlock(names, 1000.0, 50 * k, data), msg_mod.SignalBlock)  # type: ignore[attr-defined]
 
 
-def send_hostile(t: Tester, rng: np.random.Generator) -> int:
+def send_hostile(t: HostileClient, rng: np.random.Generator) -> int:
     """Every hostile message and request; returns how many were sent."""
     from hostile import hostile
 
@@ -171,7 +171,7 @@ def test_all_nodes_survive_hostile_input(domain_id: int, tmp_path: Path) -> None
     launcher = Launcher(load_scenario(p), run_dir=tmp_path / "run", say=lambda s: None,
                         record=False)
     launcher.start()
-    t = Tester(domain_id)
+    t = HostileClient(domain_id)
     try:
         assert launcher.wait_ready(120.0) == "", "graph did not come up"
         n = send_hostile(t, np.random.default_rng(12))
