@@ -222,8 +222,8 @@ class BagWriter:
     def close(self) -> None:
         """Write the summary and ``metadata.yaml``."""
         if self._writer is not None:
-            self._writer.close()
-            self._writer = None
+            writer, self._writer = self._writer, None
+            writer.close()
 
     def __enter__(self) -> BagWriter:
         return self

@@ -191,6 +191,7 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
         code = 1
     finally:
         if node is not None:
+            code = code or int(getattr(node, "exit_code", 0))
             close = getattr(node, "close", None)
             if callable(close):
                 close()
