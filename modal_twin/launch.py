@@ -36,6 +36,7 @@ from rclpy.context import Context
 
 from modal_twin.errors import ConfigError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.io.topics import NODE_ENDPOINTS
 from modal_twin.runtime import runtime_env
 from modal_twin.scenario import Scenario, load_scenario, with_parameters
 
@@ -192,6 +193,14 @@ class Launcher:
                     break
 
     # -- readiness ---------------------------------------------------------------------
+    def _endpoints(self, name: str) -> tuple[set[str], set[str]]:
+        """(subscriptions, publishers) process ``name`` has once fully constructed."""
+        if name == "recorder":
+            return {t.partition(":")[0] for t in self.sc.record_topics}, set()
+        spec = next((n for n in self.sc.nodes if n.name == name), None)
+        subs, pubs = NODE_ENDPOINTS.get(spec.executable if spec else "", ((), ()))
+        return set(subs), set(pubs)
+
     def wait_ready(self, timeout_s: float) -> str:
         """'' when every node is up and its topics matched, else what is missing."""
         ctx = Context()
@@ -212,9 +221,17 @@ class Launcher:
                     continue
                 pubs: set[str] = set()
                 subs: set[str] = set()
+                lacking = []
                 for n in want:
-                    pubs |= {t for t, _ in probe.get_publisher_names_and_types_by_node(n, "/")}
-                    subs |= {t for t, _ in probe.get_subscriber_names_and_types_by_node(n, "/")}
+                    p = {t for t, _ in probe.get_publisher_names_and_types_by_node(n, "/")}
+                    s = {t for t, _ in probe.get_subscriber_names_and_types_by_node(n, "/")}
+                    want_s, want_p = self._endpoints(n)
+                    lacking += [f"{n}:{t}" for t in sorted((want_s - s) | (want_p - p))]
+                    pubs, subs = pubs | p, subs | s
+                if lacking:  # a node still being built (its model loading)
+                    missing = "endpoints " + ", ".join(lacking)
+                    time.sleep(0.2)
+                    continue
                 unmatched = sorted(
                     t for t in (pubs & subs) - {"/rosout", "/parameter_events"}
                     if probe.count_publishers(t) == 0 or probe.count_subscribers(t) == 0
