@@ -12,8 +12,10 @@ supervise them, stop them cleanly.
 - The nodes die with the launcher even when it is killed (SIGKILL): each is started with
   ``PR_SET_PDEATHSIG`` = SIGTERM (Linux).
 - Discovery stays on this host (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) unless the
-  environment or the scenario (``launch.network: true``) asks for the network; files and
-  shared-memory segments the nodes create are not world-readable (umask 007).
+  environment or the scenario (``launch.network: true``) asks for the network; files the
+  nodes create are not world-readable (umask 007). Fast DDS gives its shared-memory
+  segments mode 0644 whatever the umask; ``launch.shared_memory: false`` keeps the data off
+  shared memory (UDP on the loopback only).
 """
 
 from __future__ import annotations
@@ -123,6 +125,8 @@ class Launcher:
         env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
         if not self.sc.extra.get("network", False):
             env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        if self.sc.extra.get("shared_memory", True) is False:  # Fast DDS makes its segments
+            env["FASTDDS_BUILTIN_TRANSPORTS"] = "UDPv4"  # 0644 whatever the umask: avoid them
         return runtime_env(env)  # one BLAS thread, allocator (modal_twin.runtime)
 
     def _spawn(self, name: str, cmd: list[str]) -> None:

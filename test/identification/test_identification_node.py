@@ -162,3 +162,20 @@ def test_node_identifies_modes_from_a_replayed_bag(tmp_path: Path, domain_id: in
         assert ok.success
     finally:
         h.close()
+
+
+def test_parameters_are_read_only_at_run_time(domain_id: int) -> None:
+    from rclpy.parameter import Parameter
+
+    h = Harness(domain_id)
+    try:
+        res = h.node.set_parameters([Parameter("max_order", value=10)])
+        assert not res[0].successful and "read-only" in res[0].reason
+        assert h.node.get_parameter("max_order").value == 40
+        bad = h.call(method="", max_order=4294967295, window_s=0.0)
+        assert not bad.success
+        assert "max_order: expected an integer in [0, 400]" in bad.message
+        bad = h.call(method="", max_order=0, window_s=float("inf"))
+        assert not bad.success and "window_s" in bad.message
+    finally:
+        h.close()
