@@ -124,7 +124,7 @@ def run_config(cfg: IdentificationConfig, method: str = "", max_order: int = 0,
     OptionError, ConfigError
         A field outside its limits (:data:`~modal_twin.validation.LIMITS`), named.
     """
-    order = check_field(max_order, "max_order", "max_order")
+    order = int(check_field(max_order, "max_order", "max_order"))
     win = check_field(window_s, "window_s", "window_s")
     if method or order:
         cfg = dataclasses.replace(cfg, method=method or cfg.method,

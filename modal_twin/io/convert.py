@@ -59,7 +59,7 @@ def block_from_msg(msg: Any) -> SignalBlock:
     """
     names = tuple(str(c) for c in msg.channel_names)
     check_field(len(names), "SignalBlock.channel_names (count)", "n_channels")
-    n = check_field(msg.n_samples, "SignalBlock.n_samples", "n_samples")
+    n = int(check_field(msg.n_samples, "SignalBlock.n_samples", "n_samples"))
     check_field(msg.sample_rate_hz, "SignalBlock.sample_rate_hz", "sample_rate_hz")
     data = np.frombuffer(msg.data, dtype=np.float64) if len(msg.data) else np.zeros(0)
     if data.size != len(names) * n:

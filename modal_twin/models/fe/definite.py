@@ -11,6 +11,8 @@ zero pivot reported as an error), and Sylvester's criterion is read off ``D``.
 
 from __future__ import annotations
 
+from typing import TypeAlias
+
 import numpy as np
 import qdldl
 import scipy.sparse as sp
@@ -20,7 +22,7 @@ from modal_twin.errors import ModelError
 
 __all__ = ["check_entries", "ldl_factor", "positive_definite", "require_positive_definite"]
 
-Matrix = sp.sparray | sp.spmatrix | FloatArray
+Matrix: TypeAlias = sp.sparray | sp.spmatrix | FloatArray
 
 
 def _csc(A: Matrix) -> sp.csc_matrix:
