@@ -38,6 +38,7 @@ from rclpy.context import Context
 
 from modal_twin.errors import ConfigError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.io.ros import FASTDDS_PROFILES
 from modal_twin.io.topics import NODE_ENDPOINTS
 from modal_twin.runtime import runtime_env
 from modal_twin.scenario import Scenario, load_scenario, with_parameters
@@ -123,6 +124,7 @@ class Launcher:
         env["PYTHONUNBUFFERED"] = "1"
         env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
         env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
+        env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
         if not self.sc.extra.get("network", False):
             env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         if self.sc.extra.get("shared_memory", True) is False:  # Fast DDS makes its segments

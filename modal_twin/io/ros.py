@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -29,6 +31,12 @@ __all__ = [
     "wait_for_subscribers",
 ]
 
+
+FASTDDS_PROFILES = Path(__file__).with_name("fastdds_profiles.xml")
+"""Fast DDS defaults (history resource limits above :data:`BURST_LIMIT_BLOCKS`)."""
+
+# read when a participant is created (rclpy.init / the first node), so set on import
+os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
 
 BURST_LIMIT_BLOCKS = 20_000
 """Blocks a signal topic holds for a slow reader (20 s of 1 kHz data in 1 ms blocks, 400 s
