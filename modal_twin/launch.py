@@ -48,6 +48,11 @@ __all__ = ["LaunchResult", "Launcher", "launch"]
 log = logging.getLogger(__name__)
 
 _PR_SET_PDEATHSIG = 1
+SETTLE_S = 1.0
+"""Wait between the probe seeing every endpoint and the excitation start: the nodes' own
+matching of writers and readers on the later hops (rig -> acquisition -> recorder) happens
+within it on a loaded 2-core machine (measured: bench_reliability.py); the excitation
+itself waits until every launched reader of /excitation/signal has matched."""
 
 
 def _die_with_parent() -> None:
@@ -149,7 +154,9 @@ class Launcher:
         sc = self.sc
         for node in sc.nodes:  # the excitation starts when the launcher says ready
             if node.executable == "excitation_node" and node.parameters.get("autostart", True):
-                sc = with_parameters(sc, node.name, autostart=False)
+                readers = self._readers("/excitation/signal")
+                wait = max(int(node.parameters.get("wait_subscribers", 1)), readers)
+                sc = with_parameters(sc, node.name, autostart=False, wait_subscribers=wait)
                 self.deferred.append(node.name)
         for node in sc.nodes:
             pfile = self.run_dir / "params" / f"{node.name}.yaml"
@@ -199,6 +206,12 @@ class Launcher:
                     break
 
     # -- readiness ---------------------------------------------------------------------
+    def _readers(self, topic: str) -> int:
+        """Launched processes (recorder included) that subscribe ``topic``."""
+        n = int(self.record and topic in {t.partition(":")[0] for t in self.sc.record_topics})
+        return n + sum(topic in NODE_ENDPOINTS.get(node.executable, ((), ()))[0]
+                       for node in self.sc.nodes)
+
     def _endpoints(self, name: str) -> tuple[set[str], set[str]]:
         """(subscriptions, publishers) process ``name`` has once fully constructed."""
         if name == "recorder":
@@ -260,6 +273,9 @@ class Launcher:
 
         ex = SingleThreadedExecutor(context=ctx)
         ex.add_node(probe)
+        settle = time.monotonic() + SETTLE_S  # the probe saw every endpoint; let the nodes
+        while self.deferred and time.monotonic() < settle:  # match each other's too
+            ex.spin_once(timeout_sec=0.05)
         try:
             for name in self.deferred:
                 client = probe.create_client(StartExcitation, f"/{name}/start")
