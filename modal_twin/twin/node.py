@@ -35,6 +35,9 @@ class TwinConfig:
     fs_hz: float = field(default=1000.0, metadata={"doc": "frame rate the twin runs at"})
     window_s: float = field(default=10.0, metadata={"doc": "metrics window"})
     metrics_period_s: float = field(default=1.0, metadata={"doc": "metrics publish period"})
+    versions_dir: str = field(default="runs/models",
+                              metadata={"doc": "folder of the model versions /model/parameters "
+                                               "may name (besides the working folder)"})
 
 
 class TwinNode(Node):
@@ -45,8 +48,8 @@ class TwinNode(Node):
         self.cfg = declare_config(self, TwinConfig)
         self.plant = load_model(resolve_config(self.cfg.model_file))
         self.version = self.plant.name
-        self.model_roots = [Path.cwd(), resolve_config(self.cfg.model_file).resolve().parent,
-                            *config_roots()]
+        self.model_roots = [Path.cwd(), Path(self.cfg.versions_dir),
+                            resolve_config(self.cfg.model_file).resolve().parent, *config_roots()]
         self.runner = TwinRunner(self.plant, self.cfg.fs_hz, window_s=self.cfg.window_s)
         self.monitor = StreamMonitor()
         self.pred_pub = self.create_publisher(SignalBlockMsg, "/twin/prediction",
