@@ -59,7 +59,9 @@ def _cmd_launch(a: argparse.Namespace) -> int:
     from modal_twin.launch import Launcher
     from modal_twin.scenario import load_scenario
 
-    sc = load_scenario(_scenario_path(a.scenario))
+    sc = load_scenario(_scenario_path(a.scenario), allow_external=a.allow_external)
+    if a.network:
+        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SUBNET"
     if a.duration is not None:
         from dataclasses import replace
 
@@ -86,10 +88,10 @@ def _cmd_bag(a: argparse.Namespace) -> int:
             }))
         else:
             print(info.format())
-        return 0
+        return ExitCode.OK
     info = salvage(a.bag, a.out)
     print(f"salvaged into {info.path}\n{info.format()}")
-    return 0
+    return ExitCode.OK
 
 
 def _cmd_model(a: argparse.Namespace) -> int:
@@ -108,7 +110,7 @@ def _cmd_model(a: argparse.Namespace) -> int:
     info = model_info(bld.assembly, red.f_hz, red.Phi, red.zeta, name=bld.spec.name,
                       groups=[f.nodes for f in bld.spec.floors], n_show=a.show)
     print(json.dumps(info.to_dict(), indent=1) if a.json else info.table())
-    return 0
+    return ExitCode.OK
 
 
 def _vehicle_info(a: argparse.Namespace) -> int:
@@ -119,14 +121,14 @@ def _vehicle_info(a: argparse.Namespace) -> int:
     info = vehicle_info(assemble_vehicle(load_vehicle(a.file)), n_show=a.show)
     if a.json:
         print(json.dumps(info, indent=1))
-        return 0
+        return ExitCode.OK
     print(f"{info['name']}: {info['n_dof']} DOFs ({info['n_cb_modes']} CB modes), total "
           f"mass {info['total_mass_kg'] / 1e3:.2f} t, free-free carbody "
           + ", ".join(f"{f:.2f}" for f in info["carbody_f_free_hz"]) + " Hz")
     print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>8}  part")
     for m in info["modes"]:
         print(f"{m['number']:>4d} {m['f_hz']:9.4f} {100 * m['zeta']:8.2f}  {m['part']}")
-    return 0
+    return ExitCode.OK
 
 
 def _cmd_diagnose(a: argparse.Namespace) -> int:
@@ -216,6 +218,10 @@ def _parser() -> argparse.ArgumentParser:
     la.add_argument("--run-dir", type=Path, default=None)
     la.add_argument("--duration", type=float, default=None, help="override launch.duration_s")
     la.add_argument("--no-record", action="store_true")
+    la.add_argument("--allow-external", action="store_true",
+                    help="let the scenario start executables that are not this package's nodes")
+    la.add_argument("--network", action="store_true",
+                    help="discover nodes on the network, not only this host (see README)")
     la.set_defaults(func=_cmd_launch)
     sub.add_parser("record", help="record topics to a bag", add_help=False)
     sub.add_parser("replay", help="republish a bag", add_help=False)
@@ -302,6 +308,8 @@ def _verbosity_flags(p: argparse.ArgumentParser, default: object = False) -> Non
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``modal-twin``."""
     argv = sys.argv[1:] if argv is None else argv
+    if "--network" not in argv:  # discovery stays on this host unless asked (README: network)
+        os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     if argv and argv[0] == "record":
         from modal_twin.io.recorder import main as record_main
 
@@ -318,6 +326,8 @@ def main(argv: list[str] | None = None) -> int:
                         format="%(levelname)s %(name)s: %(message)s")
     try:
         return int(a.func(a))
+    except KeyboardInterrupt:
+        return ExitCode.INTERRUPTED
     except ModalTwinError as err:
         print(f"modal-twin {a.cmd}: {err}", file=sys.stderr)
         return ExitCode.USAGE

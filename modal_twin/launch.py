@@ -5,9 +5,17 @@ supervise them, stop them cleanly.
   --params-file <run>/params/<name>.yaml`` and logs to ``<run>/logs/<name>.log``.
 - A run gets its own ``ROS_DOMAIN_ID`` (unless one is set), so parallel runs never meet.
 - Ready = every node visible in the graph and every topic that one launched node
-  publishes and another subscribes has both ends discovered.
+  publishes and another subscribes has both ends discovered. Only then are the
+  excitation nodes started (``~/start``), so the first sample reaches the bag.
 - Ctrl-C / SIGTERM are forwarded as SIGINT to the nodes (recorder last); a node that dies
   stops the run, which exits 1 and names it.
+- The nodes die with the launcher even when it is killed (SIGKILL): each is started with
+  ``PR_SET_PDEATHSIG`` = SIGTERM (Linux).
+- Discovery stays on this host (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) unless the
+  environment or the scenario (``launch.network: true``) asks for the network; files the
+  nodes create are not world-readable (umask 007). Fast DDS gives its shared-memory
+  segments mode 0644 whatever the umask; ``launch.shared_memory: false`` keeps the data off
+  shared memory (UDP on the loopback only).
 """
 
 from __future__ import annotations
@@ -23,19 +31,40 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 import rclpy
 from rclpy.context import Context
 
 from modal_twin.errors import ConfigError
+from modal_twin.exit_codes import ExitCode
+from modal_twin.io.ros import FASTDDS_PROFILES
+from modal_twin.io.topics import NODE_ENDPOINTS
 from modal_twin.runtime import runtime_env
-from modal_twin.scenario import Scenario, load_scenario
+from modal_twin.scenario import Scenario, load_scenario, with_parameters
 
 __all__ = ["LaunchResult", "Launcher", "launch"]
 
 log = logging.getLogger(__name__)
 
-EXIT_OK, EXIT_NODE_DIED, EXIT_CONFIG, EXIT_NOT_READY = 0, 1, 2, 3
+_PR_SET_PDEATHSIG = 1
+SETTLE_S = 1.0
+"""Wait between the probe seeing every endpoint and the excitation start: the nodes' own
+matching of writers and readers on the later hops (rig -> acquisition -> recorder) happens
+within it on a loaded 2-core machine (measured: bench_reliability.py); the excitation
+itself waits until every launched reader of /excitation/signal has matched."""
+
+
+def _die_with_parent() -> None:
+    """``preexec_fn`` of every node: SIGTERM when the launcher dies, files not world-readable."""
+    import ctypes
+
+    os.umask(0o007)
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: the nodes' own shutdown still applies
+        pass
 
 
 @dataclass(slots=True)
@@ -90,6 +119,7 @@ class Launcher:
         self.record = record and bool(scenario.record_topics)
         self.bag = self.run_dir / "bag" if self.record else None
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self.deferred: list[str] = []  # excitation nodes started once every reader matched
         self._stop_requested = False
 
     # -- processes ---------------------------------------------------------------------
@@ -99,13 +129,18 @@ class Launcher:
         env["PYTHONUNBUFFERED"] = "1"
         env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
         env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
+        env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
+        if not self.sc.extra.get("network", False):
+            env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        if self.sc.extra.get("shared_memory", True) is False:  # Fast DDS makes its segments
+            env["FASTDDS_BUILTIN_TRANSPORTS"] = "UDPv4"  # 0644 whatever the umask: avoid them
         return runtime_env(env)  # one BLAS thread, allocator (modal_twin.runtime)
 
     def _spawn(self, name: str, cmd: list[str]) -> None:
         logf = (self.run_dir / "logs" / f"{name}.log").open("wb")
         self.procs[name] = subprocess.Popen(
             cmd, stdout=logf, stderr=subprocess.STDOUT, env=self._env(),
-            start_new_session=True, cwd=os.getcwd(),
+            start_new_session=True, cwd=os.getcwd(), preexec_fn=_die_with_parent,
         )
         logf.close()
 
@@ -116,9 +151,16 @@ class Launcher:
         if self.record and self.bag is not None:
             self._spawn("recorder", [*_executable("recorder_node"), "-o", str(self.bag),
                                      *self.sc.record_topics])
-        for node in self.sc.nodes:
+        sc = self.sc
+        for node in sc.nodes:  # the excitation starts when the launcher says ready
+            if node.executable == "excitation_node" and node.parameters.get("autostart", True):
+                readers = self._readers("/excitation/signal")
+                wait = max(int(node.parameters.get("wait_subscribers", 1)), readers)
+                sc = with_parameters(sc, node.name, autostart=False, wait_subscribers=wait)
+                self.deferred.append(node.name)
+        for node in sc.nodes:
             pfile = self.run_dir / "params" / f"{node.name}.yaml"
-            pfile.write_text(self.sc.params_file_text(node.name))
+            pfile.write_text(sc.params_file_text(node.name))
             cmd = [*_executable(node.executable), *node.args, "--ros-args",
                    "-r", f"__node:={node.name}", "--params-file", str(pfile)]
             self._spawn(node.name, cmd)
@@ -164,6 +206,20 @@ class Launcher:
                     break
 
     # -- readiness ---------------------------------------------------------------------
+    def _readers(self, topic: str) -> int:
+        """Launched processes (recorder included) that subscribe ``topic``."""
+        n = int(self.record and topic in {t.partition(":")[0] for t in self.sc.record_topics})
+        return n + sum(topic in NODE_ENDPOINTS.get(node.executable, ((), ()))[0]
+                       for node in self.sc.nodes)
+
+    def _endpoints(self, name: str) -> tuple[set[str], set[str]]:
+        """(subscriptions, publishers) process ``name`` has once fully constructed."""
+        if name == "recorder":
+            return {t.partition(":")[0] for t in self.sc.record_topics}, set()
+        spec = next((n for n in self.sc.nodes if n.name == name), None)
+        subs, pubs = NODE_ENDPOINTS.get(spec.executable if spec else "", ((), ()))
+        return set(subs), set(pubs)
+
     def wait_ready(self, timeout_s: float) -> str:
         """'' when every node is up and its topics matched, else what is missing."""
         ctx = Context()
@@ -184,21 +240,59 @@ class Launcher:
                     continue
                 pubs: set[str] = set()
                 subs: set[str] = set()
+                lacking = []
                 for n in want:
-                    pubs |= {t for t, _ in probe.get_publisher_names_and_types_by_node(n, "/")}
-                    subs |= {t for t, _ in probe.get_subscriber_names_and_types_by_node(n, "/")}
+                    p = {t for t, _ in probe.get_publisher_names_and_types_by_node(n, "/")}
+                    s = {t for t, _ in probe.get_subscriber_names_and_types_by_node(n, "/")}
+                    want_s, want_p = self._endpoints(n)
+                    lacking += [f"{n}:{t}" for t in sorted((want_s - s) | (want_p - p))]
+                    pubs, subs = pubs | p, subs | s
+                if lacking:  # a node still being built (its model loading)
+                    missing = "endpoints " + ", ".join(lacking)
+                    time.sleep(0.2)
+                    continue
                 unmatched = sorted(
                     t for t in (pubs & subs) - {"/rosout", "/parameter_events"}
                     if probe.count_publishers(t) == 0 or probe.count_subscribers(t) == 0
                 )
                 if not unmatched:
-                    return ""
+                    return self._start_deferred(probe, ctx, end)
                 missing = "topics " + ", ".join(unmatched)
                 time.sleep(0.2)
             return missing
         finally:
             probe.destroy_node()
             rclpy.try_shutdown(context=ctx)
+
+    def _start_deferred(self, probe: Any, ctx: Context, end: float) -> str:
+        """Call ``~/start`` of each deferred excitation node: its first block goes out
+        only after every recorder and reader of the graph has matched."""
+        from modal_twin_msgs.msg import ExcitationCommand
+        from modal_twin_msgs.srv import StartExcitation
+        from rclpy.executors import SingleThreadedExecutor
+
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(probe)
+        settle = time.monotonic() + SETTLE_S  # the probe saw every endpoint; let the nodes
+        while self.deferred and time.monotonic() < settle:  # match each other's too
+            ex.spin_once(timeout_sec=0.05)
+        try:
+            for name in self.deferred:
+                client = probe.create_client(StartExcitation, f"/{name}/start")
+                fut = None
+                while time.monotonic() < end and not (fut and fut.done()):
+                    if fut is None and client.service_is_ready():
+                        fut = client.call_async(StartExcitation.Request(
+                            command=ExcitationCommand(kind="", reason="launcher: ready")))
+                    ex.spin_once(timeout_sec=0.05)
+                if fut is None or not fut.done():
+                    return f"a start answer from /{name}/start"
+                if not fut.result().accepted:
+                    return f"an accepted start of {name}: {fut.result().message}"
+        finally:
+            ex.remove_node(probe)
+            ex.shutdown()
+        return ""
 
     # -- the whole run -----------------------------------------------------------------
     def run(self) -> LaunchResult:
@@ -207,13 +301,13 @@ class Launcher:
             self._stop_requested = True
 
         old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-        code, message = EXIT_OK, ""
+        code, message = ExitCode.OK, ""
         try:
             self.say(f"launch: {self.sc.name} in {self.run_dir} (ROS_DOMAIN_ID={self.domain_id})")
             self.start()
             missing = self.wait_ready(self.sc.ready_timeout_s)
             if missing:
-                code, message = EXIT_NOT_READY, (
+                code, message = ExitCode.NOT_READY, (
                     f"not ready after {self.sc.ready_timeout_s:.0f} s: missing {missing}")
             elif not self.dead():
                 self.say(f"launch: {len(self.procs)} processes up and matched")
@@ -222,7 +316,7 @@ class Launcher:
                 died = self.dead()
                 if died:
                     name, rc = died[0]
-                    code = EXIT_NODE_DIED
+                    code = ExitCode.FAILED
                     message = (f"node {name!r} died with exit code {rc}; last lines of its "
                                f"log:\n{self.log_tail(name)}")
                     break

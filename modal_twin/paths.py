@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-__all__ = ["resolve_config"]
+__all__ = ["config_roots", "resolve_config"]
 
 _ROOTS = (Path(__file__).resolve().parents[1], Path(sys.prefix) / "share" / "modal_twin")
 
@@ -21,3 +21,8 @@ def resolve_config(path: str | Path) -> Path:
         if (root / p).exists():
             return root / p
     return p
+
+
+def config_roots() -> tuple[Path, ...]:
+    """The folders configuration files are looked up in (source tree, package share)."""
+    return tuple(r for r in _ROOTS if r.is_dir())

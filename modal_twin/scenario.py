@@ -17,6 +17,7 @@ reads: ``<node>: {ros__parameters: {...}}``) plus one ``launch:`` section::
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -90,8 +91,33 @@ def _params(path: Path, doc: dict[str, Any], key: str) -> dict[str, Any]:
     return dict(section.get("ros__parameters") or {})
 
 
-def load_scenario(path: str | Path) -> Scenario:
+PACKAGE_EXECUTABLES = (
+    "excitation_node", "rig_node", "acquisition_node", "identification_node",
+    "updating_node", "twin_node", "diagnosis_node", "recorder_node", "replay_node",
+)
+"""The executables a scenario may start unless ``allow_external`` is given."""
+
+_NODE_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}")
+
+
+def _check_nodes(p: Path, nodes: list[NodeSpec], allow_external: bool) -> None:
+    """Node names are plain ROS names (they become file names in the run folder);
+    executables are this package's nodes unless ``allow_external``."""
+    for i, n in enumerate(nodes):
+        if not _NODE_NAME.fullmatch(n.name):
+            raise _err(p, f"launch.nodes[{i}].name", f"expected letters, digits and _ "
+                       f"(starting with a letter, at most 64), got {n.name!r}")
+        if not allow_external and n.executable not in PACKAGE_EXECUTABLES:
+            raise _err(p, f"launch.nodes[{i}].executable",
+                       f"expected one of this package's nodes {list(PACKAGE_EXECUTABLES)} "
+                       f"(or --allow-external), got {n.executable!r}")
+
+
+def load_scenario(path: str | Path, *, allow_external: bool = False) -> Scenario:
     """Read and check a scenario file.
+
+    ``allow_external``: let nodes run executables that are not this package's nodes
+    (by default a scenario cannot start an arbitrary program).
 
     Raises
     ------
@@ -144,6 +170,7 @@ def load_scenario(path: str | Path) -> Scenario:
     extra = {k: v for k, v in launch.items()
              if k not in {"nodes", "duration_s", "ready_timeout_s", "record", "description",
                           "name"}}
+    _check_nodes(p, nodes, allow_external)
     return Scenario(
         path=p,
         name=str(launch.get("name", p.stem)),

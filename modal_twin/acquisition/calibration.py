@@ -10,8 +10,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
-from modal_twin.acquisition._validate import as_channels
 from modal_twin.errors import OptionError, ShapeError
+from modal_twin.validation import as_channels
 
 __all__ = ["calibrate"]
 

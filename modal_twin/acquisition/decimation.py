@@ -16,8 +16,8 @@ import scipy.signal as sig
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
-from modal_twin.acquisition._validate import as_channels, check_positive
 from modal_twin.errors import OptionError, ShapeError
+from modal_twin.validation import as_channels, check_positive
 
 __all__ = ["Decimated", "decimate", "lowpass_zero_phase"]
 

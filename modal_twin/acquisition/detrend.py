@@ -9,8 +9,8 @@ import scipy.signal as sig
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
-from modal_twin.acquisition._validate import as_channels
 from modal_twin.errors import OptionError
+from modal_twin.validation import as_channels
 
 __all__ = ["detrend"]
 

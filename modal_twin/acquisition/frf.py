@@ -24,8 +24,8 @@ import scipy.signal as sig
 from numpy.typing import ArrayLike
 
 from modal_twin._types import ComplexArray, FloatArray
-from modal_twin.acquisition._validate import as_channels, check_positive, check_rank
 from modal_twin.errors import OptionError, ShapeError
+from modal_twin.validation import as_channels, check_positive, check_rank
 
 __all__ = ["FRFEstimate", "frf"]
 

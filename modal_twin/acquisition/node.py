@@ -4,20 +4,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
 from modal_twin_msgs.msg import ChannelInfo, ChannelMap
 from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
 from rclpy.node import Node
 
 from modal_twin.acquisition.continuity import StreamMonitor, Verdict
-from modal_twin.errors import ModalTwinError
+from modal_twin.acquisition.frames import frame_from_raw
 from modal_twin.io.convert import block_from_msg, block_to_msg, channel_map_to_msg
 from modal_twin.io.params import declare_config
-from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.io.ros import guarded, qos_for, report, run_node
 from modal_twin.paths import resolve_config
+from modal_twin.rig.channels import rig_channels
 from modal_twin.rig.config import load_rig
-from modal_twin.rig.truth import rig_channels
-from modal_twin.signal_block import SignalBlock
 
 __all__ = ["AcquisitionConfig", "AcquisitionNode", "main"]
 
@@ -36,43 +34,32 @@ class AcquisitionNode(Node):
     def __init__(self) -> None:
         super().__init__("acquisition")
         self.cfg = declare_config(self, AcquisitionConfig)
-        self.channels = rig_channels(load_rig(resolve_config(self.cfg.rig_file)))
-        self.index = {c.name: i for i, c in enumerate(self.channels)}
-        self.monitor = StreamMonitor(expected_channels=tuple(c.name for c in self.channels))
+        channels = rig_channels(load_rig(resolve_config(self.cfg.rig_file)))
+        self.channels = {c.name: c for c in channels}
+        self.monitor = StreamMonitor(expected_channels=tuple(self.channels))
         self.pub = self.create_publisher(SignalBlockMsg, "/measurement/frames",
                                          qos_for("/measurement/frames"))
         self.map_pub = self.create_publisher(ChannelMap, "/measurement/channels",
                                              qos_for("/measurement/channels"))
-        self.map_pub.publish(channel_map_to_msg(self.channels, "acquisition", ChannelMap,
+        self.map_pub.publish(channel_map_to_msg(channels, "acquisition", ChannelMap,
                                                 ChannelInfo))
-        self.create_subscription(SignalBlockMsg, "/rig/raw", self._on_raw, qos_for("/rig/raw"))
-        self.get_logger().info(f"channel map: {len(self.channels)} channels")
+        self.create_subscription(SignalBlockMsg, "/rig/raw",
+                                 guarded(self, "raw block", self._on_raw), qos_for("/rig/raw"))
+        self.get_logger().info(f"channel map: {len(channels)} channels")
 
     def _on_raw(self, msg: SignalBlockMsg) -> None:
-        try:
-            v = self.monitor.check(block_from_msg(msg))
-        except ModalTwinError as err:
-            self.get_logger().error(f"raw block refused: {err}", throttle_duration_sec=2.0)
-            return
+        v = self.monitor.check(block_from_msg(msg))
         if v.verdict is not Verdict.OK:
             report(self.get_logger(), v)
         if v.block is None:
             return
-        raw = v.block
-        unknown = [c for c in raw.channel_names if c not in self.index]
+        frame, unknown = frame_from_raw(v.block, self.channels)
         if unknown:
             self.get_logger().error(
                 f"/rig/raw: channels {unknown[:5]} are not in the channel map: dropped",
                 throttle_duration_sec=5.0)
-        keep = [c for c in raw.channel_names if c in self.index]
-        if not keep:
-            return
-        sens = np.array([self.channels[self.index[c]].sensitivity for c in keep])
-        rows = [raw.channel_names.index(c) for c in keep]
-        si = raw.data[rows] / sens[:, None]
-        frame = SignalBlock(tuple(keep), raw.fs_hz, raw.first_index, si, raw.stamp_ns,
-                            "acquisition")
-        self.pub.publish(block_to_msg(frame, SignalBlockMsg))
+        if frame is not None:
+            self.pub.publish(block_to_msg(frame, SignalBlockMsg))
 
 
 def main() -> int:

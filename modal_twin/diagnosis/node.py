@@ -17,6 +17,7 @@ from modal_twin_msgs.srv import AddEffect, RunDiagnosis
 from rclpy.node import Node
 
 from modal_twin.acquisition.continuity import StreamMonitor, Verdict
+from modal_twin.block_window import BlockWindow
 from modal_twin.diagnosis.live import live_diagnosis
 from modal_twin.diagnosis.pipeline import Diagnosis
 from modal_twin.diagnosis.record import Record, record_from_blocks
@@ -30,10 +31,10 @@ from modal_twin.errors import ModalTwinError
 from modal_twin.io.convert import block_from_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.report_convert import diagnosis_to_msg, version_to_parameters_msg
-from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.io.ros import guarded, guarded_service, qos_for, report, run_node
 from modal_twin.models.loading import load_model
 from modal_twin.paths import resolve_config
-from modal_twin.signal_block import SignalBlock
+from modal_twin.validation import check_field
 
 __all__ = ["DiagnosisConfig", "DiagnosisNode", "main"]
 
@@ -59,61 +60,41 @@ class DiagnosisNode(Node):
     def __init__(self) -> None:
         super().__init__("diagnosis")
         self.cfg = declare_config(self, DiagnosisConfig)
-        self.blocks: list[SignalBlock] = []
+        self.frames = BlockWindow(self.cfg.buffer_s, "measurement frames")
+        self.residuals = BlockWindow(self.cfg.buffer_s, "twin residuals")
         self.monitor = StreamMonitor()
         self.last: Diagnosis | None = None
         self.report_pub = self.create_publisher(DiagnosisReport, "/diagnosis/report",
                                                 qos_for("/diagnosis/report"))
         self.param_pub = self.create_publisher(ModelParameters, "/model/parameters",
                                                qos_for("/model/parameters"))
-        self.create_subscription(SignalBlockMsg, "/measurement/frames", self._on_frame,
+        self.create_subscription(SignalBlockMsg, "/measurement/frames",
+                                 guarded(self, "frame", self._on_frame),
                                  qos_for("/measurement/frames"))
-        self.residuals: list[SignalBlock] = []
-        self.create_subscription(SignalBlockMsg, "/twin/residual", self._on_residual,
+        self.create_subscription(SignalBlockMsg, "/twin/residual",
+                                 guarded(self, "residual", self._on_residual),
                                  qos_for("/twin/residual"))
         self.channels = {c.name: c for c in
                          load_model(resolve_config(self.cfg.model_file)).plant().channels}
-        self.create_service(RunDiagnosis, "~/run", self._on_run)
-        self.create_service(AddEffect, "~/add_effect", self._on_add)
+        self.create_service(RunDiagnosis, "~/run", guarded_service(self, "~/run", self._on_run))
+        self.create_service(AddEffect, "~/add_effect",
+                            guarded_service(self, "~/add_effect", self._on_add))
         if self.cfg.period_s > 0:
-            self.create_timer(self.cfg.period_s, self._scheduled)
+            self.create_timer(self.cfg.period_s, guarded(self, "live diagnosis", self._scheduled))
 
     def _on_frame(self, msg: SignalBlockMsg) -> None:
-        try:
-            v = self.monitor.check(block_from_msg(msg))
-        except ModalTwinError as err:
-            self.get_logger().error(f"frame refused: {err}")
-            return
+        v = self.monitor.check(block_from_msg(msg))
         if v.verdict is not Verdict.OK:
             report(self.get_logger(), v)
-        if v.block is None:
-            return
-        if v.verdict in (Verdict.GAP, Verdict.RESTART):  # a record must be contiguous
-            self.blocks = []
-        self.blocks.append(v.block)
-        n = sum(b.n_samples for b in self.blocks)
-        while self.blocks and n - self.blocks[0].n_samples >= self.cfg.buffer_s * v.block.fs_hz:
-            n -= self.blocks.pop(0).n_samples
+        if v.block is not None:
+            self.frames.add(v.block)  # a gap or restart starts a new record
 
     def _on_residual(self, msg: SignalBlockMsg) -> None:
-        try:
-            blk = block_from_msg(msg)
-        except ModalTwinError as err:
-            self.get_logger().error(f"residual refused: {err}")
-            return
-        self.residuals.append(blk)
-        n = sum(b.n_samples for b in self.residuals)
-        while n - self.residuals[0].n_samples >= self.cfg.buffer_s * blk.fs_hz:
-            n -= self.residuals.pop(0).n_samples
+        self.residuals.add(block_from_msg(msg))
 
     def _records(self, window_s: float) -> tuple[Record, Record]:
-        if not self.blocks:
-            msg = "no measurement frames buffered yet"
-            raise ModalTwinError(msg)
-        rec = record_from_blocks(self.blocks, source="/measurement/frames")
-        if window_s > 0:
-            n = min(rec.n_samples, round(window_s * rec.fs_hz))
-            rec = rec.segment(rec.n_samples - n, rec.n_samples)
+        last_s = check_field(window_s, "window_s", "window_s")
+        rec = record_from_blocks([self.frames.joined(last_s)], source="/measurement/frames")
         cut = round(self.cfg.train_fraction * rec.n_samples)
         return rec.segment(0, cut), rec.segment(cut, rec.n_samples, warmup=True)
 
@@ -128,47 +109,36 @@ class DiagnosisNode(Node):
         return d
 
     def _scheduled(self) -> None:
-        try:
-            d = live_diagnosis(self.blocks, self.residuals, self.channels)
-        except (ModalTwinError, ValueError) as err:
-            self.get_logger().warning(f"live where-it-fails skipped: {err}",
-                                      throttle_duration_sec=10.0)
-            return
+        d = live_diagnosis(list(self.frames.blocks), list(self.residuals.blocks), self.channels)
         self.report_pub.publish(diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
                                                  FailingPlace, CandidateEffect))
 
     def _on_run(self, req: RunDiagnosis.Request, res: RunDiagnosis.Response):  # type: ignore[no-untyped-def]
-        try:
-            d = self._diagnose(req.window_s)
-            res.success, res.message = True, d.summary
-            res.report = diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
-                                          FailingPlace, CandidateEffect)
-        except (ModalTwinError, ValueError) as err:
-            res.success, res.message = False, str(err)
+        d = self._diagnose(req.window_s)
+        res.success, res.message = True, d.summary
+        res.report = diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
+                                      FailingPlace, CandidateEffect)
         return res
 
     def _on_add(self, req: AddEffect.Request, res: AddEffect.Response):  # type: ignore[no-untyped-def]
-        try:
-            train, test = self._records(0.0)
-            model = resolve_config(self.cfg.model_file)
-            if req.effect and req.component:
-                start = choose_start(load_model(model), req.component, req.effect, train)
-                mv, _ = add_effect(model, req.component, req.effect, start, train, test,
-                                   self.cfg.versions_dir)
-            else:
-                d = self.last or self._diagnose(0.0)
-                written = add_diagnosed(model, d, test, self.cfg.versions_dir)
-                if written is None:
-                    msg = f"nothing to add: {d.summary}"
-                    raise ModalTwinError(msg)
-                mv = written
-            self.param_pub.publish(version_to_parameters_msg(mv, ModelParameters))
-            res.success, res.model_version = True, mv.label
-            res.message = f"{mv.note}; written to {mv.path}"
-            res.parameters = version_to_parameters_msg(mv, ModelParameters)
-            self.get_logger().info(res.message)
-        except (ModalTwinError, ValueError) as err:
-            res.success, res.message = False, str(err)
+        train, test = self._records(0.0)
+        model = resolve_config(self.cfg.model_file)
+        if req.effect and req.component:  # the named effect, started as the CLI starts it
+            start = choose_start(load_model(model), req.component, req.effect, train)
+            mv, _ = add_effect(model, req.component, req.effect, start, train, test,
+                               self.cfg.versions_dir)
+        else:  # every effect the diagnosis found (accepted, unflagged)
+            d = self.last or self._diagnose(0.0)
+            written = add_diagnosed(model, d, test, self.cfg.versions_dir)
+            if written is None:
+                msg = f"nothing to add: {d.summary}"
+                raise ModalTwinError(msg)
+            mv = written
+        res.parameters = version_to_parameters_msg(mv, ModelParameters)
+        self.param_pub.publish(res.parameters)
+        res.success, res.model_version = True, mv.label
+        res.message = f"{mv.note}; written to {mv.path}"
+        self.get_logger().info(res.message)
         return res
 
 

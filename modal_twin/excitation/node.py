@@ -1,132 +1,97 @@
 """Excitation node: publishes the drive signal on /excitation/signal in blocks.
 
 Services ``~/start`` (StartExcitation) and ``~/abort`` (AbortExcitation); a message on
-/excitation/command starts a drive too (kind ``stop`` aborts).
+/excitation/command starts a drive too (kind ``stop`` aborts). A refused command leaves
+the running drive and the settings as they were.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
+from pathlib import Path
 
-import numpy as np
 from modal_twin_msgs.msg import ExcitationCommand
 from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
 from modal_twin_msgs.srv import AbortExcitation, StartExcitation
 from rclpy.node import Node
 
 from modal_twin.excitation.drive import ExcitationConfig, make_drive
+from modal_twin.excitation.player import DrivePlayer
+from modal_twin.io.command_convert import config_from_command
 from modal_twin.io.convert import block_to_msg
 from modal_twin.io.params import declare_config
-from modal_twin.io.ros import qos_for, run_node
-from modal_twin.signal_block import SignalBlock
+from modal_twin.io.ros import guarded, guarded_service, qos_for, run_node
+from modal_twin.paths import config_roots
 
 __all__ = ["ExcitationNode", "main"]
 
+WAIT_READERS_S = 15.0  # start anyway (and say so) when the readers have not matched by then
+
 
 class ExcitationNode(Node):
-    """Wiring: parameters -> drive signal -> paced blocks."""
+    """Wiring: command -> configuration -> drive -> paced blocks."""
 
     def __init__(self) -> None:
         super().__init__("excitation")
         self.cfg = declare_config(self, ExcitationConfig)
+        self.record_roots = [Path.cwd(), *config_roots()]
         self.pub = self.create_publisher(SignalBlockMsg, "/excitation/signal",
                                          qos_for("/excitation/signal"))
-        self.create_subscription(ExcitationCommand, "/excitation/command", self._on_command,
+        self.create_subscription(ExcitationCommand, "/excitation/command",
+                                 guarded(self, "/excitation/command", self._command),
                                  qos_for("/excitation/command"))
-        self.create_service(StartExcitation, "~/start", self._on_start)
+        self.create_service(StartExcitation, "~/start",
+                            guarded_service(self, "~/start", self._on_start, "accepted"))
         self.create_service(AbortExcitation, "~/abort", self._on_abort)
-        self.drive: np.ndarray | None = None
-        self.next_sample = 0
+        self.player: DrivePlayer | None = None
         self.stream_index = 0
-        self.t0_wall = 0.0
-        self.t0_ns = 0
         self.waiting_since = time.monotonic()
-        period = self.cfg.block_size / self.cfg.fs_hz
-        self.timer = self.create_timer(min(period, 0.05), self._tick)
+        self.create_timer(min(self.cfg.block_size / self.cfg.fs_hz, 0.05),
+                          guarded(self, "drive tick", self._tick))
         if self.cfg.autostart:
             self._start(self.cfg)
 
     def _start(self, cfg: ExcitationConfig) -> None:
-        self.cfg = cfg
-        self.drive = make_drive(cfg)
-        self.next_sample = 0
-        self.t0_wall = 0.0  # set when the first block goes out
+        drive = make_drive(cfg)  # may raise: nothing is changed before it succeeds
+        self.cfg, self.player = cfg, DrivePlayer(drive, cfg, self.stream_index)
         self.waiting_since = time.monotonic()
-        self.get_logger().info(
-            f"drive {cfg.kind}: {self.drive.shape[0]} channels x {self.drive.shape[1]} "
-            f"samples at {cfg.fs_hz} Hz"
-        )
+        self.get_logger().info(f"drive {cfg.kind}: {drive.shape[0]} channels x "
+                               f"{drive.shape[1]} samples at {cfg.fs_hz} Hz")
 
     def _tick(self) -> None:
-        if self.drive is None:
+        p = self.player
+        if p is None:
             return
-        cfg = self.cfg
-        if self.t0_wall == 0.0:
-            ready = self.pub.get_subscription_count() >= cfg.wait_subscribers
-            if not ready and time.monotonic() - self.waiting_since < 15.0:
-                return
-            self.t0_wall = time.monotonic()
-            self.t0_ns = time.time_ns()
-        n_total = self.drive.shape[1]
-        elapsed = time.monotonic() - self.t0_wall
-        due = n_total if cfg.rate <= 0 else min(n_total, int(elapsed * cfg.fs_hz * cfg.rate)
-                                                + cfg.block_size)
-        while self.next_sample + cfg.block_size <= due or (
-            due == n_total and self.next_sample < n_total
-        ):
-            i0 = self.next_sample
-            i1 = min(i0 + cfg.block_size, n_total)
-            block = SignalBlock(
-                tuple(cfg.channels), cfg.fs_hz, self.stream_index, self.drive[:, i0:i1],
-                stamp_ns=self.t0_ns + round(i0 / cfg.fs_hz * 1e9), source="excitation",
-            )
+        if not p.started:
+            waited = time.monotonic() - self.waiting_since
+            if self.pub.get_subscription_count() < self.cfg.wait_subscribers:
+                if waited < WAIT_READERS_S:
+                    return
+                self.get_logger().warning(f"starting without {self.cfg.wait_subscribers} "
+                                          f"matched readers after {waited:.0f} s")
+            p.start(time.monotonic(), time.time_ns())
+        for block in p.due(time.monotonic()):
             self.pub.publish(block_to_msg(block, SignalBlockMsg))
-            self.next_sample = i1
-            self.stream_index += i1 - i0
-        if self.next_sample >= n_total:
-            self.get_logger().info(f"drive finished: {n_total} samples published")
-            self.drive = None
-
-    def _on_command(self, msg: ExcitationCommand) -> None:
-        error = self._command(msg)
-        if error:
-            self.get_logger().error(f"excitation command refused: {error}")
+            self.stream_index = block.next_index
+        if p.finished:
+            self.get_logger().info(f"drive finished: {p.n_samples} samples published")
+            self.player = None
 
     def _command(self, msg: ExcitationCommand) -> str:
-        """Apply a command; returns '' or the reason it was refused."""
         if msg.kind == "stop":
-            self.drive = None
-            return ""
-        fields = {"kind": msg.kind}
-        if msg.channels:
-            fields["channels"] = tuple(msg.channels)
-        for name, value in (("duration_s", msg.duration_s), ("fs_hz", msg.sample_rate_hz),
-                            ("f_min_hz", msg.f_min_hz), ("f_max_hz", msg.f_max_hz)):
-            if value > 0:
-                fields[name] = value
-        if msg.amplitude > 0:
-            fields["rms"] = (msg.amplitude,)
-        if msg.record_path:
-            fields["record_path"] = msg.record_path
-            fields["record_scale"] = msg.record_scale or 1.0
-        if msg.seed:
-            fields["seed"] = int(msg.seed)
-        try:
-            self._start(dataclasses.replace(self.cfg, **fields))
-        except (ValueError, OSError) as err:
-            return str(err)
-        return ""
+            self.player = None
+            return "stopped"
+        self._start(config_from_command(msg, self.cfg, self.record_roots))
+        return f"started {self.cfg.kind}"
 
     def _on_start(self, req: StartExcitation.Request, res: StartExcitation.Response):  # type: ignore[no-untyped-def]
-        error = self._command(req.command)
-        res.accepted = not error
-        res.message = error or f"started {req.command.kind}"
+        res.message = self._command(req.command)
+        res.accepted = True
         return res
 
     def _on_abort(self, req: AbortExcitation.Request, res: AbortExcitation.Response):  # type: ignore[no-untyped-def]
-        was = self.drive is not None
-        self.drive = None
+        was = self.player is not None
+        self.player = None
         res.accepted, res.message = was, "aborted" if was else "nothing was running"
         return res
 

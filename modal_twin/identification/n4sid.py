@@ -40,7 +40,6 @@ import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
-from modal_twin.acquisition._validate import as_channels, check_positive, check_rank
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.identification._lagsums import hankel_gram
 from modal_twin.identification._subspace import (
@@ -50,6 +49,7 @@ from modal_twin.identification._subspace import (
     poles_over_orders,
 )
 from modal_twin.identification.modal_model import PoleSweep
+from modal_twin.validation import as_channels, check_positive, check_rank
 
 __all__ = ["n4sid"]
 

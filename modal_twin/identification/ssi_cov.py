@@ -29,7 +29,6 @@ import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
-from modal_twin.acquisition._validate import as_channels, check_positive
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.identification._lagsums import lag_sums
 from modal_twin.identification._subspace import (
@@ -39,6 +38,7 @@ from modal_twin.identification._subspace import (
     poles_over_orders,
 )
 from modal_twin.identification.modal_model import PoleSweep
+from modal_twin.validation import as_channels, check_positive
 
 __all__ = ["correlations", "ssi_cov"]
 

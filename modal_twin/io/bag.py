@@ -14,6 +14,7 @@ import logging
 import os
 import struct
 import time
+import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -92,6 +93,30 @@ def _check_msgtype(msgtype: str) -> None:
         raise BagError(msg)
 
 
+def _checksum_chunks(writer: Any) -> None:
+    """Make the rosbags MCAP writer store each chunk's CRC-32 (it writes 0: no check).
+
+    The chunk record is ``opcode (1) + length (8) + start, end, uncompressed size (3 x 8)``
+    then the CRC-32 of the uncompressed records (MCAP spec, Chunk record); it is filled in
+    after the chunk is written, and readers (rosbags, mcap) then verify it.
+    """
+    storage = getattr(writer, "storage", None)
+    close_chunk = getattr(storage, "close_chunk", None)
+    if storage is None or close_chunk is None:
+        return
+
+    def close_with_crc() -> None:
+        crc = zlib.crc32(storage.chunk.bio.getvalue())
+        start = storage.bio.tell()
+        close_chunk()
+        end = storage.bio.tell()
+        storage.bio.seek(start + 9 + 24)
+        storage.bio.write(struct.pack("<I", crc))
+        storage.bio.seek(end)
+
+    storage.close_chunk = close_with_crc
+
+
 class BagWriter:
     """Write serialized (CDR) messages to a rosbag2 MCAP bag with bounded crash loss.
 
@@ -145,6 +170,7 @@ class BagWriter:
         store = typestore()
         self._writer = Writer(part_path, version=9, storage_plugin=StoragePlugin.MCAP)
         self._writer.open()
+        _checksum_chunks(self._writer)
         self._conns = {
             topic: self._writer.add_connection(topic, mt, typestore=store)
             for topic, mt in self.topics.items()
@@ -185,7 +211,7 @@ class BagWriter:
         """Close the pending chunk and push it to the disk (bounded loss on a crash)."""
         storage = getattr(self._writer, "storage", None)
         chunk = getattr(storage, "chunk", None)
-        if chunk is not None and chunk.bio.tell():
+        if storage is not None and chunk is not None and chunk.bio.tell():
             storage.close_chunk()
         bio = getattr(storage, "bio", None)
         if bio is not None:
@@ -196,8 +222,8 @@ class BagWriter:
     def close(self) -> None:
         """Write the summary and ``metadata.yaml``."""
         if self._writer is not None:
-            self._writer.close()
-            self._writer = None
+            writer, self._writer = self._writer, None
+            writer.close()
 
     def __enter__(self) -> BagWriter:
         return self
@@ -221,6 +247,12 @@ def bag_parts(path: str | Path) -> list[Path]:
     if p.is_dir() and not list(p.glob("*.mcap")) and not list(p.glob("*.db3")):
         parts = sorted(q for q in p.glob("part_*") if q.is_dir())
         if parts:
+            cut = [q.name for q in parts if not (q / "metadata.yaml").is_file()]
+            if cut:
+                msg = (f"bag {p}: rotated parts {cut} of {len(parts)} were cut off while "
+                       f"recording; run `modal-twin bag salvage {p}` to join all parts into "
+                       "one readable bag")
+                raise BagError(msg)
             for q in parts:
                 bag_parts(q)
             return parts
@@ -284,11 +316,38 @@ def read_messages(
         yield topic, t_ns, store.deserialize_cdr(raw, msgtype)
 
 
+SIGNAL_BLOCK = "modal_twin_msgs/msg/SignalBlock"
+
+
 def read_blocks(path: str | Path, topic: str) -> list[SignalBlock]:
-    """All :class:`SignalBlock` of ``topic`` in a bag, in recorded order."""
+    """All :class:`SignalBlock` of ``topic`` in a bag, in recorded order.
+
+    A message that cannot be decoded or converted is skipped, counted and reported in one
+    warning (its index, time and the reason); the rest is read.
+
+    Raises
+    ------
+    BagError
+        The bag cannot be read, or ``topic`` is not of type SignalBlock (a foreign bag).
+    """
     from modal_twin.io.convert import block_from_msg
 
-    return [block_from_msg(m) for _, _, m in read_messages(path, [topic])]
+    store = typestore()
+    out: list[SignalBlock] = []
+    skipped: list[tuple[int, int, str]] = []
+    for k, (_, msgtype, t_ns, raw) in enumerate(read_raw(path, [topic])):
+        if msgtype != SIGNAL_BLOCK:
+            msg = f"bag {path}: topic {topic} holds {msgtype}, expected {SIGNAL_BLOCK}"
+            raise BagError(msg)
+        try:
+            out.append(block_from_msg(store.deserialize_cdr(raw, msgtype)))
+        except Exception as err:  # one bad message must not cost the whole bag
+            skipped.append((k, t_ns, f"{type(err).__name__}: {err}"))
+    if skipped:
+        k, t_ns, why = skipped[0]
+        log.warning("bag %s, %s: skipped %d malformed message(s); first: #%d at t=%d ns (%s)",
+                    path, topic, len(skipped), k, t_ns, why.splitlines()[0][:200])
+    return out
 
 
 def bag_info(path: str | Path) -> BagInfo:
@@ -336,7 +395,8 @@ def salvage(path: str | Path, out: str | Path | None = None) -> BagInfo:
     if not src.exists():
         msg = f"no such bag: {src}"
         raise BagError(msg)
-    files = [src] if src.is_file() else sorted(src.glob("*.mcap"))
+    files = [src] if src.is_file() else (sorted(src.glob("*.mcap"))
+                                         or sorted(src.glob("part_*/*.mcap")))
     if not files:
         msg = f"{src} holds no .mcap file to salvage"
         raise BagError(msg)
@@ -357,7 +417,7 @@ def salvage(path: str | Path, out: str | Path | None = None) -> BagInfo:
                 raise BagError(msg)
             fh.seek(0)
             try:
-                for rec in StreamReader(fh, skip_magic=False).records:
+                for rec in StreamReader(fh, skip_magic=False, validate_crcs=True).records:
                     if isinstance(rec, Schema):
                         schemas[rec.id] = rec
                     elif isinstance(rec, Channel):
@@ -374,7 +434,8 @@ def salvage(path: str | Path, out: str | Path | None = None) -> BagInfo:
     conns: dict[int, Any] = {}
     for cid, ch in channels.items():
         schema = schemas.get(ch.schema_id)
-        if ch.topic in {c.topic for c in conns.values()}:
+        if ch.topic in {c.topic for c in conns.values()}:  # the same topic in another part
+            conns[cid] = next(c for c in conns.values() if c.topic == ch.topic)
             continue
         if ch.schema_id and schema is not None and schema.name not in store.fielddefs:
             store.register(get_types_from_msg(schema.data.decode(), schema.name))

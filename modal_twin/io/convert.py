@@ -14,6 +14,7 @@ import numpy as np
 
 from modal_twin.errors import ShapeError
 from modal_twin.signal_block import SignalBlock
+from modal_twin.validation import check_field
 
 __all__ = [
     "block_from_msg",
@@ -24,6 +25,7 @@ __all__ = [
     "metrics_to_msg",
     "ns_to_stamp",
     "stamp_to_ns",
+    "theta_from_msg",
     "to_float_array",
 ]
 
@@ -52,9 +54,13 @@ def block_from_msg(msg: Any) -> SignalBlock:
     ------
     ShapeError
         If ``data`` does not hold ``len(channel_names) * n_samples`` values.
+    OptionError
+        A channel count, sample count or sample rate outside :data:`~modal_twin.validation.LIMITS`.
     """
-    names = tuple(msg.channel_names)
-    n = int(msg.n_samples)
+    names = tuple(str(c) for c in msg.channel_names)
+    check_field(len(names), "SignalBlock.channel_names (count)", "n_channels")
+    n = int(check_field(msg.n_samples, "SignalBlock.n_samples", "n_samples"))
+    check_field(msg.sample_rate_hz, "SignalBlock.sample_rate_hz", "sample_rate_hz")
     data = np.frombuffer(msg.data, dtype=np.float64) if len(msg.data) else np.zeros(0)
     if data.size != len(names) * n:
         text = (
@@ -145,3 +151,25 @@ def metrics_to_msg(names: list[str], m: Any, window_s: float, version: str,
     msg.overall_rms_error = float(finite.max()) if finite.size else float("nan")
     msg.samples = int(m.samples)
     return msg
+
+
+def theta_from_msg(msg: Any) -> dict[str, float]:
+    """``ModelParameters`` names and values -> a parameter dict, checked.
+
+    Raises
+    ------
+    OptionError
+        Names and values of different lengths, too many, a repeated name or a value that
+        is not finite (:data:`~modal_twin.validation.LIMITS`).
+    """
+    from modal_twin.errors import OptionError
+
+    names = [str(n) for n in msg.names]
+    values = list(msg.values)
+    check_field(len(names), "ModelParameters.names (count)", "n_parameters")
+    if len(names) != len(values) or len(set(names)) != len(names):
+        text = (f"ModelParameters: expected unique names, one value each, got {len(names)} "
+                f"names ({len(set(names))} distinct) and {len(values)} values")
+        raise OptionError(text)
+    return {n: check_field(v, f"ModelParameters.values[{n!r}]", "parameter")
+            for n, v in zip(names, values, strict=True)}

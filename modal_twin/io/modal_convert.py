@@ -16,6 +16,7 @@ from modal_twin.errors import ShapeError
 from modal_twin.identification.metrics import complexity, mpc
 from modal_twin.identification.modal_model import ModalModel, StabilizationDiagram
 from modal_twin.io.convert import ns_to_stamp, to_float_array
+from modal_twin.validation import check_field
 
 __all__ = ["diagram_to_msg", "modal_model_from_msg", "modal_model_to_msg", "stability_codes"]
 
@@ -74,6 +75,8 @@ def modal_model_from_msg(msg: Any) -> tuple[ModalModel, tuple[str, ...]]:
     """
     names = tuple(msg.channel_names)
     n = len(msg.modes)
+    check_field(len(names), "ModalModel.channel_names (count)", "n_channels")
+    check_field(n, "ModalModel.modes (count)", "n_channels")
     shapes = np.zeros((len(names), n), dtype=np.complex128)
     for k, m in enumerate(msg.modes):
         re, im = np.asarray(m.shape_real, float), np.asarray(m.shape_imag, float)

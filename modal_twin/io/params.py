@@ -19,6 +19,10 @@ def declare_config(node: Node, cls: type[T]) -> T:
     """Declare one parameter per field of dataclass ``cls`` (default = field default,
     description = ``field.metadata['doc']``) and return the instance the node was given.
 
+    The parameters are read-only once declared: the node reads them at start, so a change
+    at run time is refused (``set_parameters`` answers ``successful=False``) instead of
+    being accepted and silently ignored.
+
     Raises
     ------
     ConfigError
@@ -36,7 +40,7 @@ def declare_config(node: Node, cls: type[T]) -> T:
             raise ConfigError(msg)
         if isinstance(default, tuple):
             default = list(default)
-        desc = ParameterDescriptor(description=str(f.metadata.get("doc", "")))
+        desc = ParameterDescriptor(description=str(f.metadata.get("doc", "")), read_only=True)
         try:
             value = node.declare_parameter(f.name, default, desc).value
         except Exception as err:

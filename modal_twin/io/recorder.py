@@ -72,17 +72,49 @@ class RecorderNode(Node):
             )
             for topic, mt in topics.items()
         ]
-        self.create_timer(0.25, self.writer.flush_if_due)  # a quiet stream's tail too
+        self.path = path
+        self.exit_code = 0
+        self.closed = False
+        self.create_timer(0.25, self._flush)  # a quiet stream's tail too
         self.get_logger().info(f"recording {sorted(topics)} to {path}")
 
     def _callback(self, topic: str):  # type: ignore[no-untyped-def]
         def cb(raw: bytes) -> None:
-            self.writer.write(topic, time.time_ns(), raw)
+            if self.closed:
+                return
+            try:
+                self.writer.write(topic, time.time_ns(), raw)
+            except OSError as err:  # disk full, device gone: stop cleanly, say it once
+                self._stop(err)
 
         return cb
 
+    def _flush(self) -> None:
+        if self.closed:
+            return
+        try:
+            self.writer.flush_if_due()
+        except OSError as err:
+            self._stop(err)
+
+    def _stop(self, err: OSError) -> None:
+        """Close the bag after a write error, log one line, and end the node (exit 1)."""
+        self.closed, self.exit_code = True, 1
+        try:
+            self.writer.close()
+            state = "closed"
+        except OSError:
+            state = f"left without its index: run `modal-twin bag salvage {self.path}`"
+        total = sum(self.writer.counts.values())
+        self.get_logger().error(f"recording stopped: {err.strerror or err} writing {self.path}; "
+                                f"bag {state} with {total} messages")
+        self.context.try_shutdown()
+
     def close(self) -> None:
         """Finish the bag (summary and metadata.yaml)."""
+        if self.closed:
+            return
+        self.closed = True
         self.writer.close()
         rclpy.logging.get_logger(self.get_name()).info(f"bag closed: {self.writer.counts}")
 

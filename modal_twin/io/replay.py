@@ -11,6 +11,7 @@ import rclpy
 from rclpy.node import Node
 
 from modal_twin.errors import BagError
+from modal_twin.exit_codes import ExitCode
 from modal_twin.io.bag import bag_info, read_raw
 from modal_twin.io.ros import message_class, qos_for, split_ros_args, wait_for_subscribers
 
@@ -74,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
         info = bag_info(a.bag)
     except BagError as err:
         print(f"modal-twin replay: {err}", file=sys.stderr)
-        return 2
+        return ExitCode.USAGE
     rclpy.init(args=["replay", *ros_args])
     node = rclpy.create_node("replay")
     try:
@@ -86,14 +87,14 @@ def main(argv: list[str] | None = None) -> int:
             rclpy.spin_once(node, timeout_sec=0.05)
         print(f"replayed {n} messages of {info.message_count} from {a.bag} at rate {a.rate}")
     except KeyboardInterrupt:
-        return 130
+        return ExitCode.INTERRUPTED
     except BagError as err:
         print(f"modal-twin replay: {err}", file=sys.stderr)
-        return 2
+        return ExitCode.USAGE
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+    return ExitCode.OK
 
 
 if __name__ == "__main__":

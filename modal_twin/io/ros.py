@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -16,7 +18,11 @@ from modal_twin.errors import ConfigError
 from modal_twin.io.topics import TOPICS, QosKind
 
 __all__ = [
+    "BURST_LIMIT_BLOCKS",
+    "guarded",
+    "guarded_service",
     "message_class",
+    "one_line",
     "qos_for",
     "qos_profile",
     "report",
@@ -26,16 +32,29 @@ __all__ = [
 ]
 
 
+FASTDDS_PROFILES = Path(__file__).with_name("fastdds_profiles.xml")
+"""Fast DDS defaults (history resource limits above :data:`BURST_LIMIT_BLOCKS`)."""
+
+# read when a participant is created (rclpy.init / the first node), so set on import
+os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
+
+BURST_LIMIT_BLOCKS = 20_000
+"""Blocks a signal topic holds for a slow reader (20 s of 1 kHz data in 1 ms blocks, 400 s
+in the usual 50-sample blocks)."""
+
+
 def qos_profile(kind: QosKind) -> QoSProfile:
     """QoS of a topic kind (measured choices, see ../shared/ROS_WHEELS.md).
 
-    Signal blocks: reliable with a deep history (bursts of blocks are not dropped).
-    Maps and models: reliable + transient local, so late joiners get the last one.
+    Signal blocks: reliable, history :data:`BURST_LIMIT_BLOCKS` deep on both ends, so a
+    burst of up to that many blocks that a reader has not yet taken is delivered whole
+    (beyond it the oldest are dropped; the readers' stream monitors then log the gap with
+    its sample range). Maps and models: reliable + transient local, so late joiners get
+    the last one.
     """
     if kind is QosKind.STREAM:
-        return QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE
-        )
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=BURST_LIMIT_BLOCKS,
+                          reliability=ReliabilityPolicy.RELIABLE)
     if kind is QosKind.LATCHED:
         return QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
@@ -97,6 +116,46 @@ def wait_for_subscribers(
     return True
 
 
+def one_line(err: BaseException, limit: int = 300) -> str:
+    """``Type: first line of the message``, cut to ``limit`` characters."""
+    text = str(err).strip().splitlines()
+    line = f"{type(err).__name__}: {text[0] if text else ''}"
+    return line if len(line) <= limit else line[: limit - 3] + "..."
+
+
+def guarded(node: Node, what: str, fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Wrap a subscription or timer callback: any exception is one logged line, and the
+    node keeps running (a hostile message never ends a node)."""
+
+    def call(*args: Any) -> Any:
+        try:
+            return fn(*args)
+        except Exception as err:  # every error: the node must survive any input
+            node.get_logger().error(f"{what} refused: {one_line(err)}",
+                                    throttle_duration_sec=1.0)
+            return None
+
+    return call
+
+
+def guarded_service(node: Node, what: str, fn: Callable[[Any, Any], Any],
+                    ok_field: str = "success") -> Callable[[Any, Any], Any]:
+    """Wrap a service callback: any exception answers ``ok_field = False`` with a one-line
+    ``message`` naming the field, is logged once, and the node keeps running."""
+
+    def call(req: Any, res: Any) -> Any:
+        try:
+            return fn(req, res)
+        except Exception as err:  # every error: the node must survive any request
+            text = one_line(err)
+            node.get_logger().error(f"{what} refused: {text}")
+            setattr(res, ok_field, False)
+            res.message = text
+            return res
+
+    return call
+
+
 _last_report: dict[tuple[str, str], float] = {}
 
 
@@ -140,6 +199,7 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
         code = 1
     finally:
         if node is not None:
+            code = code or int(getattr(node, "exit_code", 0))
             close = getattr(node, "close", None)
             if callable(close):
                 close()

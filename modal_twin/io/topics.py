@@ -5,7 +5,7 @@ from __future__ import annotations
 from enum import Enum
 from typing import NamedTuple
 
-__all__ = ["TOPICS", "QosKind", "TopicSpec"]
+__all__ = ["NODE_ENDPOINTS", "TOPICS", "QosKind", "TopicSpec"]
 
 PKG = "modal_twin_msgs"
 
@@ -44,3 +44,19 @@ TOPICS: dict[str, TopicSpec] = {
     "/twin/metrics": _t("ComparisonMetrics", QosKind.EVENT),
     "/diagnosis/report": _t("DiagnosisReport", QosKind.LATCHED),
 }
+
+
+NODE_ENDPOINTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "excitation_node": (("/excitation/command",), ("/excitation/signal",)),
+    "rig_node": (("/excitation/signal",), ("/rig/raw",)),
+    "acquisition_node": (("/rig/raw",), ("/measurement/frames", "/measurement/channels")),
+    "identification_node": (("/measurement/frames",),
+                            ("/identification/modes", "/identification/stabilization")),
+    "updating_node": (("/identification/modes",), ("/model/parameters", "/updating/report")),
+    "twin_node": (("/measurement/frames", "/model/parameters"),
+                  ("/twin/prediction", "/twin/residual", "/twin/metrics")),
+    "diagnosis_node": (("/measurement/frames", "/twin/residual"),
+                       ("/diagnosis/report", "/model/parameters")),
+}
+"""(subscriptions, publishers) each node executable creates once it is fully constructed:
+the launcher waits for them before it calls the graph ready."""

@@ -8,10 +8,9 @@ from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
 from rclpy.node import Node
 
 from modal_twin.acquisition.continuity import StreamMonitor, Verdict
-from modal_twin.errors import ModalTwinError
 from modal_twin.io.convert import block_from_msg, block_to_msg
 from modal_twin.io.params import declare_config
-from modal_twin.io.ros import qos_for, report, run_node
+from modal_twin.io.ros import guarded, qos_for, report, run_node
 from modal_twin.models.loading import load_model
 from modal_twin.paths import resolve_config
 from modal_twin.rig.config import load_rig
@@ -41,7 +40,8 @@ class RigNode(Node):
                               sensitivity=rig.sensitivity, seed=rig.seed)
         self.monitor = StreamMonitor()
         self.pub = self.create_publisher(SignalBlockMsg, "/rig/raw", qos_for("/rig/raw"))
-        self.create_subscription(SignalBlockMsg, "/excitation/signal", self._on_drive,
+        self.create_subscription(SignalBlockMsg, "/excitation/signal",
+                                 guarded(self, "drive block", self._on_drive),
                                  qos_for("/excitation/signal"))
         self.get_logger().info(
             f"rig {rig.path.name}: {plant.name}, {len(self.truth.names)} channels, "
@@ -60,7 +60,7 @@ class RigNode(Node):
                     throttle_duration_sec=5.0)
                 return
             self.pub.publish(block_to_msg(self.truth.process(v.block), SignalBlockMsg))
-        except ModalTwinError as err:
+        except Exception as err:  # the truth restarts from rest after any failure
             self.get_logger().error(f"drive block refused: {err}", throttle_duration_sec=2.0)
             self.truth.sim.reset()
 

@@ -3,15 +3,12 @@ driven by the drive signal, with sensor noise and sensitivities, producing raw b
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from modal_twin._types import FloatArray
-from modal_twin.channels import ChannelSpec
 from modal_twin.errors import SignalError
 from modal_twin.models.plant import Plant
-from modal_twin.rig.config import RigFile
+from modal_twin.rig.channels import rig_channels, table_channels, with_sensitivity
 from modal_twin.signal_block import SignalBlock
 from modal_twin.twin.simulator import Simulator
 
@@ -68,26 +65,3 @@ class TruthRig:
                             stamp_ns=drive.stamp_ns, source="rig")
         self.next_index = block.next_index
         return block
-
-
-def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
-    """Channels of a rig (table inputs, then the structure's), with the rig's
-    sensitivities per quantity: the channel map the acquisition applies."""
-    from modal_twin.models.loading import load_model
-
-    plant = load_model(rig.structure).plant()
-    return with_sensitivity(table_channels(plant) + plant.channels,
-                            rig.sensitivity)
-
-
-def table_channels(plant: Plant) -> tuple[ChannelSpec, ...]:
-    """Measured input channels ``table_<input>`` of a plant (table motion, track
-    irregularity), each with the plant's quantity for it."""
-    return tuple(ChannelSpec(f"table_{n}", q, "table", n.removeprefix("a"))
-                 for n, q in zip(plant.input_names, plant.input_quantities, strict=True))
-
-
-def with_sensitivity(channels: tuple[ChannelSpec, ...],
-                     sensitivity: dict[str, float]) -> tuple[ChannelSpec, ...]:
-    """Channels with the sensitivity of their quantity (1.0 where none is given)."""
-    return tuple(replace(c, sensitivity=sensitivity.get(c.quantity, 1.0)) for c in channels)

@@ -11,13 +11,12 @@ from modal_twin_msgs.msg import ModelParameters, ModePair, UpdateReport
 from modal_twin_msgs.srv import RunUpdating
 from rclpy.node import Node
 
-from modal_twin.errors import ModalTwinError
 from modal_twin.identification.modal_model import ModalModel
 from modal_twin.io.convert import to_float_array
 from modal_twin.io.modal_convert import modal_model_from_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.report_convert import version_to_parameters_msg
-from modal_twin.io.ros import qos_for, run_node
+from modal_twin.io.ros import guarded, guarded_service, one_line, qos_for, run_node
 from modal_twin.paths import resolve_config
 from modal_twin.updating.run import ModelUpdate, pairs_table, update_model
 
@@ -48,16 +47,13 @@ class UpdatingNode(Node):
                                                qos_for("/model/parameters"))
         self.report_pub = self.create_publisher(UpdateReport, "/updating/report",
                                                 qos_for("/updating/report"))
-        self.create_subscription(ModalModelMsg, "/identification/modes", self._on_modes,
+        self.create_subscription(ModalModelMsg, "/identification/modes",
+                                 guarded(self, "/identification/modes", self._on_modes),
                                  qos_for("/identification/modes"))
-        self.create_service(RunUpdating, "~/run", self._on_run)
+        self.create_service(RunUpdating, "~/run", guarded_service(self, "~/run", self._on_run))
 
     def _on_modes(self, msg: ModalModelMsg) -> None:
-        try:
-            self.modes = modal_model_from_msg(msg)
-        except (ModalTwinError, ValueError) as err:
-            self.get_logger().error(f"identified modes refused: {err}")
-            return
+        self.modes = modal_model_from_msg(msg)
         if self.cfg.auto:
             ok, text, _ = self._update()
             if ok:
@@ -72,8 +68,8 @@ class UpdatingNode(Node):
         try:
             upd = update_model(resolve_config(self.cfg.model_file), *self.modes,
                                self.cfg.versions_dir, f_split_hz=self.cfg.f_split_hz)
-        except (ModalTwinError, ValueError, np.linalg.LinAlgError) as err:
-            return False, f"update failed, the previous model stays: {err}", report
+        except Exception as err:  # any failure: the previous model stays, the node runs on
+            return False, f"update failed, the previous model stays: {one_line(err)}", report
         report = self._report(upd)
         params = version_to_parameters_msg(upd.version, ModelParameters)
         last = upd.result.stages[-1]

@@ -119,17 +119,17 @@ def test_node_identifies_modes_from_a_replayed_bag(tmp_path: Path, domain_id: in
         # nothing buffered yet: a clear refusal, not a crash
         res = h.call(method="n4sid", max_order=0, window_s=0.0)
         assert not res.success
-        assert "no frames buffered" in res.message
+        assert "no frames received yet" in res.message
         proc = subprocess.Popen(
             [sys.executable, "-m", "modal_twin.cli", "replay", str(bag), "--rate", "40",
              "--wait", "15"],
             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         try:
-            got_all = h.spin_until(lambda: h.node.n_received >= n, 60.0)
+            got_all = h.spin_until(lambda: h.node.window.n_received >= n, 60.0)
         finally:
             out = proc.communicate(timeout=30)[0]
-        assert got_all, f"received {h.node.n_received} of {n} samples; replay said: {out}"
-        assert h.node.n_buffered == 4800  # window_s = 120 s at 40 Hz
+        assert got_all, f"received {h.node.window.n_received} of {n} samples; replay said: {out}"
+        assert h.node.window.n_samples == 4800  # window_s = 120 s at 40 Hz
         res = h.call(method="n4sid", max_order=24, window_s=0.0)
         assert res.success, res.message
         m = res.model
@@ -160,5 +160,22 @@ def test_node_identifies_modes_from_a_replayed_bag(tmp_path: Path, domain_id: in
         assert "expected at least" in short.message
         ok = h.call(method="", max_order=0, window_s=0.0)  # defaults still work afterwards
         assert ok.success
+    finally:
+        h.close()
+
+
+def test_parameters_are_read_only_at_run_time(domain_id: int) -> None:
+    from rclpy.parameter import Parameter
+
+    h = Harness(domain_id)
+    try:
+        res = h.node.set_parameters([Parameter("max_order", value=10)])
+        assert not res[0].successful and "read-only" in res[0].reason
+        assert h.node.get_parameter("max_order").value == 40
+        bad = h.call(method="", max_order=4294967295, window_s=0.0)
+        assert not bad.success
+        assert "max_order: expected an integer in [0, 400]" in bad.message
+        bad = h.call(method="", max_order=0, window_s=float("inf"))
+        assert not bad.success and "window_s" in bad.message
     finally:
         h.close()

@@ -55,6 +55,9 @@ def test_default_shift_scales_with_the_model():
     assert default_shift(sp.csr_array((3, 3)), sp.identity(3)) == -1.0
 
 
+_NO_STIFFNESS_NOR_MASS = r"K - sigma M .* diagonal entry > 0\), got 0 at DOF 1"
+
+
 def test_eigen_bad_input_is_refused(monkeypatch):
     K, M = _chain(20)
     with pytest.raises(ShapeError, match=r"M: expected \(20, 20\), got \(19, 19\)"):
@@ -73,11 +76,12 @@ def test_eigen_bad_input_is_refused(monkeypatch):
         solve_modes(K, sp.diags(np.r_[-1.0, np.ones(19)]), 2)
     with pytest.raises(ModelError, match=r"sigma: expected a negative shift, got 0\.0"):
         solve_modes(K, M, 2, sigma=0.0)
+    # DOF 1 has neither stiffness nor mass: refused before any factorisation
     idle_k = sp.diags([1.0, 0.0, 1.0] * 10, format="csr")
     idle_m = sp.diags([1.0, 0.0, 1.0] * 10, format="csr")
-    with pytest.raises(ModelError, match=r"K - sigma M .* expected positive definite"):
+    with pytest.raises(ModelError, match=_NO_STIFFNESS_NOR_MASS):
         solve_modes(idle_k, idle_m, 2, method="dense")
-    with pytest.raises(ModelError, match=r"K - sigma M .* expected nonsingular"):
+    with pytest.raises(ModelError, match=_NO_STIFFNESS_NOR_MASS):
         solve_modes(idle_k, idle_m, 2, method="sparse")
 
     def no_convergence(*args, **kwargs):

@@ -30,7 +30,7 @@ updating:
   ros__parameters: {{model_file: {BUILDING}, versions_dir: VERSIONS, auto: true}}
 twin:
   ros__parameters: {{model_file: {BUILDING}, fs_hz: 1000.0, window_s: 200.0,
-                    metrics_period_s: 0.5}}
+                    metrics_period_s: 0.5, versions_dir: VERSIONS}}
 """
 
 

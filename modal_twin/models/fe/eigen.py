@@ -22,6 +22,7 @@ import scipy.sparse.linalg as spla
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError
+from modal_twin.models.fe.definite import check_entries, ldl_factor
 
 __all__ = ["ModalSolution", "default_shift", "lowest_eigenpairs", "solve_modes"]
 
@@ -89,6 +90,29 @@ def default_shift(K: Matrix, M: Matrix) -> float:
     return -1e-6 * float(np.median(kd[ok] / md[ok]))
 
 
+def _shifted_solver(K: sp.csc_array, M: sp.csc_array, sigma: float
+                    ) -> Callable[[FloatArray], FloatArray]:
+    """Return ``x -> (K - sigma M)^-1 x`` from an LDL' factorisation that cannot crash.
+
+    Refuses (:class:`ModelError`, naming the DOF) a ``K - sigma M`` that is not positive
+    definite: then ``sigma`` is not below the lowest eigenvalue (``K`` indefinite) or a DOF
+    has neither stiffness nor mass, and shift-invert would not find the lowest modes.
+    """
+    A = sp.csc_matrix(K - sigma * M)
+    name = f"K - sigma M (sigma = {sigma:.3g})"
+    check_entries(name, A, positive_diagonal=True)
+    ldl = ldl_factor(A)
+    d, perm = (np.zeros(1), np.zeros(1, dtype=int)) if ldl is None else ldl[1:]
+    bad = np.flatnonzero(~(d > 0.0))
+    if ldl is None or bad.size:
+        where = f" at DOF {int(perm[bad[0]])}" if ldl is not None else ""
+        msg = (f"{name}: expected positive definite, got a non-positive LDL' pivot{where} "
+               "(K indefinite, or a DOF without stiffness and mass)")
+        raise ModelError(msg)
+    solver = ldl[0]
+    return lambda x: np.asarray(solver.solve(np.asarray(x, dtype=float)))
+
+
 def lowest_eigenpairs(
     K: Matrix, M: Matrix, n_modes: int, *, sigma: float, method: Method = "auto",
     solve: Callable[[FloatArray], FloatArray] | None = None, dense_max_dof: int = 400,
@@ -127,9 +151,9 @@ def lowest_eigenpairs(
     else:
         Ks = sp.csc_array(K)
         Ms = sp.csc_array(M)
-        opinv = None
-        if solve is not None:
-            opinv = spla.LinearOperator((n, n), matvec=solve, dtype=float)
+        if solve is None:
+            solve = _shifted_solver(Ks, Ms, sigma)
+        opinv = spla.LinearOperator((n, n), matvec=solve, dtype=float)
         try:
             lam, Phi = spla.eigsh(Ks, k=n_modes, M=Ms, sigma=sigma, which="LM", OPinv=opinv)
         except spla.ArpackNoConvergence as err:
@@ -202,10 +226,13 @@ def solve_modes(
     if np.any(md < 0.0):
         msg = f"M: expected a diagonal >= 0, got min {md.min():.6g} at DOF {int(np.argmin(md))}"
         raise ModelError(msg)
+    check_entries("M", M, positive_diagonal=False)
     sig = default_shift(K, M) if sigma is None else float(sigma)
     if not sig < 0.0:
         msg = f"sigma: expected a negative shift, got {sig!r}"
         raise ModelError(msg)
+    check_entries(f"K - sigma M (sigma = {sig:.3g})", sp.csc_matrix(K) - sig * sp.csc_matrix(M),
+                  positive_diagonal=True)
     lam, Phi, used = lowest_eigenpairs(K, M, int(n_modes), sigma=sig, method=method,
                                        dense_max_dof=dense_max_dof)
     kPhi = np.asarray(K @ Phi)
