@@ -7,7 +7,7 @@ from dataclasses import replace
 
 from modal_twin.channels import ChannelSpec
 from modal_twin.rig.config import RigFile
-from modal_twin.twin.plant import Plant
+from modal_twin.models.plant import Plant
 
 __all__ = ["rig_channels", "table_channels", "with_sensitivity"]
 
@@ -15,9 +15,9 @@ __all__ = ["rig_channels", "table_channels", "with_sensitivity"]
 def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
     """Channels of a rig (table inputs, then the structure's), with the rig's
     sensitivities per quantity: the channel map the acquisition applies."""
-    from modal_twin.twin.plants import load_plant
+    from modal_twin.models.loading import load_model
 
-    plant = load_plant(rig.structure)
+    plant = load_model(rig.structure).plant()
     return with_sensitivity(table_channels(plant) + plant.channels,
                             rig.sensitivity)
 
