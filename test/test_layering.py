@@ -12,7 +12,8 @@ Order, lowest first (a module may import its own stage and any lower one)::
       <- viz
       <- io                      (the edge: messages and files to the stages' types)
       <- node.py files, launch
-      <- commands, demo
+      <- commands
+      <- demo
       <- cli
 
 A stage's ``node.py`` may import io and the base, its own stage and the stages below it,
@@ -38,8 +39,9 @@ RANK: dict[str, int] = {
     "viz": 7,
     "io": 8,
     "launch": 9,
-    "commands": 10, "demo": 10,
-    "cli": 11,
+    "commands": 10,
+    "demo": 11,
+    "cli": 12,
 }
 NODE_EXTRA = {"io"}  # what a node.py may import beyond its stage's rank
 

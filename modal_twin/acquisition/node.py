@@ -13,9 +13,9 @@ from modal_twin.acquisition.frames import frame_from_raw
 from modal_twin.io.convert import block_from_msg, block_to_msg, channel_map_to_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import guarded, qos_for, report, run_node
+from modal_twin.models.rig_file import load_rig
+from modal_twin.models.sensors import rig_channels
 from modal_twin.paths import resolve_config
-from modal_twin.rig.channels import rig_channels
-from modal_twin.rig.config import load_rig
 
 __all__ = ["AcquisitionConfig", "AcquisitionNode", "main"]
 

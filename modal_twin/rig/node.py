@@ -12,8 +12,8 @@ from modal_twin.io.convert import block_from_msg, block_to_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import guarded, qos_for, report, run_node
 from modal_twin.models.loading import load_model
+from modal_twin.models.rig_file import load_rig
 from modal_twin.paths import resolve_config
-from modal_twin.rig.config import load_rig
 from modal_twin.rig.truth import TruthRig
 
 __all__ = ["RigConfig", "RigNode", "main"]

@@ -8,7 +8,7 @@ import numpy as np
 from modal_twin._types import FloatArray
 from modal_twin.errors import SignalError
 from modal_twin.models.plant import Plant
-from modal_twin.rig.channels import rig_channels, table_channels, with_sensitivity
+from modal_twin.models.sensors import rig_channels, table_channels, with_sensitivity
 from modal_twin.signal_block import SignalBlock
 from modal_twin.twin.simulator import Simulator
 

@@ -18,7 +18,7 @@ def _bag(path: Path) -> None:
     from conftest import write_frames_bag
 
     from modal_twin.models.loading import load_model
-    from modal_twin.rig.config import load_rig
+    from modal_twin.models.rig_file import load_rig
 
     rig = load_rig(ROOT / "config" / "rigs" / "s1_stick_slip.yaml")
     write_frames_bag(path, load_model(rig.structure).plant(rig.effects), seconds=16.0,

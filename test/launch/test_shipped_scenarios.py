@@ -11,8 +11,8 @@ import pytest
 
 from modal_twin.excitation.drive import ExcitationConfig, make_drive
 from modal_twin.models.loading import load_model
+from modal_twin.models.rig_file import load_rig
 from modal_twin.paths import resolve_config
-from modal_twin.rig.config import load_rig
 from modal_twin.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]

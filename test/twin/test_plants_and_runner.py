@@ -12,7 +12,7 @@ from modal_twin.excitation import signals
 from modal_twin.models.building_factory import INPUTS_6DOF
 from modal_twin.models.effects import EffectSpec
 from modal_twin.models.loading import load_model
-from modal_twin.rig.config import load_rig
+from modal_twin.models.rig_file import load_rig
 from modal_twin.rig.truth import TruthRig, rig_channels
 from modal_twin.signal_block import SignalBlock
 from modal_twin.twin.runner import TwinRunner

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from modal_twin.cli import main
-from modal_twin.models.versions import ModelVersion, write_version
 from modal_twin.models.effects import EffectSpec
+from modal_twin.models.versions import ModelVersion, write_version
 from modal_twin.viz.report import RecordData, RunData, render_report, write_report
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -6,8 +6,8 @@ from __future__ import annotations
 from dataclasses import replace
 
 from modal_twin.channels import ChannelSpec
-from modal_twin.rig.config import RigFile
 from modal_twin.models.plant import Plant
+from modal_twin.models.rig_file import RigFile
 
 __all__ = ["rig_channels", "table_channels", "with_sensitivity"]
 
