@@ -37,7 +37,7 @@ import numpy as np
 import scipy.optimize as so
 import scipy.sparse as sp
 
-from modal_twin._types import ComplexArray, FloatArray, IntArray
+from modal_twin._types import ComplexArray, FloatArray, IntArray, Matrix
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError
 from modal_twin.identification.modal_model import ModalModel
 from modal_twin.models.fe import ParametricMatrices, solve_modes
@@ -47,7 +47,6 @@ from modal_twin.updating.sensitivity import eigen_derivatives
 __all__ = ["ModeTargets", "UpdatingProblem", "real_shapes"]
 
 _log = logging.getLogger(__name__)
-Matrix = sp.sparray | sp.spmatrix | FloatArray
 PENALTY = 10.0
 """Cost (per identified mode) and residual value returned at an infeasible trial point."""
 

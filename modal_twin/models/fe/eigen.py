@@ -20,7 +20,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from modal_twin._types import FloatArray
+from modal_twin._types import FloatArray, Matrix
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError
 
 __all__ = ["ModalSolution", "default_shift", "lowest_eigenpairs", "solve_modes"]
@@ -28,7 +28,6 @@ __all__ = ["ModalSolution", "default_shift", "lowest_eigenpairs", "solve_modes"]
 _log = logging.getLogger(__name__)
 
 Method = Literal["auto", "sparse", "dense"]
-Matrix = sp.sparray | sp.spmatrix | FloatArray
 
 
 @dataclass(frozen=True, slots=True)
