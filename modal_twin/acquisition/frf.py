@@ -185,5 +185,5 @@ def frf(
     if n_in == 1:
         with np.errstate(invalid="ignore", divide="ignore"):
             H2[:, 0, :] = np.where(ok, Syy / Syx[:, 0, :].conj(), np.nan)
-    f = np.fft.rfftfreq(n_per, 1.0 / fs)
+    f = np.asarray(np.fft.rfftfreq(n_per, 1.0 / fs), dtype=np.float64)
     return FRFEstimate(f, H1, H2, coh, Sxx, Syx, Syy, int(n_blk))

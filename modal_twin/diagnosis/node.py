@@ -137,7 +137,8 @@ class DiagnosisNode(Node):
         self.report_pub.publish(diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
                                                  FailingPlace, CandidateEffect))
 
-    def _on_run(self, req: RunDiagnosis.Request, res: RunDiagnosis.Response):  # type: ignore[no-untyped-def]
+    def _on_run(self, req: RunDiagnosis.Request,
+                res: RunDiagnosis.Response) -> RunDiagnosis.Response:
         try:
             d = self._diagnose(req.window_s)
             res.success, res.message = True, d.summary
@@ -147,7 +148,8 @@ class DiagnosisNode(Node):
             res.success, res.message = False, str(err)
         return res
 
-    def _on_add(self, req: AddEffect.Request, res: AddEffect.Response):  # type: ignore[no-untyped-def]
+    def _on_add(self, req: AddEffect.Request,
+                res: AddEffect.Response) -> AddEffect.Response:
         try:
             train, test = self._records(0.0)
             model = resolve_config(self.cfg.model_file)

@@ -118,13 +118,15 @@ class ExcitationNode(Node):
             return str(err)
         return ""
 
-    def _on_start(self, req: StartExcitation.Request, res: StartExcitation.Response):  # type: ignore[no-untyped-def]
+    def _on_start(self, req: StartExcitation.Request,
+                  res: StartExcitation.Response) -> StartExcitation.Response:
         error = self._command(req.command)
         res.accepted = not error
         res.message = error or f"started {req.command.kind}"
         return res
 
-    def _on_abort(self, req: AbortExcitation.Request, res: AbortExcitation.Response):  # type: ignore[no-untyped-def]
+    def _on_abort(self, req: AbortExcitation.Request,
+                  res: AbortExcitation.Response) -> AbortExcitation.Response:
         was = self.drive is not None
         self.drive = None
         res.accepted, res.message = was, "aborted" if was else "nothing was running"

@@ -203,7 +203,8 @@ class IdentificationNode(Node):
         self.last_msg = msg
         return mm, text
 
-    def _on_run(self, req: RunIdentification.Request, res: RunIdentification.Response):  # type: ignore[no-untyped-def]
+    def _on_run(self, req: RunIdentification.Request,
+                res: RunIdentification.Response) -> RunIdentification.Response:
         mm, text = self.run(req.method, int(req.max_order), float(req.window_s))
         res.success = mm is not None
         res.message = text

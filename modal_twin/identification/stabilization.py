@@ -179,7 +179,7 @@ def select_modes(
     if ms < 1:
         msg = f"min_support: expected an integer >= 1, got {min_support!r}"
         raise OptionError(msg)
-    rows = []
+    rows: list[tuple[int, int]] = []  # (model order, pole index)
     fl, zl, Sl = [], [], []  # the kept poles, gathered order by order
     for k, (p, s) in enumerate(zip(diagram.poles, diagram.stable, strict=True)):
         keep = s & (p.zeta > 0) & (p.zeta < zeta_max)

@@ -307,9 +307,9 @@ def build_building(path: str | Path | None = None, *, spec: StructureSpec | None
     T = asm.T.toarray()
     rows, names, xyz = [], [], []
     for s in spec.sensors:
-        for d in s.directions:
-            rows.append(T[asm.full_dof_index(s.node, "u" + d)])
-            names.append(f"{s.name}_{d}")
+        for a in s.directions:
+            rows.append(T[asm.full_dof_index(s.node, "u" + a)])
+            names.append(f"{s.name}_{a}")
             xyz.append(spec.model.xyz(s.node))
     n = asm.n_dof
     S = np.array(rows).reshape(-1, n)
@@ -447,7 +447,8 @@ class ModalBuilding:
             raise OptionError(msg)
         r = self.n_modes
         K, C = self.linear_part(devices)
-        blocks, feed, names = [], [], []
+        blocks, feed = [], []
+        names: list[str] = []
         for o in outputs:
             if o == "acc":
                 blocks.append(self.C_acc)

@@ -34,10 +34,18 @@ class ModelFactory(Protocol):
 
     structure_file: Path
     theta: dict[str, float]
-    sites: Mapping[str, Any]
-    parameter_prefixes: tuple[str, ...]
     base_effects: tuple[EffectSpec, ...]
     label: str
+
+    @property
+    def sites(self) -> Mapping[str, Any]:
+        """Candidate device sites by name (read-only here, so each kind keeps its own type)."""
+        ...
+
+    @property
+    def parameter_prefixes(self) -> tuple[str, ...]:
+        """Prefixes of the parameter names this kind understands."""
+        ...
 
     def with_theta(self, changes: Mapping[str, float]) -> ModelFactory:
         """The same model with some parameter values changed."""

@@ -267,10 +267,11 @@ def apply_theta(spec: VehicleSpec, theta: Mapping[str, float] | None) -> Vehicle
             msg = f"theta[{key!r}]: expected a finite value {'>=' if 'zeta' in key else '>'} 0, "
             msg += f"got {val!r}"
             raise ModelError(msg)
-    changes = {_SCALAR_THETA[k]: float(v) for k, v in theta.items() if k in _SCALAR_THETA}
+    changes: dict[str, Any] = {_SCALAR_THETA[k]: float(v) for k, v in theta.items()
+                               if k in _SCALAR_THETA}
     eq = []
     for e in spec.equipment:
-        upd = {f: float(theta[f"{p}_{e.name}"]) for p, f in
+        upd: dict[str, Any] = {f: float(theta[f"{p}_{e.name}"]) for p, f in
                (("m", "mass"), ("f", "f_mount_hz"), ("zeta", "zeta_mount"))
                if f"{p}_{e.name}" in theta}
         eq.append(replace(e, **upd) if upd else e)

@@ -102,7 +102,8 @@ class UpdatingNode(Node):
         r.message = f"{v.label} written to {v.path}: {v.note}"
         return r
 
-    def _on_run(self, req: RunUpdating.Request, res: RunUpdating.Response):  # type: ignore[no-untyped-def]
+    def _on_run(self, req: RunUpdating.Request,
+                res: RunUpdating.Response) -> RunUpdating.Response:
         ok, text, report = self._update()
         res.success, res.message, res.report = ok, text, report
         return res

@@ -29,7 +29,7 @@ def plot_error_history(folder: str | Path, out_png: str | Path) -> Path:
     fig, ax = plt.subplots(figsize=(8, 4.5))
     x = np.arange(len(versions))
     for key, per_version in sorted(groups.items()):
-        y = [np.mean(vals) if vals else np.nan for vals in per_version]
+        y = [float(np.mean(vals)) if vals else np.nan for vals in per_version]
         if np.nanmax(y) > 0.05:
             ax.semilogy(x, y, marker="o", label=key)
     ax.set_xticks(x, [f"{v.label}\n{v.note[:28]}" for v in versions], fontsize=7)
