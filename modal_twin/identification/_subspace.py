@@ -79,7 +79,7 @@ def default_block_rows(
 
 def _continuous(mu: ComplexArray, fs_hz: float) -> ComplexArray:
     with np.errstate(divide="ignore", invalid="ignore"):
-        lam: ComplexArray = np.log(mu.astype(np.complex128)) * fs_hz
+        lam = np.asarray(np.log(mu.astype(np.complex128)) * fs_hz, dtype=np.complex128)
     return lam
 
 
@@ -155,7 +155,8 @@ def poles_over_orders(
             zb = np.empty((nb, lam.size))
             for b, (Rb, Mb) in enumerate(blk):
                 Ab = Rb[:n, :n] @ Mb[:n, :n]
-                mub = np.linalg.eigvals(Ab) if np.all(np.isfinite(Ab)) else np.zeros(0)
+                mub = np.asarray(np.linalg.eigvals(Ab) if np.all(np.isfinite(Ab)) else np.zeros(0),
+                                 dtype=np.complex128)  # a real eigenvalue is dropped either way
                 lb = _continuous(mub[_keep(mub)], fs_hz)
                 if lb.size == 0:
                     fb[b], zb[b] = np.nan, np.nan

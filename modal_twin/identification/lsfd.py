@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import ShapeError, SignalError
@@ -126,7 +126,8 @@ def lsfd(
     if upper:
         RU = (x[k] + 1j * x[k + 1]).reshape(n_out, n_in)
     model = (D @ x).T.reshape(n_out, n_in, -1)
-    res = float(np.linalg.norm(model - Ha[..., use]) / max(np.linalg.norm(Ha[..., use]), 1e-300))
+    res = float(np.linalg.norm(model - Ha[..., use])
+                / max(float(np.linalg.norm(Ha[..., use])), 1e-300))
     psi, L = rank1_factors(Rr)
     return LSFDResult(Rr, normalize_shapes(psi), L, RL, RU, res)
 
@@ -141,7 +142,7 @@ def _solve(
     """
     a = 1.0 / (s[:, None] - lam[None, :])  # Eq. (5) of [002]
     b = 1.0 / (s[:, None] - lam.conj()[None, :])
-    cols = [a + b, 1j * (a - b)]
+    cols: list[NDArray[np.inexact]] = [a + b, 1j * (a - b)]
     if lower:
         w2 = -1.0 / (s.imag**2)
         cols += [w2[:, None], 1j * w2[:, None]]
@@ -179,7 +180,7 @@ def lsfd_shapes(
     ``[Re H; Im H]`` of shape (2 n_f, n_out * n_in), prepared once for every order.
     """
     nm = poles.size
-    _, x = _solve(2j * np.pi * f_hz, poles, rhs_ri, lower, upper)
+    _, x = _solve(np.asarray(2j * np.pi * f_hz, dtype=np.complex128), poles, rhs_ri, lower, upper)
     Rr = (x[:nm] + 1j * x[nm : 2 * nm]).reshape(nm, n_out, n_in)
     return normalize_shapes(rank1_factors(Rr)[0])
 

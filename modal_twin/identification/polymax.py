@@ -54,7 +54,7 @@ def _companion(
     Cm[: m * (p - 1), m:] = np.eye(m * (p - 1))
     Cm[m * (p - 1) :, :] = -alpha[: m * p].T  # last block row: -alpha_0 ... -alpha_{p-1}
     if not participation:
-        return np.linalg.eigvals(Cm), np.zeros((m, 0), complex)
+        return np.asarray(np.linalg.eigvals(Cm), dtype=np.complex128), np.zeros((m, 0), complex)
     z, V = np.linalg.eig(Cm)
     return z, V[:m]  # first block of the eigenvectors = participation factors
 
@@ -200,7 +200,8 @@ def _sweep(
         alpha = np.vstack([a_low, np.eye(m)])  # alpha_p = I
         z, L = _companion(alpha, m, int(p), participation)
         with np.errstate(divide="ignore", invalid="ignore"):
-            lam = -np.log(z.astype(np.complex128)) / dt_s  # Z = exp(-j w dt), Eq. (3)
+            # Z = exp(-j w dt), Eq. (3)
+            lam = np.asarray(-np.log(z.astype(np.complex128)) / dt_s, dtype=np.complex128)
             psi = (
                 _numerator_shapes(z, alpha, Lc, W3, int(p))
                 if numerator and Lc is not None and np.all(np.isfinite(z))

@@ -185,7 +185,7 @@ class BagWriter:
         """Close the pending chunk and push it to the disk (bounded loss on a crash)."""
         storage = getattr(self._writer, "storage", None)
         chunk = getattr(storage, "chunk", None)
-        if chunk is not None and chunk.bio.tell():
+        if storage is not None and chunk is not None and chunk.bio.tell():
             storage.close_chunk()
         bio = getattr(storage, "bio", None)
         if bio is not None:

@@ -224,7 +224,8 @@ def match_modes(
             msg = (f"method 'exhaustive': expected at most {max_permutations} permutations, "
                    f"got {n_perm} ({n_id} identified, {n_fem} FEM modes); use 'assignment'")
             raise OptionError(msg)
-        best_cost, best_perm = math.inf, tuple[int, ...]()
+        best_cost = math.inf
+        best_perm: tuple[int, ...] = ()
         rows = list(range(min(n_id, n_fem))) if n_id <= n_fem else None
         if rows is not None:  # Fig. 11 of [004]: every ordered choice of FEM modes
             for perm in itertools.permutations(range(n_fem), n_id):

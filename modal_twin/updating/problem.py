@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize as so
 import scipy.sparse as sp
+from numpy.typing import NDArray
 
 from modal_twin._types import ComplexArray, FloatArray, IntArray, Matrix
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError
@@ -51,7 +52,7 @@ PENALTY = 10.0
 """Cost (per identified mode) and residual value returned at an infeasible trial point."""
 
 
-def real_shapes(shapes: ComplexArray | FloatArray) -> FloatArray:
+def real_shapes(shapes: NDArray[np.inexact]) -> FloatArray:
     """Return real shapes: each column rotated by its mean phase, then its real part."""
     s = np.asarray(shapes)
     if not np.iscomplexobj(s):
