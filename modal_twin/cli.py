@@ -1,14 +1,14 @@
 """``modal-twin``: the command line of modal_twin.
 
-    modal-twin launch config/scenarios/<name>.yaml [--domain-id N] [--run-dir DIR]
-    modal-twin record -o BAG /topic [/topic:pkg/msg/Type ...]
-    modal-twin replay BAG [--rate R]
-    modal-twin bag info BAG | modal-twin bag salvage BAG [--out DIR]
-    modal-twin model info config/structures/building.yaml [--json]   (or config/vehicles/...)
-    modal-twin diagnose MODEL --train BAG --test BAG
-    modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
-    modal-twin effects history DIR [--png FILE]
-    modal-twin demo
+modal-twin launch config/scenarios/<name>.yaml [--domain-id N] [--run-dir DIR]
+modal-twin record -o BAG /topic [/topic:pkg/msg/Type ...]
+modal-twin replay BAG [--rate R]
+modal-twin bag info BAG | modal-twin bag salvage BAG [--out DIR]
+modal-twin model info config/structures/building.yaml [--json]   (or config/vehicles/...)
+modal-twin diagnose MODEL --train BAG --test BAG
+modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
+modal-twin effects history DIR [--png FILE]
+modal-twin demo
 """
 
 from __future__ import annotations

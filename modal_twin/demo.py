@@ -56,7 +56,8 @@ def error_report(bag: Path, top: int = 12) -> str:
 
 def base_error(bag: Path) -> tuple[float, float]:
     """Median NRMSE and median Eq. (8) error (both percent) of the horizontal base-level
-    accelerations in the last /twin/metrics of a bag."""
+    accelerations in the last /twin/metrics of a bag.
+    """
     m = last_metrics(bag)
     names = list(m.channel_names)
     rows = [names.index(c) for c in BASE]

@@ -1,5 +1,6 @@
 """Find configuration files given relative to the working folder, the source tree or the
-installed package share (``share/modal_twin``), so scenarios run from anywhere."""
+installed package share (``share/modal_twin``), so scenarios run from anywhere.
+"""
 
 from __future__ import annotations
 
@@ -13,7 +14,8 @@ _ROOTS = (Path(__file__).resolve().parents[1], Path(sys.prefix) / "share" / "mod
 
 def resolve_config(path: str | Path) -> Path:
     """``path`` itself if it exists, else the first of the source tree / package share that
-    holds it; unchanged when none does (the caller's error then names it)."""
+    holds it; unchanged when none does (the caller's error then names it).
+    """
     p = Path(path)
     if p.is_absolute() or p.exists():
         return p

@@ -1,5 +1,6 @@
 """Read a YAML configuration file with errors that name the file and, for syntax errors,
-the line and column."""
+the line and column.
+"""
 
 from __future__ import annotations
 

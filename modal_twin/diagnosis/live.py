@@ -1,5 +1,6 @@
 """Live where-it-fails from the twin's residual: no simulation, so it can run on a schedule
-beside the twin (the full diagnosis, with candidate fits, runs on request)."""
+beside the twin (the full diagnosis, with candidate fits, runs on request).
+"""
 
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """Modal view of the model error: identify the measured modes (N4SID with the table inputs)
 and pair them with the model's (MAC and frequency, Eqs. (4)-(5) of [004]) -- which modes
-the model misses in frequency, damping or shape."""
+the model misses in frequency, damping or shape.
+"""
 
 from __future__ import annotations
 
@@ -44,7 +45,8 @@ class ModalView:
 
 def model_modes(plant: Plant, rows: list[int]) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Frequencies (Hz), damping ratios and complex shapes at output ``rows`` of the
-    plant's linear part (devices at their reference stiffness are not included)."""
+    plant's linear part (devices at their reference stiffness are not included).
+    """
     s = plant.system
     n = s.n
     Minv = np.linalg.inv(s.M)

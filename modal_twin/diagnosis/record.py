@@ -76,7 +76,8 @@ class Record:
 
     def segment(self, start: int, stop: int, *, warmup: bool = False) -> Record:
         """Samples ``start:stop`` as a new record; with ``warmup`` the samples before
-        ``start`` are kept to be simulated but not scored (``skip = start``)."""
+        ``start`` are kept to be simulated but not scored (``skip = start``).
+        """
         first = 0 if warmup else start
         return Record(self.fs_hz, self.input_names, self.inputs[:, first:stop],
                       self.channel_names, self.data[:, first:stop],

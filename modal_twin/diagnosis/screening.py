@@ -71,7 +71,8 @@ SCREEN_LAWS = tuple(law for law in EFFECT_LAWS if law != "linear")
 
 def drift_velocity(u: FloatArray, fs_hz: float, cutoff_hz: float) -> FloatArray:
     """Velocity of each row of ``u`` below ``cutoff_hz`` (spectral, even-extended:
-    :func:`~modal_twin.diagnosis.restoring_force.state_derivatives`)."""
+    :func:`~modal_twin.diagnosis.restoring_force.state_derivatives`).
+    """
     f_max = min(cutoff_hz, 0.45 * fs_hz)
     return np.vstack([state_derivatives(row, fs_hz, f_max_hz=f_max)[1]
                       for row in np.atleast_2d(u)])

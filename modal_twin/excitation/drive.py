@@ -98,7 +98,8 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
 
 def _track_drive(cfg: ExcitationConfig) -> FloatArray:
     """Vertical irregularity of a random German low-interference track (and its rate)
-    under the wheelsets of ``cfg.vehicle_file`` running at ``cfg.speed_kmh``."""
+    under the wheelsets of ``cfg.vehicle_file`` running at ``cfg.speed_kmh``.
+    """
     from modal_twin.models.track import random_profile, wheelset_inputs
     from modal_twin.models.vehicle_spec import load_vehicle
     from modal_twin.paths import resolve_config

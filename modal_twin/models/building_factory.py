@@ -55,7 +55,8 @@ class BuildingFactory:
 
     def with_theta(self, changes: Mapping[str, float]) -> BuildingFactory:
         """A factory of the same structure with some parameter values changed: the assembly
-        is shared (K(theta) is parametric), only the modal reduction is redone."""
+        is shared (K(theta) is parametric), only the modal reduction is redone.
+        """
         new = copy.copy(self)
         new.theta = {**self.theta, **changes}
         new.mb = modal_reduction(self.bld, self.n_modes, theta=new.theta or None)
@@ -69,7 +70,8 @@ class BuildingFactory:
 
     def attachments(self) -> tuple[str, ...]:
         """Rigidly attached masses that an ``elastic_mount`` effect could hang on springs
-        (none in a building structure file)."""
+        (none in a building structure file).
+        """
         return ()
 
     def weight(self, component: str) -> float:

@@ -70,7 +70,8 @@ class ModelFactory(Protocol):
 
 def merge_effects(base: Iterable[EffectSpec], new: Iterable[EffectSpec]) -> tuple[EffectSpec, ...]:
     """``base`` with every effect of ``new`` added; a new effect at a component that already
-    carries a device law replaces it (parameter and mount effects stay side by side)."""
+    carries a device law replaces it (parameter and mount effects stay side by side).
+    """
     new = tuple(new)
     taken = {(e.component, _slot(e.law)) for e in new}
     return (*(e for e in base if (e.component, _slot(e.law)) not in taken), *new)

@@ -258,7 +258,8 @@ class VehicleModel:
 
     def damped_modes(self) -> tuple[FloatArray, FloatArray, ComplexArray]:
         """Frequencies ``|lambda| / 2 pi`` (Hz), damping ratios ``-Re lambda / |lambda|`` and
-        shapes (on ``x``) of the complex modes of the coupled model, ascending."""
+        shapes (on ``x``) of the complex modes of the coupled model, ascending.
+        """
         n = self.n_dof
         Minv = np.linalg.inv(self.M)
         A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ self.K, -Minv @ self.C]])

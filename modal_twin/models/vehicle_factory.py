@@ -59,7 +59,8 @@ class VehicleFactory:
 
     def with_theta(self, changes: Mapping[str, float]) -> VehicleFactory:
         """A factory of the same vehicle with some parameter values changed (the file is
-        not read again)."""
+        not read again).
+        """
         new = copy.copy(self)
         new.theta = {**self.theta, **changes}
         apply_theta(new.spec, new.theta)  # refuses unknown names and bad values now

@@ -1,5 +1,6 @@
 """Simulated test rig: a truth model (which may carry effects the nominal model lacks)
-driven by the drive signal, with sensor noise and sensitivities, producing raw blocks."""
+driven by the drive signal, with sensor noise and sensitivities, producing raw blocks.
+"""
 
 from __future__ import annotations
 
@@ -72,7 +73,8 @@ class TruthRig:
 
 def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
     """Channels of a rig (table inputs, then the structure's), with the rig's
-    sensitivities per quantity: the channel map the acquisition applies."""
+    sensitivities per quantity: the channel map the acquisition applies.
+    """
     from modal_twin.models.loading import load_model
 
     plant = load_model(rig.structure).plant()
@@ -82,7 +84,8 @@ def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
 
 def table_channels(plant: Plant) -> tuple[ChannelSpec, ...]:
     """Measured input channels ``table_<input>`` of a plant (table motion, track
-    irregularity), each with the plant's quantity for it."""
+    irregularity), each with the plant's quantity for it.
+    """
     return tuple(ChannelSpec(f"table_{n}", q, "table", n.removeprefix("a"))
                  for n, q in zip(plant.input_names, plant.input_quantities, strict=True))
 

@@ -1,5 +1,6 @@
 """Updating node: /identification/modes -> two-stage update -> /model/parameters (latched),
-/updating/report, and a new model version file the twin loads."""
+/updating/report, and a new model version file the twin loads.
+"""
 
 from __future__ import annotations
 

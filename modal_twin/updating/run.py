@@ -91,7 +91,8 @@ def update_model(
 
 def accepted_theta(out: StagedResult) -> tuple[dict[str, float], list[str]]:
     """Parameter changes of the stages that improved the fit; a stage that matched fewer
-    modes or ended at a higher cost than it started is rejected (its parameters stay)."""
+    modes or ended at a higher cost than it started is rejected (its parameters stay).
+    """
     theta = dict(zip(out.names, out.theta_start, strict=True))
     rejected = []
     for name, st in zip(out.stage_names, out.stages, strict=True):
@@ -108,7 +109,8 @@ def accepted_theta(out: StagedResult) -> tuple[dict[str, float], list[str]]:
 
 def pairs_table(upd: ModelUpdate) -> list[tuple[int, int, float, float, float, float, float]]:
     """(identified, model, f_id, f_before, f_after, MAC before, MAC after) per mode, over
-    all stages (each stage matches its own band of identified modes)."""
+    all stages (each stage matches its own band of identified modes).
+    """
     out = []
     for stage in upd.result.stages:
         b, a = stage.pairing_before, stage.pairing_after

@@ -111,7 +111,8 @@ def cluster_parameters(
 ) -> ClusterResult:
     """Relative sensitivity matrix by central differences and the Case III grouping of
     [004]: drop columns with 2-norm < ``min_norm``, cluster the rest (average linkage) at
-    cosine distance ``max_cosine``."""
+    cosine distance ``max_cosine``.
+    """
     theta0 = np.asarray(theta0, float)
     f0 = np.asarray(frequencies(theta0))
     S = np.empty((f0.size, theta0.size))
