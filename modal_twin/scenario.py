@@ -90,7 +90,7 @@ def _params(path: Path, doc: dict[str, Any], key: str) -> dict[str, Any]:
     return dict(section.get("ros__parameters") or {})
 
 
-def load_scenario(path: str | Path) -> Scenario:
+def load_scenario(path: str | Path) -> Scenario:  # noqa: C901
     """Read and check a scenario file.
 
     Raises

@@ -140,7 +140,7 @@ def pair_costs(
     return cost, df, M, dz, inside.astype(float)
 
 
-def match_modes(
+def match_modes(  # noqa: C901
     f_id: ArrayLike, phi_id: ArrayLike, f_fem: ArrayLike, phi_fem: ArrayLike, *,
     zeta_id: ArrayLike | None = None, zeta_fem: ArrayLike | None = None,
     w_mac: float = 1.0, w_zeta: float = 0.0, r_f: float = 0.10, r_mac: float = 0.15,
