@@ -158,7 +158,7 @@ def load_scenario(path: str | Path) -> Scenario:  # noqa: C901
 
 
 def with_parameters(sc: Scenario, node: str, **params: Any) -> Scenario:
-    """A copy of ``sc`` with parameters of ``node`` replaced (ConfigError if not launched)."""
+    """Return a copy of ``sc`` with the parameters of ``node`` replaced (ConfigError if absent)."""
     from dataclasses import replace
 
     names = [n.name for n in sc.nodes]

@@ -380,7 +380,7 @@ def bouc_wen_initial_guesses(
     nu: float = 1.0,
     n_best: int = 3,
 ) -> list[BoucWenSDOF]:
-    """Starts for the Bouc-Wen fit from the restoring-force loop (equation error).
+    """Return starts for the Bouc-Wen fit from the restoring-force loop (equation error).
 
     With ``z = alpha w`` Eq. (2) reads ``w' = y' - a|y'||w|^(nu-1) w - b y'|w|^nu``:
     ``w`` follows from the measured displacement and (a, b) alone, and Eq. (1) becomes

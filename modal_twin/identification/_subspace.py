@@ -205,8 +205,9 @@ def _back_transform(c: FloatArray, tau: FloatArray, X: FloatArray) -> FloatArray
 def leading_eigh(
     P: FloatArray, n_max: int, *, overwrite: bool = False
 ) -> tuple[FloatArray, FloatArray]:
-    """Eigenpairs of the symmetric ``P`` in descending order -- the one factorisation a
-    subspace method shares over all orders (``P = U S^2 U^T``).
+    """Return the eigenpairs of the symmetric ``P`` in descending order.
+
+    The one factorisation a subspace method shares over all orders (``P = U S^2 U^T``).
 
     Returns the leading ``n_sv`` eigenvalues (all of them up to 500 rows, above that
     ``max(2 n_max, 100)``) and the leading ``n_max`` eigenvectors (the only ones the

@@ -164,8 +164,9 @@ def _solve(
 
 
 def rank1_factors(Rr: ComplexArray) -> tuple[ComplexArray, ComplexArray]:
-    """Shapes psi (n_out, n_modes) and participations L (n_in, n_modes) of residues
-    R_r = psi_r L_r^T: dominant singular pair of each (n_out, n_in) residue matrix.
+    """Return shapes psi (n_out, n_modes) and participations L (n_in, n_modes) of residues.
+
+    R_r = psi_r L_r^T: the dominant singular pair of each (n_out, n_in) residue matrix.
     """
     U, sv, Vh = np.linalg.svd(Rr)
     return (U[:, :, 0] * sv[:, :1]).T, Vh[:, 0, :].T
@@ -189,7 +190,7 @@ def lsfd_shapes(
 def lsfd_modes(
     model: ModalModel, H: ArrayLike, f_hz: ArrayLike, *, lower: bool = True, upper: bool = True
 ) -> ModalModel:
-    r"""The same modes with LSFD shapes (Eq. (5) of [002]) fitted for those poles only.
+    r"""Return the same modes with LSFD shapes (Eq. (5) of [002]) fitted for those poles only.
 
     Use after ``select_modes(stabilization_diagram(polymax(..., shapes="numerator")))``:
     one LSFD solve for the selected poles instead of one per model order.

@@ -105,7 +105,7 @@ def _schur22(Phi: FloatArray, W12: FloatArray, mf: int, p: int) -> FloatArray:
 
 
 def _l32(Phi: FloatArray, mf: int, p: int) -> FloatArray:
-    r"""A factor :math:`W` with :math:`W^T W = L_{32} L_{32}^T`, from :math:`\Phi = L L^T`.
+    r"""Return a factor :math:`W` with :math:`W^T W = L_{32} L_{32}^T`, from :math:`\Phi = L L^T`.
 
     With the LQ factor L of [U_f; W_p; Y_f], the blocks below the first block column are
     the Schur complement :math:`\Phi_{\cdot|1} = \Phi_{rr} - \Phi_{r1}

@@ -54,8 +54,9 @@ class BuildingFactory:
         self.sites = {d.name: d for d in self.bld.spec.devices}
 
     def with_theta(self, changes: Mapping[str, float]) -> BuildingFactory:
-        """A factory of the same structure with some parameter values changed: the assembly
-        is shared (K(theta) is parametric), only the modal reduction is redone.
+        """Return a factory of the same structure with some parameter values changed.
+
+        The assembly is shared (K(theta) is parametric), only the modal reduction is redone.
         """
         new = copy.copy(self)
         new.theta = {**self.theta, **changes}
@@ -63,14 +64,15 @@ class BuildingFactory:
         return new
 
     def parameters(self) -> dict[str, float]:
-        """Current value of every model parameter (the structure's ``theta``)."""
+        """Return the current value of every model parameter (the structure's ``theta``)."""
         par = self.bld.assembly.parametric
         return dict(zip(par.names, (float(v) for v in par.theta_vector(self.theta or None)),
                         strict=True))
 
     def attachments(self) -> tuple[str, ...]:
-        """Rigidly attached masses that an ``elastic_mount`` effect could hang on springs
-        (none in a building structure file).
+        """Rigidly attached masses that an ``elastic_mount`` effect could hang on springs.
+
+        There are none in a building structure file.
         """
         return ()
 
@@ -79,7 +81,7 @@ class BuildingFactory:
         return float(max(self.weights[self.bld.device_names.index(component)], 0.0))
 
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
-        """The plant with ``effects`` placed at their components."""
+        """Return the plant with ``effects`` placed at their components."""
         bld = self.bld
         effects, sensors = split_sensor_effects(merge_effects(self.base_effects, effects))
         devices: dict[str, Device] = {}

@@ -257,8 +257,10 @@ class VehicleModel:
         return float(r @ self.M @ r)
 
     def damped_modes(self) -> tuple[FloatArray, FloatArray, ComplexArray]:
-        """Frequencies ``|lambda| / 2 pi`` (Hz), damping ratios ``-Re lambda / |lambda|`` and
-        shapes (on ``x``) of the complex modes of the coupled model, ascending.
+        """Return frequencies, damping ratios and shapes of the coupled model's complex modes.
+
+        Frequencies ``|lambda| / 2 pi`` (Hz), damping ratios ``-Re lambda / |lambda|``, shapes
+        on ``x``; ascending.
         """
         n = self.n_dof
         Minv = np.linalg.inv(self.M)

@@ -330,13 +330,13 @@ def _position(v: Any, where: str, src: str) -> float:
 
 
 def is_vehicle_file(path: str | Path) -> bool:
-    """True when ``path`` is a vehicle file (it has a ``carbody`` section)."""
+    """Tell whether ``path`` is a vehicle file (it has a ``carbody`` section)."""
     doc = read_yaml(path, "model file")
     return isinstance(doc, Mapping) and "carbody" in doc
 
 
 def parameter_value(spec: VehicleSpec, name: str) -> float:
-    """Current value of the parameter ``name`` of :func:`theta_names`.
+    """Return the current value of the parameter ``name`` of :func:`theta_names`.
 
     Raises
     ------

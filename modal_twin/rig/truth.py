@@ -1,5 +1,7 @@
-"""Simulated test rig: a truth model (which may carry effects the nominal model lacks)
-driven by the drive signal, with sensor noise and sensitivities, producing raw blocks.
+"""Simulated test rig: a truth model driven by the drive signal, producing raw blocks.
+
+The truth may carry effects the nominal model lacks; sensor noise and sensitivities are
+applied.
 """
 
 from __future__ import annotations
@@ -20,8 +22,10 @@ __all__ = ["TruthRig", "rig_channels", "table_channels", "with_sensitivity"]
 
 
 class TruthRig:
-    """Turn drive blocks into raw measurement blocks: the measured table inputs
-    (``table_<input>``) then the plant's channels; raw = sensitivity x (SI + noise).
+    """Turn drive blocks into raw measurement blocks.
+
+    The measured table inputs (``table_<input>``) then the plant's channels;
+    raw = sensitivity x (SI + noise).
 
     Parameters
     ----------
@@ -72,8 +76,9 @@ class TruthRig:
 
 
 def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
-    """Channels of a rig (table inputs, then the structure's), with the rig's
-    sensitivities per quantity: the channel map the acquisition applies.
+    """Return the channels of a rig: the channel map the acquisition applies.
+
+    Table inputs, then the structure's, with the rig's sensitivities per quantity.
     """
     from modal_twin.models.loading import load_model
 
@@ -83,8 +88,9 @@ def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
 
 
 def table_channels(plant: Plant) -> tuple[ChannelSpec, ...]:
-    """Measured input channels ``table_<input>`` of a plant (table motion, track
-    irregularity), each with the plant's quantity for it.
+    """Return the measured input channels ``table_<input>`` of a plant.
+
+    Table motion, track irregularity: each with the plant's quantity for it.
     """
     return tuple(ChannelSpec(f"table_{n}", q, "table", n.removeprefix("a"))
                  for n, q in zip(plant.input_names, plant.input_quantities, strict=True))

@@ -1,5 +1,7 @@
-"""Updating node: /identification/modes -> two-stage update -> /model/parameters (latched),
-/updating/report, and a new model version file the twin loads.
+"""Updating node: /identification/modes -> two-stage update -> /model/parameters.
+
+It publishes /model/parameters (latched) and /updating/report, and writes a new model
+version file the twin loads.
 """
 
 from __future__ import annotations

@@ -294,7 +294,7 @@ class UpdatingProblem:
                    th[idx], list(names), lo, hi, S, targets, **options)  # type: ignore[arg-type]
 
     def with_targets(self, targets: ModeTargets, **options: object) -> UpdatingProblem:
-        """Same model and parameters, other targets (a stage using other modes)."""
+        """Return the same model and parameters with other targets (a stage using other modes)."""
         kw: dict[str, object] = {"n_modes": self.n_modes, "w_mac": self.w_mac,
                                  "r_f": self.r_f, "r_mac": self.r_mac,
                                  "prior_weight": self.prior_weight}
@@ -429,7 +429,7 @@ class UpdatingProblem:
         return np.concatenate([rf, rp.T.ravel()])
 
     def residual_sigma(self) -> FloatArray:
-        """Standard deviation of each residual from the identification (inf: unknown)."""
+        """Return the identification's standard deviation of each residual (inf: unknown)."""
         t = self.targets
         sf = t.std_f_hz / t.f_hz / self.f_scale
         sf = np.where(np.isfinite(sf) & (sf > 0), sf, np.inf)

@@ -1,5 +1,7 @@
-"""Plot the error history of a model line (one line per channel group, one point per
-version): the picture of "add the effect and watch the error fall".
+"""Plot the error history of a model line.
+
+One line per channel group, one point per version: the picture of "add the effect and
+watch the error fall".
 """
 
 from __future__ import annotations
