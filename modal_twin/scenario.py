@@ -90,7 +90,30 @@ def _params(path: Path, doc: dict[str, Any], key: str) -> dict[str, Any]:
     return dict(section.get("ros__parameters") or {})
 
 
-def load_scenario(path: str | Path) -> Scenario:  # noqa: C901
+def _node_spec(p: Path, doc: dict[str, Any], key: str, item: Any,
+               nodes: list[NodeSpec]) -> NodeSpec:
+    """Check one entry of ``launch.nodes`` (``key``) against the ``nodes`` read before it."""
+    if not isinstance(item, dict):
+        raise _err(p, key, "expected a mapping with 'name' and 'executable'")
+    unknown = sorted(set(item) - {"name", "executable", "args", "one_shot"})
+    if unknown:
+        raise _err(p, f"{key}.{unknown[0]}",
+                   "unknown key; valid: name, executable, args, one_shot")
+    for field in ("name", "executable"):
+        if not isinstance(item.get(field), str) or not item[field]:
+            raise _err(p, f"{key}.{field}", "missing or not a string")
+    if any(n.name == item["name"] for n in nodes):
+        raise _err(p, f"{key}.name", f"node name {item['name']!r} used twice")
+    args = item.get("args", [])
+    if not isinstance(args, list):
+        raise _err(p, f"{key}.args", "expected a list of strings")
+    return NodeSpec(
+        item["name"], item["executable"], _params(p, doc, item["name"]),
+        tuple(str(a) for a in args), bool(item.get("one_shot", False)),
+    )
+
+
+def load_scenario(path: str | Path) -> Scenario:
     """Read and check a scenario file.
 
     Raises
@@ -108,25 +131,7 @@ def load_scenario(path: str | Path) -> Scenario:  # noqa: C901
         raise _err(p, "launch.nodes", "expected a non-empty list of {name, executable}")
     nodes: list[NodeSpec] = []
     for i, item in enumerate(raw_nodes):
-        key = f"launch.nodes[{i}]"
-        if not isinstance(item, dict):
-            raise _err(p, key, "expected a mapping with 'name' and 'executable'")
-        unknown = sorted(set(item) - {"name", "executable", "args", "one_shot"})
-        if unknown:
-            raise _err(p, f"{key}.{unknown[0]}",
-                       "unknown key; valid: name, executable, args, one_shot")
-        for field in ("name", "executable"):
-            if not isinstance(item.get(field), str) or not item[field]:
-                raise _err(p, f"{key}.{field}", "missing or not a string")
-        if any(n.name == item["name"] for n in nodes):
-            raise _err(p, f"{key}.name", f"node name {item['name']!r} used twice")
-        args = item.get("args", [])
-        if not isinstance(args, list):
-            raise _err(p, f"{key}.args", "expected a list of strings")
-        nodes.append(NodeSpec(
-            item["name"], item["executable"], _params(p, doc, item["name"]),
-            tuple(str(a) for a in args), bool(item.get("one_shot", False)),
-        ))
+        nodes.append(_node_spec(p, doc, f"launch.nodes[{i}]", item, nodes))
     names = {n.name for n in nodes}
     stray = sorted(k for k in doc if k not in names and k not in {"launch", "/**"})
     if stray:
