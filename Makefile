@@ -8,14 +8,17 @@ setup:
 demo: setup
 	@OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) -m modal_twin.cli demo
 
-test: setup
+test: lint
 	@OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -p no:cacheprovider
 
 bench: setup
 	@for b in test/benchmarks/bench_*.py; do echo "== $$b"; OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) $$b || exit 1; done
 
+# The type and lint gate (offline: ruff and mypy run on the sources only, settings in
+# pyproject.toml); `make test` runs it first and stops on any error.
 lint: setup
 	@.venv/bin/ruff check modal_twin test
+	@.venv/bin/mypy modal_twin
 
 clean:
 	rm -rf build .venv *.egg-info

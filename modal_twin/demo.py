@@ -31,7 +31,7 @@ BASE = [f"F0_C{i}_{d}" for i in (1, 2, 3) for d in "xy"]
 
 
 def last_metrics(bag: Path) -> Any:
-    """The last /twin/metrics message of a bag (None if there is none)."""
+    """Return the last /twin/metrics message of a bag (None if there is none)."""
     last = None
     for _, _, msg in read_messages(bag, ["/twin/metrics"]):
         last = msg
@@ -55,8 +55,11 @@ def error_report(bag: Path, top: int = 12) -> str:
 
 
 def base_error(bag: Path) -> tuple[float, float]:
-    """Median NRMSE and median Eq. (8) error (both percent) of the horizontal base-level
-    accelerations in the last /twin/metrics of a bag."""
+    """Return the median NRMSE and Eq. (8) error (percent) of the last /twin/metrics.
+
+    Both medians are over the horizontal base-level accelerations of the bag's last
+    /twin/metrics message.
+    """
     m = last_metrics(bag)
     names = list(m.channel_names)
     rows = [names.index(c) for c in BASE]

@@ -1,5 +1,6 @@
-"""Launcher: start a scenario's nodes as processes, wait until they are up and matched,
-supervise them, stop them cleanly.
+"""Launcher: start a scenario's nodes as processes and supervise them.
+
+Wait until they are up and matched, supervise them, stop them cleanly.
 
 - Every node runs as its own process with ``--ros-args -r __node:=<name>
   --params-file <run>/params/<name>.yaml`` and logs to ``<run>/logs/<name>.log``.
@@ -166,7 +167,7 @@ class Launcher:
             self._spawn(node.name, cmd)
 
     def dead(self) -> list[tuple[str, int]]:
-        """Processes that ended when they should not have: (name, exit code)."""
+        """Return the processes that ended when they should not have: (name, exit code)."""
         out = []
         one_shot = {n.name for n in self.sc.nodes if n.one_shot}
         for name, p in self.procs.items():

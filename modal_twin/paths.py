@@ -1,5 +1,8 @@
-"""Find configuration files given relative to the working folder, the source tree or the
-installed package share (``share/modal_twin``), so scenarios run from anywhere."""
+"""Find configuration files wherever a scenario is run from.
+
+Paths are given relative to the working folder, the source tree or the installed
+package share (``share/modal_twin``).
+"""
 
 from __future__ import annotations
 
@@ -12,8 +15,10 @@ _ROOTS = (Path(__file__).resolve().parents[1], Path(sys.prefix) / "share" / "mod
 
 
 def resolve_config(path: str | Path) -> Path:
-    """``path`` itself if it exists, else the first of the source tree / package share that
-    holds it; unchanged when none does (the caller's error then names it)."""
+    """Return ``path`` itself if it exists, else the first of source tree / share that holds it.
+
+    Unchanged when none does (the caller's error then names it).
+    """
     p = Path(path)
     if p.is_absolute() or p.exists():
         return p

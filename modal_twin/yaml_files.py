@@ -1,5 +1,7 @@
-"""Read a YAML configuration file with errors that name the file and, for syntax errors,
-the line and column."""
+"""Read a YAML configuration file with errors that name the file.
+
+For syntax errors they also name the line and column.
+"""
 
 from __future__ import annotations
 
@@ -14,7 +16,7 @@ __all__ = ["read_yaml"]
 
 
 def read_yaml(path: str | Path, what: str = "file", *, mapping: bool = True) -> Any:
-    """Parsed contents of ``path``.
+    """Return the parsed contents of ``path``.
 
     Raises
     ------

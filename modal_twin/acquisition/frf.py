@@ -1,13 +1,13 @@
-"""H1 / H2 frequency response function estimators with coherence (Welch averaging).
+r"""H1 / H2 frequency response function estimators with coherence (Welch averaging).
 
 With input spectra :math:`X` (n_in) and output spectra :math:`Y` (n_out) per block and
-averages :math:`\\langle\\cdot\\rangle` over blocks (Welch segments or repeated hits):
+averages :math:`\langle\cdot\rangle` over blocks (Welch segments or repeated hits):
 
-* :math:`S_{xx} = \\langle X X^H \\rangle`, :math:`S_{yx} = \\langle Y X^H \\rangle`,
-  :math:`S_{yy} = \\langle |Y|^2 \\rangle`;
+* :math:`S_{xx} = \langle X X^H \rangle`, :math:`S_{yx} = \langle Y X^H \rangle`,
+  :math:`S_{yy} = \langle |Y|^2 \rangle`;
 * :math:`H_1 = S_{yx} S_{xx}^{-1}` (noise on the outputs averages out);
 * :math:`H_2 = S_{yy} / S_{xy}` (single input only; noise on the input averages out);
-* multiple coherence :math:`\\gamma^2_o = (H_1 S_{xy})_{oo} / S_{yy,oo}` in [0, 1]
+* multiple coherence :math:`\gamma^2_o = (H_1 S_{xy})_{oo} / S_{yy,oo}` in [0, 1]
   (the ordinary coherence :math:`|S_{yx}|^2 / (S_{xx} S_{yy}) = H_1 / H_2` for one input).
 
 Spectral densities are one-sided, in unit^2/Hz (the ``density`` scaling of
@@ -185,5 +185,5 @@ def frf(
     if n_in == 1:
         with np.errstate(invalid="ignore", divide="ignore"):
             H2[:, 0, :] = np.where(ok, Syy / Syx[:, 0, :].conj(), np.nan)
-    f = np.fft.rfftfreq(n_per, 1.0 / fs)
+    f = np.asarray(np.fft.rfftfreq(n_per, 1.0 / fs), dtype=np.float64)
     return FRFEstimate(f, H1, H2, coh, Sxx, Syx, Syy, int(n_blk))

@@ -1,13 +1,13 @@
-"""Reciprocity check of FRFs: :math:`H_{ij} = H_{ji}` for a linear, passive structure.
+r"""Reciprocity check of FRFs: :math:`H_{ij} = H_{ji}` for a linear, passive structure.
 
 Maxwell-Betti reciprocity requires the response at point i to a force at point j to equal
 the response at j to a force at i (same quantity and direction). [002] checks it on the
 carbody (Fig. 7c). For each pair of driven points with collocated sensors the check gives
 
-* the normalised difference :math:`e = \\|H_{ij} - H_{ji}\\| / \\sqrt{\\|H_{ij}\\| \\|H_{ji}\\|}`
+* the normalised difference :math:`e = \|H_{ij} - H_{ji}\| / \sqrt{\|H_{ij}\| \|H_{ji}\|}`
   over the frequency lines (0 for perfect reciprocity), and
 * the FRF assurance criterion
-  :math:`\\mathrm{FRAC} = |H_{ij}^H H_{ji}|^2 / (H_{ij}^H H_{ij}\\, H_{ji}^H H_{ji})` (1 best).
+  :math:`\mathrm{FRAC} = |H_{ij}^H H_{ji}|^2 / (H_{ij}^H H_{ij}\, H_{ji}^H H_{ji})` (1 best).
 """
 
 from __future__ import annotations

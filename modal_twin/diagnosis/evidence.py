@@ -92,7 +92,8 @@ class CycleFeatures:
 
 def velocity_cutoff(u: FloatArray, fs_hz: float) -> float:
     """Low-pass edge for differentiating a drift: twice the frequency below which 99 % of
-    its power lies (Welch, Hann window; never above 0.45 fs), derived from the record."""
+    its power lies (Welch, Hann window; never above 0.45 fs), derived from the record.
+    """
     x = np.atleast_2d(u)
     nper = int(min(x.shape[-1], 4096))
     f, p = signal.welch(x, fs=fs_hz, nperseg=nper, axis=-1)
@@ -105,7 +106,8 @@ def velocity_cutoff(u: FloatArray, fs_hz: float) -> float:
 
 def turning_points(u: FloatArray, threshold: float) -> FloatArray:
     """Indices of the peaks and valleys of ``u`` that stand ``threshold`` above / below
-    their neighbours (ripples smaller than that are not cycles); the first sample leads."""
+    their neighbours (ripples smaller than that are not cycles); the first sample leads.
+    """
     ext = [0]
     cand, trend = 0, 0
     for i in range(1, u.size):
@@ -206,7 +208,8 @@ class DeviceEvidence:
     def family_scores(self) -> dict[str, float]:
         """Family (hysteresis, friction, softening, hardening, gap, stiffness, damping) ->
         score in [0, 1]: the share of the residual it explains alone, zero when not
-        significant."""
+        significant.
+        """
         out: dict[str, float] = {}
         for g, s in self.alone.items():
             name = self.elastic_kind if g == "elastic" else g
@@ -234,7 +237,8 @@ def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[fl
     """Evidence at one component from its measured drift and force, shape (n_dir, nt).
 
     A component whose nominal law leaves less than ``min_share`` of the force variance (and
-    not four times its noise) is reported as such without the regression."""
+    not four times its noise) is reported as such without the regression.
+    """
     u = np.atleast_2d(np.asarray(u, float))
     f = np.atleast_2d(np.asarray(f, float))
     n_dir, nt = u.shape

@@ -74,7 +74,8 @@ def family_of(effect: EffectSpec, *, nominal_k: float | None = None,
 
 def place_of(effect: EffectSpec) -> str:
     """Where an effect sits: its component, or for a parameter its place in the name
-    (``m_F2`` -> ``F2``, ``kcol_1A`` -> ``1A``)."""
+    (``m_F2`` -> ``F2``, ``kcol_1A`` -> ``1A``).
+    """
     comp = effect.component
     if effect.law in ("added_mass", "stiffness", "damping") and "_" in comp:
         head, _, rest = comp.partition("_")

@@ -58,8 +58,11 @@ class FittedEffect:
     # after, after / noise floor), NRMSE as the RMS over channels
 
     def parameter_text(self) -> str:
-        """``name=value ±std`` per parameter; "not determined" where the data do not fix
-        it (no finite standard deviation, or one larger than the value)."""
+        """Format ``name=value ±std`` per parameter.
+
+        "not determined" where the data do not fix it (no finite standard deviation, or one
+        larger than the value).
+        """
         out = []
         for k, v in self.effect.params.items():
             s = self.std.get(k)
@@ -104,9 +107,11 @@ Transform = tuple[list[str], Callable[[FloatArray], dict[str, float]],
 
 def normalised_residual(plant: Plant, rec: Record, decimate: int, scale: FloatArray
                         ) -> FloatArray:
-    """Residual of ``plant`` on ``rec``, each channel divided by ``scale`` (its measured RMS,
-    so that accelerations, drifts and forces weigh alike), every ``decimate``-th sample,
-    flattened: the vector the fits minimise."""
+    """Return the normalised residual of ``plant`` on ``rec``: the vector the fits minimise.
+
+    Each channel is divided by ``scale`` (its measured RMS, so that accelerations, drifts and
+    forces weigh alike), every ``decimate``-th sample is kept, and the result is flattened.
+    """
     pred = simulate_record(plant, rec)
     return ((pred[:, rec.skip:] - rec.scored) / scale)[:, ::decimate].ravel()
 
@@ -120,11 +125,13 @@ def as_records(rec: Records) -> tuple[Record, ...]:
 
 
 class SimulationObjective:
-    """The vector ``least_squares`` minimises: :func:`normalised_residual` of the plant
-    ``build(x)`` on the training record(s), concatenated (each record's channels divided by
-    their own RMS, so a low-level record weighs like a strong one). A trial that fails to
-    simulate (unstable, no convergence) returns a large penalty instead of stopping the fit;
-    ``n`` counts the simulations."""
+    """Build the vector ``least_squares`` minimises for the plant ``build(x)``.
+
+    :func:`normalised_residual` on the training record(s), concatenated (each record's
+    channels divided by their own RMS, so a low-level record weighs like a strong one). A
+    trial that fails to simulate (unstable, no convergence) returns a large penalty instead
+    of stopping the fit; ``n`` counts the simulations.
+    """
 
     def __init__(self, build: Callable[[FloatArray], Plant], rec: Records, decimate: int
                  ) -> None:
@@ -135,6 +142,7 @@ class SimulationObjective:
         self.n = 0
 
     def __call__(self, x: FloatArray) -> FloatArray:
+        """Return the residual of the plant ``build(x)``; a failed simulation gives 1e3."""
         self.n += 1
         try:
             plant = self.build(x)
@@ -148,8 +156,11 @@ class SimulationObjective:
 def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_params: int,
               train: Records, test: Record, objective: SimulationObjective, t0: float,
               std: dict[str, float]) -> FittedEffect:
-    """The :class:`FittedEffect` of a finished fit: errors of the fitted and the nominal plant
-    on both records and the BIC ``N ln(SSE / N) + p ln N`` of the training residual."""
+    """Return the :class:`FittedEffect` of a finished fit.
+
+    It holds the errors of the fitted and the nominal plant on both records and the BIC
+    ``N ln(SSE / N) + p ln N`` of the training residual.
+    """
     train = as_records(train)[0]
     N = sol.fun.size
     sse = float(sol.fun @ sol.fun)
@@ -165,10 +176,12 @@ def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_par
 
 
 def _transform(law: str, start: dict[str, float], k: float) -> Transform:
-    """Fitted parameters of a law in a bounded space. Each law is refitted together with
-    the component's own stiffness, the parameter that interacts with it (``kt_factor`` of
-    friction, ``k`` of the others): adding friction or softening at a bearing changes what
-    its linear stiffness should be."""
+    """Fitted parameters of a law in a bounded space.
+
+    Each law is refitted together with the component's own stiffness, the parameter that
+    interacts with it (``kt_factor`` of friction, ``k`` of the others): adding friction or
+    softening at a bearing changes what its linear stiffness should be.
+    """
     if law == "stick_slip":
         lf = np.log(start["Fk"])
         return (["Fk", "Fs", "kt_factor"],
@@ -263,9 +276,11 @@ def fit_effect(
 
 def _parameter_std(sol: object, to_params: Callable[[FloatArray], dict[str, float]],
                    names: list[str]) -> dict[str, float]:
-    """1-sigma of the parameters from the Gauss-Newton covariance s^2 (J'J)^-1, mapped
-    through the transform (first order). Samples are treated as independent, so this is a
-    lower bound where the residual is correlated in time."""
+    """Return the 1-sigma of the parameters from the Gauss-Newton covariance s^2 (J'J)^-1.
+
+    The covariance is mapped through the transform (first order). Samples are treated as
+    independent, so this is a lower bound where the residual is correlated in time.
+    """
     J = np.asarray(sol.jac)  # type: ignore[attr-defined]
     x = np.asarray(sol.x)  # type: ignore[attr-defined]
     dof = max(J.shape[0] - J.shape[1], 1)

@@ -1,5 +1,8 @@
-"""Live where-it-fails from the twin's residual: no simulation, so it can run on a schedule
-beside the twin (the full diagnosis, with candidate fits, runs on request)."""
+"""Live where-it-fails from the twin's residual, without simulation.
+
+It can run on a schedule beside the twin (the full diagnosis, with candidate fits, runs
+on request).
+"""
 
 from __future__ import annotations
 
@@ -15,7 +18,7 @@ __all__ = ["live_diagnosis"]
 
 
 def _span(blocks: Sequence[SignalBlock]) -> SignalBlock:
-    """The last contiguous run of blocks as one block."""
+    """Return the last contiguous run of blocks as one block."""
     run = [blocks[-1]]
     for b in reversed(blocks[:-1]):
         if b.next_index != run[0].first_index or b.channel_names != run[0].channel_names:
@@ -27,8 +30,10 @@ def _span(blocks: Sequence[SignalBlock]) -> SignalBlock:
 def live_diagnosis(frames: Sequence[SignalBlock], residuals: Sequence[SignalBlock],
                    channels: Mapping[str, ChannelSpec], *,
                    nmse_threshold_pct: float = 2.0) -> Diagnosis:
-    """Where the twin fails over the samples both streams cover (predicted = measured +
-    residual), with the same breakdown as the full diagnosis but no candidates.
+    """Find where the twin fails over the samples both streams cover.
+
+    Predicted = measured + residual; the breakdown is the full diagnosis' but without
+    candidates.
 
     Raises
     ------

@@ -1,6 +1,9 @@
-"""Modal view of the model error: identify the measured modes (N4SID with the table inputs)
-and pair them with the model's (MAC and frequency, Eqs. (4)-(5) of [004]) -- which modes
-the model misses in frequency, damping or shape."""
+"""Modal view of the model error: the modes the model misses.
+
+Identify the measured modes (N4SID with the table inputs) and pair them with the
+model's (MAC and frequency, Eqs. (4)-(5) of [004]) -- which modes the model misses in
+frequency, damping or shape.
+"""
 
 from __future__ import annotations
 
@@ -43,8 +46,10 @@ class ModalView:
 
 
 def model_modes(plant: Plant, rows: list[int]) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Frequencies (Hz), damping ratios and complex shapes at output ``rows`` of the
-    plant's linear part (devices at their reference stiffness are not included)."""
+    """Return frequencies (Hz), damping ratios and complex shapes of the plant's linear part.
+
+    Shapes are at output ``rows``; devices at their reference stiffness are not included.
+    """
     s = plant.system
     n = s.n
     Minv = np.linalg.inv(s.M)

@@ -1,6 +1,7 @@
-"""Candidate linear effects: a model parameter that is wrong or missing -- added mass on a
-floor (``m_*``), a wrong concrete modulus (``E_*``) -- screened by simulated sensitivities
-and fitted by simulation like the device laws.
+"""Candidate linear effects: a model parameter that is wrong or missing.
+
+Added mass on a floor (``m_*``), a wrong concrete modulus (``E_*``): screened by
+simulated sensitivities and fitted by simulation like the device laws.
 
 Screening: with ``r`` the normalised residual of the nominal model on the training record
 and ``s_p = d(prediction)/d(theta_p)`` by one forward difference (one simulation per

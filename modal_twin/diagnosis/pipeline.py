@@ -198,7 +198,8 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
                    progress: Callable[[str], None] | None = None, mapper: Mapper = map,
                    exclude: Iterable[tuple[str, str]] = ()) -> Diagnosis:
     """One round on ``factory``'s model: ``records[0]`` trains, ``records[1]`` is held out,
-    the rest are other levels the result must not be worse on (module docstring)."""
+    the rest are other levels the result must not be worse on (module docstring).
+    """
     say = progress or (lambda s: None)
     records, skipped = _common_channels(factory, records)
     train, test = records[0], records[1]

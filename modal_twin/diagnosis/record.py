@@ -61,7 +61,7 @@ class Record:
         return self.data[:, self.skip:]
 
     def with_channels(self, names: list[str] | tuple[str, ...]) -> Record:
-        """The same record restricted to ``names`` (in that order)."""
+        """Return the same record restricted to ``names`` (in that order)."""
         return Record(self.fs_hz, self.input_names, self.inputs, tuple(names),
                       self.channels(names), self.source, self.skip)
 
@@ -75,8 +75,11 @@ class Record:
         return self.data[[idx[n] for n in names]]
 
     def segment(self, start: int, stop: int, *, warmup: bool = False) -> Record:
-        """Samples ``start:stop`` as a new record; with ``warmup`` the samples before
-        ``start`` are kept to be simulated but not scored (``skip = start``)."""
+        """Return samples ``start:stop`` as a new record.
+
+        With ``warmup`` the samples before ``start`` are kept to be simulated but not scored
+        (``skip = start``).
+        """
         first = 0 if warmup else start
         return Record(self.fs_hz, self.input_names, self.inputs[:, first:stop],
                       self.channel_names, self.data[:, first:stop],
@@ -85,8 +88,9 @@ class Record:
 
 def record_from_blocks(blocks: list[SignalBlock], *, source: str = "",
                        input_prefix: str = INPUT_PREFIX) -> Record:
-    """Join measurement frames into a record; channels ``table_<x>`` become the inputs
-    (named ``<x>``), the rest the measured channels.
+    """Join measurement frames into a record.
+
+    Channels ``table_<x>`` become the inputs (named ``<x>``), the rest the measured channels.
 
     Raises
     ------

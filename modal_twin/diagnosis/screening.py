@@ -51,7 +51,7 @@ class ScreenedCandidate:
 
 def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
                    ) -> list[dict[str, float]]:
-    """Starting grid of a law's parameters, scaled to the measured drift and force."""
+    """Return the starting grid of a law's parameters, scaled to the measured drift and force."""
     if law == "stick_slip":
         fk = [0.4 * f_max, 0.6 * f_max, 0.8 * f_max]
         return [{"Fs": r * a, "Fk": a} for a in fk for r in (1.0, 1.5)]
@@ -76,8 +76,10 @@ SCREEN_LAWS = tuple(law for law in EFFECT_LAWS if law != "linear")
 
 
 def drift_velocity(u: FloatArray, fs_hz: float, cutoff_hz: float) -> FloatArray:
-    """Velocity of each row of ``u`` below ``cutoff_hz`` (spectral, even-extended:
-    :func:`~modal_twin.diagnosis.restoring_force.state_derivatives`)."""
+    """Return the velocity of each row of ``u`` below ``cutoff_hz``.
+
+    Spectral, even-extended: :func:`~modal_twin.diagnosis.restoring_force.state_derivatives`.
+    """
     f_max = min(cutoff_hz, 0.45 * fs_hz)
     return np.vstack([state_derivatives(row, fs_hz, f_max_hz=f_max)[1]
                       for row in np.atleast_2d(u)])

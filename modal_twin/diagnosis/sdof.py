@@ -262,7 +262,8 @@ def _sim(
         uf = _fine_force(ue, n_sub, periodic=True)
     else:
         uf = _fine_force(u, n_sub, periodic=False)
-    y, ok = _simulate(uf, 1.0 / (fs_hz * n_sub), n_sub, *p, nu, y_limit)
+    # numba Dispatcher.__call__ is typed with fixed arity; the jitted signature is hidden
+    y, ok = _simulate(uf, 1.0 / (fs_hz * n_sub), n_sub, *p, nu, y_limit)  # type: ignore[call-arg]
     if period is not None:
         y = y[period: period + u.size]
     return y, bool(ok)
@@ -379,7 +380,7 @@ def bouc_wen_initial_guesses(
     nu: float = 1.0,
     n_best: int = 3,
 ) -> list[BoucWenSDOF]:
-    """Starts for the Bouc-Wen fit from the restoring-force loop (equation error).
+    """Return starts for the Bouc-Wen fit from the restoring-force loop (equation error).
 
     With ``z = alpha w`` Eq. (2) reads ``w' = y' - a|y'||w|^(nu-1) w - b y'|w|^nu``:
     ``w`` follows from the measured displacement and (a, b) alone, and Eq. (1) becomes
@@ -420,7 +421,7 @@ def bouc_wen_initial_guesses(
     y_f, v, acc = state_derivatives(y, fs_hz, f_max_hz=f_max_hz, periodic=periodic)
     u_f = state_derivatives(u, fs_hz, f_max_hz=f_max_hz, periodic=periodic)[0]
     # a periodic record runs the state over one extra period so that it starts in steady state
-    y_run = np.concatenate([y_f[-period:], y_f]) if periodic else y_f
+    y_run = np.concatenate([y_f[-period:], y_f]) if period is not None else y_f
     ymax = float(np.max(np.abs(y_f)))
     grid = np.array([0.0, 0.5, 1.0, 2.0, 4.0, -0.5, -1.0, -2.0, -4.0]) / ymax
     cands: list[tuple[float, FloatArray]] = []
@@ -444,7 +445,7 @@ def bouc_wen_initial_guesses(
         msg = "u, y: no Bouc-Wen start with m, alpha > 0 found on the (a, b) grid"
         raise ModelError(msg)
     cands.sort(key=lambda t: t[0])
-    return [BoucWenSDOF(*p, nu=nu) for _, p in cands[:n_best]]
+    return [replace(BoucWenSDOF(*p), nu=nu) for _, p in cands[:n_best]]  # p: m, c, k, alpha, a, b
 
 
 def fit_bouc_wen_sdof(
@@ -503,7 +504,7 @@ def fit_bouc_wen_sdof(
     p0s = [replace(s, nu=nu).vector() for s in starts]
     p, std, ok, n_fev, rmse = _fit(u, y, fs_hz, p0s, [0, 1, 2, 3, 4, 5], nu, oversample,
                                    period, max_nfev)
-    model = BoucWenSDOF(*p, nu=nu)
+    model = replace(BoucWenSDOF(*p), nu=nu)  # p: m, c, k, alpha, a, b
     _log.info("Bouc-Wen SDOF fit: %s, rmse %.3g m", model, rmse)
     return SDOFFit(model, std, ("m", "c", "k", "alpha", "a", "b"), rmse,
                    rmse / float(np.std(y)), n_fev, ok, time.perf_counter() - t0)

@@ -57,7 +57,7 @@ class WhereReport:
     band_share: FloatArray  # share of the normalised residual energy per band
 
     def worst(self, kind: str, n: int = 5) -> list[GroupError]:
-        """The ``n`` groups of a kind with the largest NMSE."""
+        """Return the ``n`` groups of a kind with the largest NMSE."""
         return sorted((g for g in self.groups if g.kind == kind), key=lambda g: -g.nmse_pct)[:n]
 
     def format(self, top: int = 10) -> str:

@@ -60,7 +60,8 @@ def choose_start(factory: ModelFactory, component: str, law: str, train: Record
     """Starting parameters of ``law`` at ``component`` from the training record: the best
     mount frequency of the screening grid, a parameter's current value, or the middle of a
     device law's grid scaled to the measured drift and force. One rule for the command line
-    and the diagnosis node."""
+    and the diagnosis node.
+    """
     if law == MOUNT_LAW:
         best = [c for c in screen_attachments(factory, train) if c.component == component]
         return {"f_hz": best[0].f_hz if best else 10.0, "zeta": 0.05}
@@ -153,7 +154,8 @@ def add_effect(model_file: str | Path, component: str, law: str, start: dict[str
 def add_diagnosed(model_file: str | Path, d: Diagnosis, test: Record, folder: str | Path
                   ) -> ModelVersion | None:
     """Write every effect the diagnosis ``d`` found (accepted, unflagged, jointly refitted)
-    as the next version; None when it found nothing to add."""
+    as the next version; None when it found nothing to add.
+    """
     if not d.found:
         return None
     base = read_version(model_file)

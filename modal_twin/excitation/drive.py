@@ -67,7 +67,7 @@ class ExcitationConfig:
 
 
 def make_drive(cfg: ExcitationConfig) -> FloatArray:
-    """The whole drive signal, shape (len(cfg.channels), n_samples)."""
+    """Return the whole drive signal, shape (len(cfg.channels), n_samples)."""
     rng = np.random.default_rng(cfg.seed)
     n_ch = len(cfg.channels)
     if cfg.kind == "record":
@@ -97,8 +97,10 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
 
 
 def _track_drive(cfg: ExcitationConfig) -> FloatArray:
-    """Vertical irregularity of a random German low-interference track (and its rate)
-    under the wheelsets of ``cfg.vehicle_file`` running at ``cfg.speed_kmh``."""
+    """Return the vertical irregularity of a random German low-interference track and its rate.
+
+    Both are taken under the wheelsets of ``cfg.vehicle_file`` running at ``cfg.speed_kmh``.
+    """
     from modal_twin.models.track import random_profile, wheelset_inputs
     from modal_twin.models.vehicle_spec import load_vehicle
     from modal_twin.paths import resolve_config

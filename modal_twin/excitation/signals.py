@@ -114,9 +114,10 @@ def impact(
 
 
 def load_record(path: str | Path) -> tuple[FloatArray, float, list[str]]:
-    """Read an acceleration record: ``.npz`` (keys ``data`` (n_ch, n), ``fs_hz``,
-    optional ``channels``) or ``.csv`` (first column time in s, one column per channel,
-    header row of channel names).
+    """Read an acceleration record from ``.npz`` or ``.csv``.
+
+    ``.npz``: keys ``data`` (n_ch, n), ``fs_hz``, optional ``channels``; ``.csv``: first
+    column time in s, one column per channel, header row of channel names.
 
     Returns
     -------
@@ -179,9 +180,10 @@ def earthquake_like(
     t_rise_s: float | None = None,
     t_strong_s: float | None = None,
 ) -> FloatArray:
-    """Synthetic ground acceleration: Kanai-Tajimi filtered white noise under a
-    Jennings-type envelope (quadratic rise, strong phase, exponential decay), scaled to the
-    peak ``pga`` (m/s^2), shape (1, n).
+    """Synthesise a ground acceleration, shape (1, n), scaled to the peak ``pga`` (m/s^2).
+
+    Kanai-Tajimi filtered white noise under a Jennings-type envelope (quadratic rise, strong
+    phase, exponential decay).
 
     The Kanai-Tajimi filter ``H(s) = (2 zeta_g w_g s + w_g^2) / (s^2 + 2 zeta_g w_g s +
     w_g^2)`` gives the soil-filtered spectrum; a 0.1 Hz high-pass removes drift.

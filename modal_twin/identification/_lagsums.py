@@ -1,13 +1,13 @@
-"""Exact lag sums and block-Hankel Gram matrices by segmented FFT (private).
+r"""Exact lag sums and block-Hankel Gram matrices by segmented FFT (private).
 
 Shared by :mod:`.n4sid` and :mod:`.ssi_cov`. The lag sums
 
-.. math:: C_d = \\sum_{s=s_0}^{s_1 - 1} x_s\\, y_{s+d}^T, \\qquad d = 0, \\dots, L - 1
+.. math:: C_d = \sum_{s=s_0}^{s_1 - 1} x_s\, y_{s+d}^T, \qquad d = 0, \dots, L - 1
 
 (``y`` zero from ``n_valid`` on) are the only data passes of both methods. Computed lag by
-lag they cost :math:`L\\, c_x c_y (s_1 - s_0)` multiply-adds; here the range is cut into
+lag they cost :math:`L\, c_x c_y (s_1 - s_0)` multiply-adds; here the range is cut into
 segments of K samples, each correlated with the K + L - 1 samples from its start by FFT
-of length :math:`n_{fft} \\ge K + L - 1` (no circular wrap, so the sums are exact to
+of length :math:`n_{fft} \ge K + L - 1` (no circular wrap, so the sums are exact to
 rounding), and the cross spectra of all segments are accumulated by one batched matrix
 product per frequency line: about :math:`c_x c_y (s_1 - s_0)` complex multiply-adds,
 independent of L (Welch-style overlap-save; e.g. Bendat & Piersol, 2010, sec. 11.6).
@@ -17,9 +17,9 @@ window spectrum is completed by a short DFT of the L - 1 samples after it
 (:func:`_self_spectra`).
 
 The Gram matrix of the block Hankel matrix with 2i block rows of :math:`z_t`,
-:math:`\\Phi_{ab} = \\sum_{t=t_0}^{t_1-1} z_{t+a} z_{t+b}^T`, follows EXACTLY from the lag
+:math:`\Phi_{ab} = \sum_{t=t_0}^{t_1-1} z_{t+a} z_{t+b}^T`, follows EXACTLY from the lag
 sums over :math:`[t_0, t_1)` and two short edge corrections (:func:`hankel_gram`), instead
-of forming the :math:`2i c \\times j` Hankel matrix and its product (2i / 4 times more
+of forming the :math:`2i c \times j` Hankel matrix and its product (2i / 4 times more
 work and a large copy).
 """
 
@@ -38,7 +38,7 @@ __all__ = ["hankel_gram", "lag_sums"]
 def lag_sums(
     x: FloatArray, y: FloatArray, n_lags: int, start: int, stop: int, n_valid: int
 ) -> FloatArray:
-    """Exact :math:`C_d = \\sum_{s=start}^{stop-1} x_s y_{s+d}^T` for d < n_lags.
+    r"""Exact :math:`C_d = \sum_{s=start}^{stop-1} x_s y_{s+d}^T` for d < n_lags.
 
     Parameters
     ----------
@@ -89,7 +89,7 @@ def _cross_spectra(
     S: ComplexArray, x: FloatArray, y: FloatArray, L: int, K: int, nfft: int, start: int,
     stop: int, n_valid: int, nseg: int, chunk: int,
 ) -> None:
-    """Add :math:`\\sum_g \\overline{X_g} Y_g^T` per line to S (segments of x, windows of y)."""
+    r"""Add :math:`\sum_g \overline{X_g} Y_g^T` per line to S (segments of x, windows of y)."""
     cx, cy = x.shape[0], y.shape[0]
     # time on the FIRST axis: the transforms run along axis 0 (vectorised over the
     # channel and segment axes) and return the line-major layout the products need
@@ -119,11 +119,11 @@ def _self_spectra(
     S: ComplexArray, x: FloatArray, L: int, K: int, nfft: int, start: int, stop: int,
     n_valid: int, nseg: int, chunk: int,
 ) -> None:
-    """:func:`_cross_spectra` for y = x, with one transform per segment instead of two.
+    r""":func:`_cross_spectra` for y = x, with one transform per segment instead of two.
 
     The window of y at segment g is the segment itself (its samples up to ``n_valid``)
     plus the L - 1 samples after it at positions K .. K + L - 2, so its spectrum is
-    :math:`C_g(f) + \\sum_{t<L-1} x_{(g+1)K+t} e^{-2\\pi i f (K + t) / n_{fft}}`: the
+    :math:`C_g(f) + \sum_{t<L-1} x_{(g+1)K+t} e^{-2\pi i f (K + t) / n_{fft}}`: the
     transform of the segment plus a short DFT (one real GEMM for all segments). Only
     the segment holding ``stop`` differs between x (cut at ``stop``) and the window
     core (cut at ``n_valid``); it gets its own transform.
@@ -168,9 +168,9 @@ def _self_spectra(
 
 
 def _edge_factor(z: FloatArray, e: int, L: int) -> FloatArray:
-    """M with :math:`(M M^T)_{ab} = \\sum_{s=e}^{e+a-1} z_s z_{s+b-a}^T` (a <= b), (L, c, L-1).
+    r"""M with :math:`(M M^T)_{ab} = \sum_{s=e}^{e+a-1} z_s z_{s+b-a}^T` (a <= b), (L, c, L-1).
 
-    Row (a, ch), column tau: :math:`z_{e+a-\\tau}` for :math:`1 \\le \\tau \\le a`, else 0
+    Row (a, ch), column tau: :math:`z_{e+a-\tau}` for :math:`1 \le \tau \le a`, else 0
     (the part of the Hankel columns left of edge e that lies right of it).
     """
     c = z.shape[0]
@@ -189,11 +189,11 @@ def hankel_gram(
     *,
     row_groups: int | None = None,
 ) -> list[FloatArray]:
-    """Gram matrices of the block Hankel matrix of z over column ranges, exactly.
+    r"""Gram matrices of the block Hankel matrix of z over column ranges, exactly.
 
-    :math:`\\Phi_k` = block Toeplitz matrix of the lag sums over :math:`[t_0, t_1)` plus
+    :math:`\Phi_k` = block Toeplitz matrix of the lag sums over :math:`[t_0, t_1)` plus
     :math:`M_{t_1} M_{t_1}^T - M_{t_0} M_{t_0}^T` (:func:`_edge_factor`): each block
-    :math:`\\sum_{s=t_0+a}^{t_1+a-1} z_s z_{s+b-a}^T` differs from the lag sum over
+    :math:`\sum_{s=t_0+a}^{t_1+a-1} z_s z_{s+b-a}^T` differs from the lag sum over
     :math:`[t_0, t_1)` by fewer than L terms at each edge.
 
     Parameters
@@ -201,7 +201,7 @@ def hankel_gram(
     z : ndarray, shape (c, n)
         Signals (channels first).
     n_rows : int
-        Block rows L of the Hankel matrix; column t holds :math:`[z_t; \\dots; z_{t+L-1}]`,
+        Block rows L of the Hankel matrix; column t holds :math:`[z_t; \dots; z_{t+L-1}]`,
         t < n - L + 1.
     edges : ndarray of int, shape (n_blocks + 1,)
         Column ranges :math:`[t_k, t_{k+1})` of the blocks.
@@ -210,12 +210,12 @@ def hankel_gram(
         the other (default: all blocks, all channels).
     row_groups : int, optional
         Compute only the rows of the first ``row_groups`` groups (all columns); the
-        rest follow by symmetry (N4SID never needs :math:`\\Phi_{Y_f Y_f}`).
+        rest follow by symmetry (N4SID never needs :math:`\Phi_{Y_f Y_f}`).
 
     Returns
     -------
     list of ndarray, each shape (n_rows_out, n_rows_out)
-        :math:`\\Phi_k`, entry ((a, ch), (b, ch')) = :math:`\\sum_t z_{ch, t+a} z_{ch', t+b}`;
+        :math:`\Phi_k`, entry ((a, ch), (b, ch')) = :math:`\sum_t z_{ch, t+a} z_{ch', t+b}`;
         their sum is the Gram matrix of all columns in ``edges[0]:edges[-1]``. With
         ``row_groups`` only the leading rows, shape (rows of those groups, n_rows_out).
     """

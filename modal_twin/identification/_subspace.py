@@ -1,16 +1,16 @@
-"""Poles, damping and shapes from an extended observability matrix, for all orders (private).
+r"""Poles, damping and shapes from an extended observability matrix, for all orders (private).
 
-Shared by :mod:`.n4sid` and :mod:`.ssi_cov`. With :math:`\\Gamma = U_n S_n^{1/2}` from one
+Shared by :mod:`.n4sid` and :mod:`.ssi_cov`. With :math:`\Gamma = U_n S_n^{1/2}` from one
 SVD, the order-n model uses the first n columns (truncated SVD); the callers pass the
 orthonormal basis :math:`U` (a diagonal change of state basis, same poles, better
 conditioned when trailing singular values vanish). Shift invariance gives
-:math:`A_n = \\underline{\\Gamma}_n^{+} \\overline{\\Gamma}_n` and :math:`C_n` = first l rows.
-One QR of :math:`\\underline{\\Gamma}_{n_{max}} = QR` serves every order:
-:math:`\\underline{\\Gamma}_n = Q_{:, :n} R_{:n, :n}`, so
-:math:`A_n = R_{:n,:n}^{-1} (Q^T \\overline{\\Gamma})_{:n,:n}`, and since R is upper
+:math:`A_n = \underline{\Gamma}_n^{+} \overline{\Gamma}_n` and :math:`C_n` = first l rows.
+One QR of :math:`\underline{\Gamma}_{n_{max}} = QR` serves every order:
+:math:`\underline{\Gamma}_n = Q_{:, :n} R_{:n, :n}`, so
+:math:`A_n = R_{:n,:n}^{-1} (Q^T \overline{\Gamma})_{:n,:n}`, and since R is upper
 triangular :math:`R_{:n,:n}^{-1} = (R^{-1})_{:n,:n}`: one triangular inverse for all orders.
-Discrete poles :math:`\\mu` map to :math:`\\lambda = f_s \\ln \\mu`,
-:math:`f = |\\lambda| / 2\\pi`, :math:`\\zeta = -\\mathrm{Re}\\,\\lambda / |\\lambda|`;
+Discrete poles :math:`\mu` map to :math:`\lambda = f_s \ln \mu`,
+:math:`f = |\lambda| / 2\pi`, :math:`\zeta = -\mathrm{Re}\,\lambda / |\lambda|`;
 shapes are :math:`C_n V` (eigenvectors :math:`V` of :math:`A_n`).
 """
 
@@ -80,7 +80,7 @@ def default_block_rows(
 
 def _continuous(mu: ComplexArray, fs_hz: float) -> ComplexArray:
     with np.errstate(divide="ignore", invalid="ignore"):
-        lam: ComplexArray = np.log(mu.astype(np.complex128)) * fs_hz
+        lam = np.asarray(np.log(mu.astype(np.complex128)) * fs_hz, dtype=np.complex128)
     return lam
 
 
@@ -156,7 +156,8 @@ def poles_over_orders(
             zb = np.empty((nb, lam.size))
             for b, (Rb, Mb) in enumerate(blk):
                 Ab = Rb[:n, :n] @ Mb[:n, :n]
-                mub = np.linalg.eigvals(Ab) if np.all(np.isfinite(Ab)) else np.zeros(0)
+                mub = np.asarray(np.linalg.eigvals(Ab) if np.all(np.isfinite(Ab)) else np.zeros(0),
+                                 dtype=np.complex128)  # a real eigenvalue is dropped either way
                 lb = _continuous(mub[_keep(mub)], fs_hz)
                 if lb.size == 0:
                     fb[b], zb[b] = np.nan, np.nan
@@ -180,9 +181,9 @@ def poles_over_orders(
 
 
 def _back_transform(c: FloatArray, tau: FloatArray, X: FloatArray) -> FloatArray:
-    """:math:`Q X` for the Q of ``dsytrd`` (lower): what ``dormtr`` does (not in scipy).
+    r""":math:`Q X` for the Q of ``dsytrd`` (lower): what ``dormtr`` does (not in scipy).
 
-    ``dsytrd`` stores :math:`Q = H_1 \\cdots H_{n-1}`, :math:`H_k = I - \\tau_k v_k v_k^T`
+    ``dsytrd`` stores :math:`Q = H_1 \cdots H_{n-1}`, :math:`H_k = I - \tau_k v_k v_k^T`
     with :math:`v_k` zero above row k + 1, one at row k + 1 and ``c[k+2:, k]`` below
     (``dsytrd`` documentation, Further Details): the reflectors of a QR factorisation of
     ``c[1:, :n-1]``, so rows 1: of :math:`Q X` are ``dormqr`` applied to rows 1: of X
@@ -205,8 +206,9 @@ def _back_transform(c: FloatArray, tau: FloatArray, X: FloatArray) -> FloatArray
 def leading_eigh(
     P: FloatArray, n_max: int, *, overwrite: bool = False
 ) -> tuple[FloatArray, FloatArray]:
-    """Eigenpairs of the symmetric ``P`` in descending order -- the one factorisation a
-    subspace method shares over all orders (``P = U S^2 U^T``).
+    """Return the eigenpairs of the symmetric ``P`` in descending order.
+
+    The one factorisation a subspace method shares over all orders (``P = U S^2 U^T``).
 
     Returns the leading ``n_sv`` eigenvalues (all of them up to 500 rows, above that
     ``max(2 n_max, 100)``) and the leading ``n_max`` eigenvectors (the only ones the

@@ -1,14 +1,14 @@
-"""Least-squares frequency-domain (LSFD) estimation of residues, Eq. (5) of [002].
+r"""Least-squares frequency-domain (LSFD) estimation of residues, Eq. (5) of [002].
 
-With the poles :math:`\\lambda_r` fixed (from PolyMAX or SSI), the FRF model
+With the poles :math:`\lambda_r` fixed (from PolyMAX or SSI), the FRF model
 
-.. math:: H(\\omega) = \\sum_{r=1}^{N} \\left[\\frac{R_r}{j\\omega - \\lambda_r}
-          + \\frac{R_r^*}{j\\omega - \\lambda_r^*}\\right] - \\frac{R_L}{\\omega^2} + R_U
+.. math:: H(\omega) = \sum_{r=1}^{N} \left[\frac{R_r}{j\omega - \lambda_r}
+          + \frac{R_r^*}{j\omega - \lambda_r^*}\right] - \frac{R_L}{\omega^2} + R_U
 
-with residues :math:`R_r = \\psi_r L_r^T` is linear in the real and imaginary parts of
+with residues :math:`R_r = \psi_r L_r^T` is linear in the real and imaginary parts of
 :math:`R_r` and in the lower / upper residuals :math:`R_L, R_U` (complex here). All FRFs
 share one design matrix, so one real least-squares solve with n_out * n_in right-hand
-sides gives every residue. Mode shapes :math:`\\psi_r` and participation factors
+sides gives every residue. Mode shapes :math:`\psi_r` and participation factors
 :math:`L_r` are the rank-1 factors (dominant singular pair) of :math:`R_r`.
 """
 
@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import ShapeError, SignalError
@@ -29,7 +29,7 @@ __all__ = ["LSFDResult", "lsfd", "lsfd_modes", "lsfd_shapes", "rank1_factors"]
 
 @dataclass(frozen=True, slots=True)
 class LSFDResult:
-    """Residues, shapes and residuals of :func:`lsfd`.
+    r"""Residues, shapes and residuals of :func:`lsfd`.
 
     Attributes
     ----------
@@ -42,7 +42,7 @@ class LSFDResult:
     upper : ndarray of complex, shape (n_out, n_in)
         Upper residual :math:`R_U` (zeros when not fitted).
     rel_residual : float
-        :math:`\\|H - \\hat H\\| / \\|H\\|` over the fitted lines.
+        :math:`\|H - \hat H\| / \|H\|` over the fitted lines.
     """
 
     residues: ComplexArray
@@ -61,7 +61,7 @@ def lsfd(
     lower: bool = True,
     upper: bool = True,
 ) -> LSFDResult:
-    """Fit residues and residuals of Eq. (5) of [002] to FRFs for known poles.
+    r"""Fit residues and residuals of Eq. (5) of [002] to FRFs for known poles.
 
     Parameters
     ----------
@@ -69,9 +69,9 @@ def lsfd(
         FRFs on the lines ``f_hz`` (only finite lines with f > 0 are used).
     f_hz : array_like, shape (n_f,)
     poles : array_like of complex, shape (n_modes,)
-        Continuous-time poles :math:`\\lambda_r` in rad/s (one per conjugate pair).
+        Continuous-time poles :math:`\lambda_r` in rad/s (one per conjugate pair).
     lower, upper : bool
-        Fit the lower (:math:`-R_L / \\omega^2`) and upper (:math:`R_U`) residuals.
+        Fit the lower (:math:`-R_L / \omega^2`) and upper (:math:`R_U`) residuals.
 
     Returns
     -------
@@ -126,7 +126,8 @@ def lsfd(
     if upper:
         RU = (x[k] + 1j * x[k + 1]).reshape(n_out, n_in)
     model = (D @ x).T.reshape(n_out, n_in, -1)
-    res = float(np.linalg.norm(model - Ha[..., use]) / max(np.linalg.norm(Ha[..., use]), 1e-300))
+    res = float(np.linalg.norm(model - Ha[..., use])
+                / max(float(np.linalg.norm(Ha[..., use])), 1e-300))
     psi, L = rank1_factors(Rr)
     return LSFDResult(Rr, normalize_shapes(psi), L, RL, RU, res)
 
@@ -141,7 +142,7 @@ def _solve(
     """
     a = 1.0 / (s[:, None] - lam[None, :])  # Eq. (5) of [002]
     b = 1.0 / (s[:, None] - lam.conj()[None, :])
-    cols = [a + b, 1j * (a - b)]
+    cols: list[NDArray[np.inexact]] = [a + b, 1j * (a - b)]
     if lower:
         w2 = -1.0 / (s.imag**2)
         cols += [w2[:, None], 1j * w2[:, None]]
@@ -163,8 +164,10 @@ def _solve(
 
 
 def rank1_factors(Rr: ComplexArray) -> tuple[ComplexArray, ComplexArray]:
-    """Shapes psi (n_out, n_modes) and participations L (n_in, n_modes) of residues
-    R_r = psi_r L_r^T: dominant singular pair of each (n_out, n_in) residue matrix."""
+    """Return shapes psi (n_out, n_modes) and participations L (n_in, n_modes) of residues.
+
+    R_r = psi_r L_r^T: the dominant singular pair of each (n_out, n_in) residue matrix.
+    """
     U, sv, Vh = np.linalg.svd(Rr)
     return (U[:, :, 0] * sv[:, :1]).T, Vh[:, 0, :].T
 
@@ -179,7 +182,7 @@ def lsfd_shapes(
     ``[Re H; Im H]`` of shape (2 n_f, n_out * n_in), prepared once for every order.
     """
     nm = poles.size
-    _, x = _solve(2j * np.pi * f_hz, poles, rhs_ri, lower, upper)
+    _, x = _solve(np.asarray(2j * np.pi * f_hz, dtype=np.complex128), poles, rhs_ri, lower, upper)
     Rr = (x[:nm] + 1j * x[nm : 2 * nm]).reshape(nm, n_out, n_in)
     return normalize_shapes(rank1_factors(Rr)[0])
 
@@ -187,7 +190,7 @@ def lsfd_shapes(
 def lsfd_modes(
     model: ModalModel, H: ArrayLike, f_hz: ArrayLike, *, lower: bool = True, upper: bool = True
 ) -> ModalModel:
-    """The same modes with LSFD shapes (Eq. (5) of [002]) fitted for those poles only.
+    r"""Return the same modes with LSFD shapes (Eq. (5) of [002]) fitted for those poles only.
 
     Use after ``select_modes(stabilization_diagram(polymax(..., shapes="numerator")))``:
     one LSFD solve for the selected poles instead of one per model order.
@@ -195,8 +198,8 @@ def lsfd_modes(
     Parameters
     ----------
     model : ModalModel
-        Selected modes; their poles are :math:`\\lambda = 2\\pi f (-\\zeta + j
-        \\sqrt{1 - \\zeta^2})`.
+        Selected modes; their poles are :math:`\lambda = 2\pi f (-\zeta + j
+        \sqrt{1 - \zeta^2})`.
     H : array_like of complex, shape (n_out, n_in, n_f)
         FRFs (the band used for the poles, or wider).
     f_hz : array_like, shape (n_f,)

@@ -29,10 +29,10 @@ def _shapes(phi: ArrayLike, name: str) -> ComplexArray:
 
 
 def mac(phi_a: ArrayLike, phi_b: ArrayLike) -> FloatArray:
-    """Modal Assurance Criterion matrix, Eq. (6) of [002] (Eq. (3) of [000]).
+    r"""Modal Assurance Criterion matrix, Eq. (6) of [002] (Eq. (3) of [000]).
 
-    .. math:: \\mathrm{MAC}_{kl} = \\frac{|\\phi_k^H \\psi_l|^2}
-              {(\\phi_k^H \\phi_k)(\\psi_l^H \\psi_l)}
+    .. math:: \mathrm{MAC}_{kl} = \frac{|\phi_k^H \psi_l|^2}
+              {(\phi_k^H \phi_k)(\psi_l^H \psi_l)}
 
     Parameters
     ----------

@@ -39,16 +39,16 @@ def normalize_shapes(shapes: ComplexArray) -> ComplexArray:
 
 @dataclass(frozen=True, slots=True)
 class PoleSet:
-    """Poles of one model order (one of each complex-conjugate pair, Im > 0).
+    r"""Poles of one model order (one of each complex-conjugate pair, Im > 0).
 
     Attributes
     ----------
     order : int
         Model order (state dimension for SSI, polynomial order for PolyMAX).
     f_hz : ndarray, shape (n_poles,)
-        Undamped natural frequencies :math:`|\\lambda| / 2\\pi` in Hz.
+        Undamped natural frequencies :math:`|\lambda| / 2\pi` in Hz.
     zeta : ndarray, shape (n_poles,)
-        Damping ratios :math:`-\\mathrm{Re}\\,\\lambda / |\\lambda|`.
+        Damping ratios :math:`-\mathrm{Re}\,\lambda / |\lambda|`.
     shapes : ndarray of complex, shape (n_ch, n_poles)
         Mode shapes at the output channels.
     std_f_hz, std_zeta : ndarray, shape (n_poles,)

@@ -1,33 +1,33 @@
-"""Combined deterministic-stochastic subspace identification with measured inputs.
+r"""Combined deterministic-stochastic subspace identification with measured inputs.
 
 The N4SID family of Van Overschee & De Moor (1994), as used in sec. 3 of [004] (12 table
 accelerations in, 42 structural accelerations out), in its PO-MOESP form (Verhaegen, 1994),
 which has the same column space as the N4SID oblique projection weighted by
-:math:`\\Pi_{U_f^\\perp}`:
+:math:`\Pi_{U_f^\perp}`:
 
 1. Block Hankel matrices of inputs and outputs with i past and i future block rows,
    stacked as :math:`[U_f; W_p; Y_f]` with :math:`W_p = [U_p; Y_p]`.
-2. ONE factorisation of the correlation (Gram) matrix :math:`\\Phi = H H^T = L L^T`
-   instead of the QR of the tall Hankel transpose. :math:`\\Phi` itself is never formed
+2. ONE factorisation of the correlation (Gram) matrix :math:`\Phi = H H^T = L L^T`
+   instead of the QR of the tall Hankel transpose. :math:`\Phi` itself is never formed
    from H: its blocks are lag sums of :math:`z = [u; y]` (computed by segmented FFT, about
    2i / 4 times less work than the product and no 2i(m + l) x j copy) plus exact edge
    corrections (:mod:`modal_twin.identification._lagsums`); no Q and no j x j projection
-   is formed. :math:`L_{32} L_{32}^T` follows from Schur complements of :math:`\\Phi`
+   is formed. :math:`L_{32} L_{32}^T` follows from Schur complements of :math:`\Phi`
    through Cholesky factors (:func:`_l32`).
-3. :math:`Y_f \\Pi_{U_f^\\perp}` projected on the instruments :math:`W_p` has the column
+3. :math:`Y_f \Pi_{U_f^\perp}` projected on the instruments :math:`W_p` has the column
    space of :math:`L_{32}`; the eigen-decomposition :math:`L_{32} L_{32}^T = U S^2 U^T`
    (the SVD of :math:`L_{32}`) gives the extended observability matrix of every model
-   order n by truncation, :math:`\\Gamma_n = U_n` (up to a diagonal change of basis);
+   order n by truncation, :math:`\Gamma_n = U_n` (up to a diagonal change of basis);
    only the leading n_max eigenvectors are computed (tridiagonal reduction, inverse
    iteration, :func:`~modal_twin.identification._subspace.leading_eigh`).
 4. Poles, damping and complex shapes at the outputs for all orders from one QR of
-   :math:`\\underline{\\Gamma}` (:mod:`modal_twin.identification._subspace`).
+   :math:`\underline{\Gamma}` (:mod:`modal_twin.identification._subspace`).
 
 Uncertainty: the Hankel columns are split into ``n_blocks_std`` contiguous blocks whose
-Gram matrices sum to :math:`\\Phi` (so the blocks cost nothing extra); the block
+Gram matrices sum to :math:`\Phi` (so the blocks cost nothing extra); the block
 observability matrices in the common basis,
-:math:`\\Gamma_b = L_{32,b} L_{32,b}^T U_n S_n^{-2}`, give block poles whose spread
-over :math:`\\sqrt{n_b}` estimates the standard deviation of frequency and damping.
+:math:`\Gamma_b = L_{32,b} L_{32,b}^T U_n S_n^{-2}`, give block poles whose spread
+over :math:`\sqrt{n_b}` estimates the standard deviation of frequency and damping.
 """
 
 from __future__ import annotations
@@ -97,7 +97,7 @@ def _whiten(A: FloatArray, B: FloatArray) -> FloatArray:
 
 
 def _schur22(Phi: FloatArray, W12: FloatArray, mf: int, p: int) -> FloatArray:
-    """:math:`\\Phi_{22|1} = \\Phi_{22} - W_{12}^T W_{12}` (lower triangle, Fortran order)."""
+    r""":math:`\Phi_{22|1} = \Phi_{22} - W_{12}^T W_{12}` (lower triangle, Fortran order)."""
     Sc22 = np.array(Phi[mf : mf + p, mf : mf + p], order="F")
     out: FloatArray = sla.blas.dsyrk(-1.0, W12, trans=1, beta=1.0, c=Sc22, lower=1,
                                      overwrite_c=1)
@@ -105,12 +105,12 @@ def _schur22(Phi: FloatArray, W12: FloatArray, mf: int, p: int) -> FloatArray:
 
 
 def _l32(Phi: FloatArray, mf: int, p: int) -> FloatArray:
-    """A factor :math:`W` with :math:`W^T W = L_{32} L_{32}^T`, from :math:`\\Phi = L L^T`.
+    r"""Return a factor :math:`W` with :math:`W^T W = L_{32} L_{32}^T`, from :math:`\Phi = L L^T`.
 
     With the LQ factor L of [U_f; W_p; Y_f], the blocks below the first block column are
-    the Schur complement :math:`\\Phi_{\\cdot|1} = \\Phi_{rr} - \\Phi_{r1}
-    \\Phi_{11}^{-1} \\Phi_{1r}` (data with U_f projected out), and
-    :math:`L_{32} L_{32}^T = \\Phi_{32|1} \\Phi_{22|1}^{-1} \\Phi_{23|1}`. Both inverses
+    the Schur complement :math:`\Phi_{\cdot|1} = \Phi_{rr} - \Phi_{r1}
+    \Phi_{11}^{-1} \Phi_{1r}` (data with U_f projected out), and
+    :math:`L_{32} L_{32}^T = \Phi_{32|1} \Phi_{22|1}^{-1} \Phi_{23|1}`. Both inverses
     enter through Cholesky factors, and only the rows of the instruments (block 2) of the
     first Schur complement are formed (its symmetric block by a rank-k update, SYRK).
     """
@@ -130,11 +130,11 @@ def _l32(Phi: FloatArray, mf: int, p: int) -> FloatArray:
 
 
 def _l32_times(Phi: FloatArray, mf: int, p: int, G: FloatArray) -> FloatArray:
-    """:math:`L_{32} L_{32}^T G` for a thin G, without forming :math:`L_{32}` (std blocks).
+    r""":math:`L_{32} L_{32}^T G` for a thin G, without forming :math:`L_{32}` (std blocks).
 
     Same algebra as :func:`_l32`, ordered so that only products with G (n_max columns)
-    and one Cholesky factor of :math:`\\Phi_{22|1}` are formed:
-    :math:`\\Phi_{32|1} \\Phi_{22|1}^{-1} (\\Phi_{23|1} G)`.
+    and one Cholesky factor of :math:`\Phi_{22|1}` are formed:
+    :math:`\Phi_{32|1} \Phi_{22|1}^{-1} (\Phi_{23|1} G)`.
     """
     W1 = _whiten(Phi[:mf, :mf], Phi[:mf, mf:])
     W12, W13 = W1[:, :p], W1[:, p:]

@@ -1,27 +1,27 @@
-"""Poly-reference least-squares complex frequency-domain method (pLSCF / PolyMAX).
+r"""Poly-reference least-squares complex frequency-domain method (pLSCF / PolyMAX).
 
 Eqs. (1)-(4) of [002] (Peeters et al., 2004). Right matrix-fraction model of the FRF row of
-output o, Eq. (1): :math:`H_o(\\omega) = B_o(\\omega) A(\\omega)^{-1}` with the polynomials
-of Eq. (2), :math:`B_o = \\sum_r Z^r \\beta_{o,r}` (1 x m) and
-:math:`A = \\sum_r Z^r \\alpha_r` (m x m), in the z-domain basis of Eq. (3),
-:math:`Z(\\omega) = e^{-j\\omega\\Delta t}`.
+output o, Eq. (1): :math:`H_o(\omega) = B_o(\omega) A(\omega)^{-1}` with the polynomials
+of Eq. (2), :math:`B_o = \sum_r Z^r \beta_{o,r}` (1 x m) and
+:math:`A = \sum_r Z^r \alpha_r` (m x m), in the z-domain basis of Eq. (3),
+:math:`Z(\omega) = e^{-j\omega\Delta t}`.
 
-Linearised least squares: per output :math:`X = [Z^0 \\cdots Z^p]` and
-:math:`Y_o = -[Z^0 \\cdots Z^p] \\otimes H_o`; the normal matrices
-:math:`R = \\mathrm{Re}(X^H X)`, :math:`S_o = \\mathrm{Re}(X^H Y_o)`,
-:math:`T_o = \\mathrm{Re}(Y_o^H Y_o)` are eliminated for the numerators, giving the reduced
-normal equations :math:`M \\alpha = 0`, :math:`M = 2 \\sum_o (T_o - S_o^T R^{-1} S_o)`,
-solved with :math:`\\alpha_p = I`. Because :math:`\\overline{Z^r} Z^s` depends on s - r
+Linearised least squares: per output :math:`X = [Z^0 \cdots Z^p]` and
+:math:`Y_o = -[Z^0 \cdots Z^p] \otimes H_o`; the normal matrices
+:math:`R = \mathrm{Re}(X^H X)`, :math:`S_o = \mathrm{Re}(X^H Y_o)`,
+:math:`T_o = \mathrm{Re}(Y_o^H Y_o)` are eliminated for the numerators, giving the reduced
+normal equations :math:`M \alpha = 0`, :math:`M = 2 \sum_o (T_o - S_o^T R^{-1} S_o)`,
+solved with :math:`\alpha_p = I`. Because :math:`\overline{Z^r} Z^s` depends on s - r
 only, R, S_o and T_o are Toeplitz in the polynomial index and are built from 2p + 1 sums
 over frequency; the matrices of every lower order are sub-blocks of those of the highest
 order, so the frequency sums are done once for the whole stabilization diagram. The
 elimination is order-recursive too: with one Cholesky factor of the highest-order R,
-:math:`\\sum_o S_o^T R^{-1} S_o` of every order is a cumulative sum of per-row Gram
+:math:`\sum_o S_o^T R^{-1} S_o` of every order is a cumulative sum of per-row Gram
 matrices (:func:`_reduced_normal`), so the per-order work is one small solve and one
 companion eigenvalue problem (no per-output products per order).
 
 Poles and participation factors come from the companion matrix of Eq. (4); a root
-:math:`z_r` of :math:`\\det A(z)` gives :math:`\\lambda_r = -\\ln(z_r) / \\Delta t`
+:math:`z_r` of :math:`\det A(z)` gives :math:`\lambda_r = -\ln(z_r) / \Delta t`
 (Eq. (3)). Mode shapes per order follow from LSFD, Eq. (5) of [002]
 (:func:`modal_twin.identification.lsfd.lsfd`), or, with ``shapes="numerator"``, from the
 numerator polynomials at the poles, with LSFD afterwards for the selected modes only
@@ -55,7 +55,7 @@ def _companion(
     Cm[: m * (p - 1), m:] = np.eye(m * (p - 1))
     Cm[m * (p - 1) :, :] = -alpha[: m * p].T  # last block row: -alpha_0 ... -alpha_{p-1}
     if not participation:
-        return np.linalg.eigvals(Cm), np.zeros((m, 0), complex)
+        return np.asarray(np.linalg.eigvals(Cm), dtype=np.complex128), np.zeros((m, 0), complex)
     z, V = np.linalg.eig(Cm)
     return z, V[:m]  # first block of the eigenvectors = participation factors
 
@@ -63,18 +63,18 @@ def _companion(
 def _reduced_normal(
     H: ComplexArray, f_hz: FloatArray, pmax: int, dt_s: float
 ) -> tuple[FloatArray, FloatArray, FloatArray | None, FloatArray]:
-    """Blocks of every order's reduced normal matrix, from one pass over the data.
+    r"""Blocks of every order's reduced normal matrix, from one pass over the data.
 
     Returns ``T`` (q m x q m, q = pmax + 1), ``C`` (q, q m, q m), the Cholesky factor of R
     (None if R was not positive definite) and :math:`W = L^{-1} S` as (q, n_out, q m),
     such that the order-p
     reduced normal matrix is :math:`M_p = 2 (T - C_{p})_{[:(p+1) m, :(p+1) m]}`, i.e.
-    :math:`\\sum_o S_o^T R^{-1} S_o` for every order at once: with :math:`R = L L^T`
+    :math:`\sum_o S_o^T R^{-1} S_o` for every order at once: with :math:`R = L L^T`
     (Cholesky of the highest order), :math:`R_{:q,:q} = L_{:q,:q} L_{:q,:q}^T` and
     :math:`(L^{-1} S_o)_{:q}` only involves rows :q of :math:`S_o`, so
-    :math:`\\sum_o S_o^T R_q^{-1} S_o = \\sum_{r<q} G_r` restricted to the first q block
-    columns, with the per-row Gram matrices :math:`G_r = \\sum_o w_{o,r}^T w_{o,r}`
-    (cumulative sums :math:`C_p = \\sum_{r \\le p} G_r`).
+    :math:`\sum_o S_o^T R_q^{-1} S_o = \sum_{r<q} G_r` restricted to the first q block
+    columns, with the per-row Gram matrices :math:`G_r = \sum_o w_{o,r}^T w_{o,r}`
+    (cumulative sums :math:`C_p = \sum_{r \le p} G_r`).
     """
     n_out, m, nf = H.shape
     q = pmax + 1
@@ -157,12 +157,12 @@ def polymax_poles(
 def _numerator_shapes(
     z: ComplexArray, alpha: FloatArray, Lc: FloatArray, W3: FloatArray, p: int
 ) -> ComplexArray:
-    """Shapes :math:`\\psi_r = B(z_r) v_r` with :math:`A(z_r) v_r = 0`, Eqs. (1)-(2) of [002].
+    r"""Shapes :math:`\psi_r = B(z_r) v_r` with :math:`A(z_r) v_r = 0`, Eqs. (1)-(2) of [002].
 
-    Near a root :math:`z_r` of :math:`\\det A`, :math:`A(z)^{-1} \\approx v_r w_r^T /
+    Near a root :math:`z_r` of :math:`\det A`, :math:`A(z)^{-1} \approx v_r w_r^T /
     (c_r (z - z_r))`, so the FRF row :math:`H_o = B_o A^{-1}` has residue
-    :math:`\\propto B_o(z_r) v_r`. The numerators are eliminated in the reduced normal
-    equations and recovered here as :math:`\\beta_o = -R^{-1} S_o \\alpha`.
+    :math:`\propto B_o(z_r) v_r`. The numerators are eliminated in the reduced normal
+    equations and recovered here as :math:`\beta_o = -R^{-1} S_o \alpha`.
     """
     m = alpha.shape[1]
     q = p + 1
@@ -201,7 +201,8 @@ def _sweep(
         alpha = np.vstack([a_low, np.eye(m)])  # alpha_p = I
         z, L = _companion(alpha, m, int(p), participation)
         with np.errstate(divide="ignore", invalid="ignore"):
-            lam = -np.log(z.astype(np.complex128)) / dt_s  # Z = exp(-j w dt), Eq. (3)
+            # Z = exp(-j w dt), Eq. (3)
+            lam = np.asarray(-np.log(z.astype(np.complex128)) / dt_s, dtype=np.complex128)
             psi = (
                 _numerator_shapes(z, alpha, Lc, W3, int(p))
                 if numerator and Lc is not None and np.all(np.isfinite(z))

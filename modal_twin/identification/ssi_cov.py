@@ -1,10 +1,10 @@
-"""Output-only covariance-driven stochastic subspace identification (SSI-cov).
+r"""Output-only covariance-driven stochastic subspace identification (SSI-cov).
 
 Output correlations :math:`R_k = E[y_{t+k} y_{ref,t}^T] = C A^{k-1} G` fill the block
 Toeplitz matrix (Peeters & De Roeck, 1999)
 
-.. math:: T_{1|i} = \\begin{bmatrix} R_i & \\cdots & R_1 \\\\ \\vdots & & \\vdots \\\\
-          R_{2i-1} & \\cdots & R_i \\end{bmatrix} = \\mathcal{O}_i \\mathcal{C}_i,
+.. math:: T_{1|i} = \begin{bmatrix} R_i & \cdots & R_1 \\ \vdots & & \vdots \\
+          R_{2i-1} & \cdots & R_i \end{bmatrix} = \mathcal{O}_i \mathcal{C}_i,
 
 whose SVD :math:`T = U S V^T` (computed as :math:`T T^T = U S^2 U^T`) gives the
 observability matrix :math:`U_n S_n^{1/2}` of every order n by truncation: ONE SVD serves
@@ -15,8 +15,8 @@ are exact lag sums computed by segmented FFT (:mod:`modal_twin.identification._l
 
 Uncertainty: the record is split into ``n_blocks_std`` blocks; each block's Toeplitz
 matrix :math:`T_b` is projected on the common right singular vectors,
-:math:`\\mathcal{O}_b = T_b V_n S_n^{-1}` (first-order consistent with the full-data basis),
-and the spread of the block poles over :math:`\\sqrt{n_b}` estimates the standard deviation
+:math:`\mathcal{O}_b = T_b V_n S_n^{-1}` (first-order consistent with the full-data basis),
+and the spread of the block poles over :math:`\sqrt{n_b}` estimates the standard deviation
 of frequency and damping (Reynders et al., 2008, the block "sample covariance" idea).
 """
 

@@ -1,12 +1,12 @@
-"""Stabilization diagram and automatic selection of physical modes.
+r"""Stabilization diagram and automatic selection of physical modes.
 
 Stability rule of sec. 3 of [004] (after Peeters, 2000): a pole of order n is stable when
 a pole of the next order lies within 1 % in frequency and 5 % in damping ratio and their
 mode shapes have MAC > 0.95. All three thresholds are options; deviations are relative.
 
 Selection: stable poles with damping in (0, ``zeta_max``) are clustered by the distance
-:math:`d = \\max(|\\Delta f| / \\bar f / \\mathrm{tol}_f, (1 - \\mathrm{MAC}) / (1 -
-\\mathrm{MAC}_{min}))` (average linkage, cut at 1), so that close modes with distinct
+:math:`d = \max(|\Delta f| / \bar f / \mathrm{tol}_f, (1 - \mathrm{MAC}) / (1 -
+\mathrm{MAC}_{min}))` (average linkage, cut at 1), so that close modes with distinct
 shapes stay apart. Clusters supported by fewer than ``min_support`` poles (isolated poles)
 are rejected; each remaining cluster is one mode, represented by the pole nearest the
 cluster's median frequency and damping.
@@ -179,7 +179,7 @@ def select_modes(
     if ms < 1:
         msg = f"min_support: expected an integer >= 1, got {min_support!r}"
         raise OptionError(msg)
-    rows = []
+    rows: list[tuple[int, int]] = []  # (model order, pole index)
     fl, zl, Sl = [], [], []  # the kept poles, gathered order by order
     for k, (p, s) in enumerate(zip(diagram.poles, diagram.stable, strict=True)):
         keep = s & (p.zeta > 0) & (p.zeta < zeta_max)

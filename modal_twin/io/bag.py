@@ -373,7 +373,7 @@ def bag_info(path: str | Path) -> BagInfo:
     return BagInfo(Path(path), tuple(parts), topics, start, end, size)
 
 
-def salvage(path: str | Path, out: str | Path | None = None) -> BagInfo:
+def salvage(path: str | Path, out: str | Path | None = None) -> BagInfo:  # noqa: C901
     """Rewrite a bag cut off while recording into a complete, indexed bag.
 
     Reads the ``.mcap`` file record by record up to the break (``mcap`` stream reader)

@@ -8,7 +8,7 @@ serves both; writing takes the target class.
 from __future__ import annotations
 
 import array
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -133,7 +133,8 @@ def channel_map_from_msg(msg: Any) -> list[Any]:
     from modal_twin.channels import ChannelSpec
 
     return [ChannelSpec(c.name, c.quantity, c.location, c.direction, float(c.sensitivity),
-                        tuple(float(v) for v in c.position_m)) for c in msg.channels]
+                        cast("tuple[float, float, float]", tuple(float(v) for v in c.position_m)))
+            for c in msg.channels]
 
 
 def metrics_to_msg(names: list[str], m: Any, window_s: float, version: str,

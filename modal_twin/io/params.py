@@ -16,8 +16,9 @@ T = TypeVar("T")
 
 
 def declare_config(node: Node, cls: type[T]) -> T:
-    """Declare one parameter per field of dataclass ``cls`` (default = field default,
-    description = ``field.metadata['doc']``) and return the instance the node was given.
+    """Declare a parameter per field of dataclass ``cls``; return the instance the node was given.
+
+    Default = field default, description = ``field.metadata['doc']``.
 
     The parameters are read-only once declared: the node reads them at start, so a change
     at run time is refused (``set_parameters`` answers ``successful=False``) instead of

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import rclpy.logging
@@ -78,7 +79,7 @@ class RecorderNode(Node):
         self.create_timer(0.25, self._flush)  # a quiet stream's tail too
         self.get_logger().info(f"recording {sorted(topics)} to {path}")
 
-    def _callback(self, topic: str):  # type: ignore[no-untyped-def]
+    def _callback(self, topic: str) -> Callable[[bytes], None]:
         def cb(raw: bytes) -> None:
             if self.closed:
                 return

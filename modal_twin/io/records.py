@@ -11,5 +11,5 @@ __all__ = ["record_from_bag"]
 
 
 def record_from_bag(bag: str | Path, topic: str = "/measurement/frames") -> Record:
-    """The measurement frames of a bag as one :class:`Record`."""
+    """Read the measurement frames of a bag as one :class:`Record`."""
     return record_from_blocks(read_blocks(bag, topic), source=str(bag))

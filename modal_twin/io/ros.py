@@ -94,8 +94,10 @@ def message_class(msgtype: str) -> Any:
 
 
 def split_ros_args(argv: list[str]) -> tuple[list[str], list[str]]:
-    """``argv`` split into the command's own arguments and the ``--ros-args ...`` tail
-    (empty when there is none), as the launcher starts a command."""
+    """Split ``argv`` into the command's own arguments and the ``--ros-args ...`` tail.
+
+    The tail is empty when there is none, as the launcher starts a command.
+    """
     if "--ros-args" not in argv:
         return list(argv), []
     i = argv.index("--ros-args")

@@ -34,17 +34,25 @@ class ModelFactory(Protocol):
 
     structure_file: Path
     theta: dict[str, float]
-    sites: Mapping[str, Any]
-    parameter_prefixes: tuple[str, ...]
     base_effects: tuple[EffectSpec, ...]
     label: str
 
+    @property
+    def sites(self) -> Mapping[str, Any]:
+        """Candidate device sites by name (read-only here, so each kind keeps its own type)."""
+        ...
+
+    @property
+    def parameter_prefixes(self) -> tuple[str, ...]:
+        """Prefixes of the parameter names this kind understands."""
+        ...
+
     def with_theta(self, changes: Mapping[str, float]) -> ModelFactory:
-        """The same model with some parameter values changed."""
+        """Return the same model with some parameter values changed."""
         ...
 
     def parameters(self) -> dict[str, float]:
-        """Current value of every parameter."""
+        """Return the current value of every parameter."""
         ...
 
     def attachments(self) -> tuple[str, ...]:
@@ -56,13 +64,16 @@ class ModelFactory(Protocol):
         ...
 
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
-        """The plant with the base effects and ``effects`` in place."""
+        """Return the plant with the base effects and ``effects`` in place."""
         ...
 
 
 def merge_effects(base: Iterable[EffectSpec], new: Iterable[EffectSpec]) -> tuple[EffectSpec, ...]:
-    """``base`` with every effect of ``new`` added; a new effect at a component that already
-    carries a device law replaces it (parameter and mount effects stay side by side)."""
+    """Return ``base`` with every effect of ``new`` added.
+
+    A new effect at a component that already carries a device law replaces it (parameter
+    and mount effects stay side by side).
+    """
     new = tuple(new)
     taken = {(e.component, _slot(e.law)) for e in new}
     return (*(e for e in base if (e.component, _slot(e.law)) not in taken), *new)
@@ -82,7 +93,7 @@ def split_sensor_effects(effects: Iterable[EffectSpec]
 
 
 def with_effects(factory: ModelFactory, effects: Iterable[EffectSpec]) -> ModelFactory:
-    """A factory whose plants carry ``effects`` beside its own base effects."""
+    """Return a factory whose plants carry ``effects`` beside its own base effects."""
     new = copy.copy(factory)
     new.base_effects = merge_effects(factory.base_effects, effects)
     return new
@@ -103,7 +114,7 @@ def _factory_of(structure: str | Path, theta: Mapping[str, float] | None,
 
 def load_model(model_file: str | Path, *, theta: Mapping[str, float] | None = None,
                n_modes: int | None = None) -> ModelFactory:
-    """The factory of a structure, vehicle or version file.
+    """Return the factory of a structure, vehicle or version file.
 
     Parameters
     ----------

@@ -91,9 +91,11 @@ class Plant:
 
 
 def with_sensor_effects(plant: Plant, effects: Iterable[EffectSpec]) -> Plant:
-    """The plant seen through sensors with gain (``sensor_gain``: ``gain``) or orientation
-    (``sensor_angle``: ``angle_deg``, turning the channel's ``_x`` / ``_y`` pair about z)
-    errors. The component of such an effect is a channel name.
+    """Return the plant seen through sensors with gain or orientation errors.
+
+    Gain: ``sensor_gain`` with ``gain``; orientation: ``sensor_angle`` with ``angle_deg``,
+    turning the channel's ``_x`` / ``_y`` pair about z. The component of such an effect is a
+    channel name.
 
     Raises
     ------

@@ -135,7 +135,7 @@ def sperling_index(acc: FloatArray, fs_hz: float, *, segment_s: float | None = 5
         raise SignalError(msg)
     segs = a[: (a.size // n_seg) * n_seg].reshape(-1, n_seg)
     segs = segs - segs.mean(axis=1, keepdims=True)
-    f = np.fft.rfftfreq(n_seg, 1.0 / fs_hz)
+    f = np.asarray(np.fft.rfftfreq(n_seg, 1.0 / fs_hz), dtype=np.float64)
     amp = 2.0 * np.abs(np.fft.rfft(segs, axis=1)) / n_seg * 100.0  # line amplitude, cm/s^2
     if n_seg % 2 == 0:
         amp[:, -1] *= 0.5  # the Nyquist line is not doubled

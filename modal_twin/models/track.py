@@ -143,7 +143,7 @@ def random_profile(length_m: float, *, dx_m: float = 0.05,
     n_fft = 1 << math.ceil(math.log2(n))
     L = n_fft * dx_m
     k = np.arange(n_fft // 2 + 1)
-    Om = 2.0 * math.pi * k / L
+    Om = np.asarray(2.0 * math.pi * k / L, dtype=np.float64)
     dOm = 2.0 * math.pi / L
     band = (Om >= 2.0 * math.pi / hi) & (Om <= 2.0 * math.pi / lo)
     amp = np.where(band, np.sqrt(2.0 * german_vertical_psd(
@@ -152,7 +152,7 @@ def random_profile(length_m: float, *, dx_m: float = 0.05,
     Z = amp * np.exp(1j * phase) * (n_fft / 2.0)  # irfft(Z)[j] = sum amp cos(Om x + phi)
     z = np.fft.irfft(Z, n_fft)[:n]
     dz = np.fft.irfft(1j * Om * Z, n_fft)[:n]  # exact slope of the same cosine sum
-    x = dx_m * np.arange(n)
+    x = np.asarray(dx_m * np.arange(n), dtype=np.float64)
     return TrackProfile(x=x, z=z, dzdx=dz, wavelength_band_m=(lo, hi))
 
 

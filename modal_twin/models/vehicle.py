@@ -41,6 +41,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
@@ -256,8 +257,11 @@ class VehicleModel:
         return float(r @ self.M @ r)
 
     def damped_modes(self) -> tuple[FloatArray, FloatArray, ComplexArray]:
-        """Frequencies ``|lambda| / 2 pi`` (Hz), damping ratios ``-Re lambda / |lambda|`` and
-        shapes (on ``x``) of the complex modes of the coupled model, ascending."""
+        """Return frequencies, damping ratios and shapes of the coupled model's complex modes.
+
+        Frequencies ``|lambda| / 2 pi`` (Hz), damping ratios ``-Re lambda / |lambda|``, shapes
+        on ``x``; ascending.
+        """
         n = self.n_dof
         Minv = np.linalg.inv(self.M)
         A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ self.K, -Minv @ self.C]])
@@ -388,8 +392,8 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
         _add_pair(K, d, e.k_mount)
         _add_pair(C, d, e.c_mount)
     S = np.zeros((len(spec.sensors), n))
-    for j, s in enumerate(spec.sensors):
-        S[j, :n_cb] = car.uz_row(s.x)
+    for j, sensor in enumerate(spec.sensors):
+        S[j, :n_cb] = car.uz_row(sensor.x)
     try:
         lam, Phi = sla.eigh(K, M)
     except np.linalg.LinAlgError as err:
@@ -450,7 +454,7 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
 
 
 
-def vehicle_info(model: VehicleModel, n_show: int = 12) -> dict[str, object]:
+def vehicle_info(model: VehicleModel, n_show: int = 12) -> dict[str, Any]:
     """JSON-ready summary: DOFs, mass, and the lowest complex modes with their dominant part.
 
     The part of a mode is the group (``carbody``, ``bogie_front``, ``bogie_rear`` or an

@@ -65,15 +65,17 @@ class VehicleFactory:
         self.sites: dict[str, object] = {}  # no nonlinear device sites
 
     def with_theta(self, changes: Mapping[str, float]) -> VehicleFactory:
-        """A factory of the same vehicle with some parameter values changed (the file is
-        not read again)."""
+        """Return a factory of the same vehicle with some parameter values changed.
+
+        The file is not read again.
+        """
         new = copy.copy(self)
         new.theta = {**self.theta, **changes}
         apply_theta(new.spec, new.theta)  # refuses unknown names and bad values now
         return new
 
     def parameters(self) -> dict[str, float]:
-        """Current value of every parameter."""
+        """Return the current value of every parameter."""
         spec = apply_theta(self.spec, self.theta)
         return {n: parameter_value(spec, n) for n in theta_names(spec)}
 
@@ -97,7 +99,7 @@ class VehicleFactory:
         return ParameterInfo(name, "stiffness", name, v, 0.3 * v, 3.0 * v, "", "other")
 
     def attachments(self) -> tuple[str, ...]:
-        """The rigidly mounted equipment an ``elastic_mount`` effect can hang."""
+        """Return the rigidly mounted equipment an ``elastic_mount`` effect can hang."""
         return tuple(e.name for e in self.spec.equipment if e.mount == "rigid")
 
     def weight(self, component: str) -> float:
@@ -105,7 +107,7 @@ class VehicleFactory:
         return 9.81 * apply_theta(self.spec, self.theta).equipment_named(component).mass
 
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
-        """The plant with ``effects`` (elastic mounts) applied.
+        """Return the plant with ``effects`` (elastic mounts) applied.
 
         Raises
         ------

@@ -267,10 +267,11 @@ def apply_theta(spec: VehicleSpec, theta: Mapping[str, float] | None) -> Vehicle
             msg = f"theta[{key!r}]: expected a finite value {'>=' if 'zeta' in key else '>'} 0, "
             msg += f"got {val!r}"
             raise ModelError(msg)
-    changes = {_SCALAR_THETA[k]: float(v) for k, v in theta.items() if k in _SCALAR_THETA}
+    changes: dict[str, Any] = {_SCALAR_THETA[k]: float(v) for k, v in theta.items()
+                               if k in _SCALAR_THETA}
     eq = []
     for e in spec.equipment:
-        upd = {f: float(theta[f"{p}_{e.name}"]) for p, f in
+        upd: dict[str, Any] = {f: float(theta[f"{p}_{e.name}"]) for p, f in
                (("m", "mass"), ("f", "f_mount_hz"), ("zeta", "zeta_mount"))
                if f"{p}_{e.name}" in theta}
         eq.append(replace(e, **upd) if upd else e)
@@ -329,13 +330,13 @@ def _position(v: Any, where: str, src: str) -> float:
 
 
 def is_vehicle_file(path: str | Path) -> bool:
-    """True when ``path`` is a vehicle file (it has a ``carbody`` section)."""
+    """Tell whether ``path`` is a vehicle file (it has a ``carbody`` section)."""
     doc = read_yaml(path, "model file")
     return isinstance(doc, Mapping) and "carbody" in doc
 
 
 def parameter_value(spec: VehicleSpec, name: str) -> float:
-    """Current value of the parameter ``name`` of :func:`theta_names`.
+    """Return the current value of the parameter ``name`` of :func:`theta_names`.
 
     Raises
     ------

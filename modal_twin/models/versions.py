@@ -57,8 +57,10 @@ def _file(folder: Path, version: int) -> Path:
 
 
 def write_version(folder: str | Path, mv: ModelVersion) -> ModelVersion:
-    """Write ``mv`` as the next version in ``folder`` (never overwriting) and return it
-    with its version number, parent and path set."""
+    """Write ``mv`` as the next version in ``folder`` (never overwriting) and return it.
+
+    The returned version has its version number, parent and path set.
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     last = latest_version(folder)

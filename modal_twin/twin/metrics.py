@@ -1,5 +1,7 @@
-"""Model-versus-measurement metrics: relative error in RMS (Eq. (8) of [004]) and the
-normalised RMS of the residual, per channel, over a sliding window."""
+"""Model-versus-measurement metrics per channel over a sliding window.
+
+The relative error in RMS (Eq. (8) of [004]) and the normalised RMS of the residual.
+"""
 
 from __future__ import annotations
 
@@ -31,9 +33,11 @@ class ChannelMetrics:
 
 
 def channel_metrics(predicted: FloatArray, measured: FloatArray) -> ChannelMetrics:
-    """Eq. (8) of [004]: Err = |RMS(w_hat) - RMS(w)| / RMS(w) x 100 %, per channel, and
-    the residual RMS relative to the measured RMS. Channels whose measured RMS is zero get
-    NaN (no relative error is defined)."""
+    """Compute Eq. (8) of [004] per channel: Err = |RMS(w_hat) - RMS(w)| / RMS(w) x 100 %.
+
+    Also the residual RMS relative to the measured RMS. Channels whose measured RMS is zero
+    get NaN (no relative error is defined).
+    """
     if predicted.shape != measured.shape:
         msg = f"predicted: expected shape {measured.shape} (as measured), got {predicted.shape}"
         raise ShapeError(msg)

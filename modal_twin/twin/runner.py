@@ -24,8 +24,10 @@ class TwinStep:
 
 
 class TwinRunner:
-    """Feed measured frames (table inputs ``table_<input>`` and response channels) to the
-    nominal plant; keep per-channel Eq. (8) metrics over a sliding window.
+    """Feed measured frames to the nominal plant; keep per-channel Eq. (8) metrics.
+
+    Frames hold the table inputs ``table_<input>`` and the response channels; the metrics
+    are over a sliding window.
 
     Parameters
     ----------

@@ -397,7 +397,7 @@ class Simulator:
         q = qd = qdd = None
         if self.modal_histories:
             q, qd, qdd = Y[n_out : n_out + n], Y[n_out + n : n_out + 2 * n], Y[n_out + 2 * n :]
-        t = (self._k0 + np.arange(nb)) * self.dt
+        t = np.asarray((self._k0 + np.arange(nb)) * self.dt, dtype=np.float64)
         self._k0 += nb
         ri = self._row_index
         return SimResult(

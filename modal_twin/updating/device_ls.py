@@ -174,7 +174,7 @@ def kc_nominal(fits: Mapping[str, DeviceKC]) -> dict[str, float]:
 
 def kc_bounds(fits: Mapping[str, DeviceKC], *, min_rel: float = 0.0
               ) -> dict[str, tuple[float, float]]:
-    """Updating bounds ``{"k_<key>": (LB, UB), "c_<key>": ...}`` (Table 6 of [004]).
+    """Return updating bounds ``{"k_<key>": (LB, UB), "c_<key>": ...}`` (Table 6 of [004]).
 
     ``min_rel`` widens a range to at least ``value (1 -/+ min_rel)`` (a nearly exact fit gives
     a range too tight to absorb the modelling error of the rest of the structure).

@@ -140,6 +140,52 @@ def pair_costs(
     return cost, df, M, dz, inside.astype(float)
 
 
+def _greedy(C: FloatArray, inside: FloatArray, f_id: ArrayLike, f_fem: ArrayLike,
+            monotonic: bool) -> IntArray:
+    """Pair modes one by one, lowest identified frequency first (Sec. 5.1 of [004])."""
+    n_id, n_fem = C.shape
+    idx = np.full(n_id, -1, dtype=np.int64)
+    used: set[int] = set()
+    f_max = -math.inf
+    ff = np.asarray(f_fem, dtype=float).ravel()
+    for i in np.argsort(np.asarray(f_id, dtype=float).ravel()):
+        cand = [l for l in range(n_fem) if inside[i, l] > 0 and l not in used
+                and (not monotonic or ff[l] > f_max)]  # Eq. (4) of [004]
+        if cand:
+            best = min(cand, key=lambda l: C[i, l])  # Eq. (5) of [004]
+            idx[i] = best
+            used.add(best)
+            f_max = max(f_max, ff[best])
+    return idx
+
+
+def _exhaustive(C: FloatArray, max_permutations: int) -> IntArray:
+    """Pair modes by the cheapest of every ordered choice (Fig. 11 of [004])."""
+    n_id, n_fem = C.shape
+    idx = np.full(n_id, -1, dtype=np.int64)
+    n_perm = math.perm(n_fem, min(n_id, n_fem))
+    if n_perm > max_permutations:
+        msg = (f"method 'exhaustive': expected at most {max_permutations} permutations, "
+               f"got {n_perm} ({n_id} identified, {n_fem} FEM modes); use 'assignment'")
+        raise OptionError(msg)
+    best_cost = math.inf
+    best_perm: tuple[int, ...] = ()
+    if n_id <= n_fem:  # Fig. 11 of [004]: every ordered choice of FEM modes
+        for perm in itertools.permutations(range(n_fem), n_id):
+            c = float(C[np.arange(n_id), perm].sum())
+            if c < best_cost:
+                best_cost, best_perm = c, perm
+        idx[:] = best_perm
+    else:
+        for perm in itertools.permutations(range(n_id), n_fem):
+            c = float(C[perm, np.arange(n_fem)].sum())
+            if c < best_cost:
+                best_cost, best_perm = c, perm
+        idx[list(best_perm)] = np.arange(n_fem)
+    idx[(idx >= 0) & (C[np.arange(n_id), np.maximum(idx, 0)] >= _BIG)] = -1
+    return idx
+
+
 def match_modes(
     f_id: ArrayLike, phi_id: ArrayLike, f_fem: ArrayLike, phi_fem: ArrayLike, *,
     zeta_id: ArrayLike | None = None, zeta_fem: ArrayLike | None = None,
@@ -207,38 +253,9 @@ def match_modes(
     C = np.where(inside > 0, cost, _BIG)
     idx = np.full(n_id, -1, dtype=np.int64)
     if method == "greedy":
-        used: set[int] = set()
-        f_max = -math.inf
-        ff = np.asarray(f_fem, dtype=float).ravel()
-        for i in np.argsort(np.asarray(f_id, dtype=float).ravel()):
-            cand = [l for l in range(n_fem) if inside[i, l] > 0 and l not in used
-                    and (not monotonic or ff[l] > f_max)]  # Eq. (4) of [004]
-            if cand:
-                best = min(cand, key=lambda l: C[i, l])  # Eq. (5) of [004]
-                idx[i] = best
-                used.add(best)
-                f_max = max(f_max, ff[best])
+        idx = _greedy(C, inside, f_id, f_fem, monotonic)
     elif method == "exhaustive":
-        n_perm = math.perm(n_fem, min(n_id, n_fem))
-        if n_perm > max_permutations:
-            msg = (f"method 'exhaustive': expected at most {max_permutations} permutations, "
-                   f"got {n_perm} ({n_id} identified, {n_fem} FEM modes); use 'assignment'")
-            raise OptionError(msg)
-        best_cost, best_perm = math.inf, ()
-        rows = list(range(min(n_id, n_fem))) if n_id <= n_fem else None
-        if rows is not None:  # Fig. 11 of [004]: every ordered choice of FEM modes
-            for perm in itertools.permutations(range(n_fem), n_id):
-                c = float(C[np.arange(n_id), perm].sum())
-                if c < best_cost:
-                    best_cost, best_perm = c, perm
-            idx[:] = best_perm
-        else:
-            for perm in itertools.permutations(range(n_id), n_fem):
-                c = float(C[perm, np.arange(n_fem)].sum())
-                if c < best_cost:
-                    best_cost, best_perm = c, perm
-            idx[list(best_perm)] = np.arange(n_fem)
-        idx[(idx >= 0) & (C[np.arange(n_id), np.maximum(idx, 0)] >= _BIG)] = -1
+        idx = _exhaustive(C, max_permutations)
     else:
         r, c = so.linear_sum_assignment(C)
         ok = C[r, c] < _BIG

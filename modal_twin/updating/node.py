@@ -1,5 +1,8 @@
-"""Updating node: /identification/modes -> two-stage update -> /model/parameters (latched),
-/updating/report, and a new model version file the twin loads."""
+"""Updating node: /identification/modes -> two-stage update -> /model/parameters.
+
+It publishes /model/parameters (latched) and /updating/report, and writes a new model
+version file the twin loads.
+"""
 
 from __future__ import annotations
 
@@ -99,7 +102,8 @@ class UpdatingNode(Node):
         r.message = f"{v.label} written to {v.path}: {v.note}"
         return r
 
-    def _on_run(self, req: RunUpdating.Request, res: RunUpdating.Response):  # type: ignore[no-untyped-def]
+    def _on_run(self, req: RunUpdating.Request,
+                res: RunUpdating.Response) -> RunUpdating.Response:
         ok, text, report = self._update()
         res.success, res.message, res.report = ok, text, report
         return res

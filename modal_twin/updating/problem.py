@@ -36,8 +36,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize as so
 import scipy.sparse as sp
+from numpy.typing import NDArray
 
-from modal_twin._types import ComplexArray, FloatArray, IntArray
+from modal_twin._types import ComplexArray, FloatArray, IntArray, Matrix
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError
 from modal_twin.identification.modal_model import ModalModel
 from modal_twin.models.fe import ParametricMatrices, solve_modes
@@ -47,12 +48,11 @@ from modal_twin.updating.sensitivity import eigen_derivatives
 __all__ = ["ModeTargets", "UpdatingProblem", "real_shapes"]
 
 _log = logging.getLogger(__name__)
-Matrix = sp.sparray | sp.spmatrix | FloatArray
 PENALTY = 10.0
 """Cost (per identified mode) and residual value returned at an infeasible trial point."""
 
 
-def real_shapes(shapes: ComplexArray | FloatArray) -> FloatArray:
+def real_shapes(shapes: NDArray[np.inexact]) -> FloatArray:
     """Return real shapes: each column rotated by its mean phase, then its real part."""
     s = np.asarray(shapes)
     if not np.iscomplexobj(s):
@@ -294,7 +294,7 @@ class UpdatingProblem:
                    th[idx], list(names), lo, hi, S, targets, **options)  # type: ignore[arg-type]
 
     def with_targets(self, targets: ModeTargets, **options: object) -> UpdatingProblem:
-        """Same model and parameters, other targets (a stage using other modes)."""
+        """Return the same model and parameters with other targets (a stage using other modes)."""
         kw: dict[str, object] = {"n_modes": self.n_modes, "w_mac": self.w_mac,
                                  "r_f": self.r_f, "r_mac": self.r_mac,
                                  "prior_weight": self.prior_weight}
@@ -429,7 +429,7 @@ class UpdatingProblem:
         return np.concatenate([rf, rp.T.ravel()])
 
     def residual_sigma(self) -> FloatArray:
-        """Standard deviation of each residual from the identification (inf: unknown)."""
+        """Return the identification's standard deviation of each residual (inf: unknown)."""
         t = self.targets
         sf = t.std_f_hz / t.f_hz / self.f_scale
         sf = np.where(np.isfinite(sf) & (sf > 0), sf, np.inf)

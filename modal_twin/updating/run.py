@@ -47,8 +47,10 @@ def update_model(
     f_split_hz: float | None = None,
     use_std: bool = True,
 ) -> ModelUpdate:
-    """Run the two stages of [004] on ``modes`` (shapes at ``channel_names``) and write the
-    updated parameters as the next version in ``versions_dir`` (v0 = the start, first).
+    """Run the two stages of [004] on ``modes`` and write the updated parameters.
+
+    Shapes are at ``channel_names``; the parameters go as the next version in
+    ``versions_dir`` (v0 = the start, first).
 
     ``f_split_hz`` (isolation modes below, superstructure modes above) defaults to the gap
     of the model itself (:func:`isolation_split_hz`).
@@ -97,8 +99,11 @@ def update_model(
 
 
 def accepted_theta(out: StagedResult) -> tuple[dict[str, float], list[str]]:
-    """Parameter changes of the stages that improved the fit; a stage that matched fewer
-    modes or ended at a higher cost than it started is rejected (its parameters stay)."""
+    """Return the parameter changes of the stages that improved the fit.
+
+    A stage that matched fewer modes or ended at a higher cost than it started is rejected
+    (its parameters stay).
+    """
     theta = dict(zip(out.names, out.theta_start, strict=True))
     rejected = []
     for name, st in zip(out.stage_names, out.stages, strict=True):
@@ -114,8 +119,11 @@ def accepted_theta(out: StagedResult) -> tuple[dict[str, float], list[str]]:
 
 
 def pairs_table(upd: ModelUpdate) -> list[tuple[int, int, float, float, float, float, float]]:
-    """(identified, model, f_id, f_before, f_after, MAC before, MAC after) per mode, over
-    all stages (each stage matches its own band of identified modes)."""
+    """Tabulate each mode over all stages.
+
+    Rows: (identified, model, f_id, f_before, f_after, MAC before, MAC after) per mode (each
+    stage matches its own band of identified modes).
+    """
     out = []
     for stage in upd.result.stages:
         b, a = stage.pairing_before, stage.pairing_after

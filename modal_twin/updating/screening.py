@@ -109,9 +109,11 @@ def cluster_parameters(
     min_norm: float = 0.004,
     max_cosine: float = 0.05,
 ) -> ClusterResult:
-    """Relative sensitivity matrix by central differences and the Case III grouping of
-    [004]: drop columns with 2-norm < ``min_norm``, cluster the rest (average linkage) at
-    cosine distance ``max_cosine``."""
+    """Return the relative sensitivity matrix and the Case III grouping of [004].
+
+    Central differences; drop columns with 2-norm < ``min_norm``, cluster the rest (average
+    linkage) at cosine distance ``max_cosine``.
+    """
     theta0 = np.asarray(theta0, float)
     f0 = np.asarray(frequencies(theta0))
     S = np.empty((f0.size, theta0.size))

@@ -35,12 +35,11 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from modal_twin._types import FloatArray, IntArray
+from modal_twin._types import FloatArray, IntArray, Matrix
 from modal_twin.errors import ModelError, OptionError, ShapeError
 
 __all__ = ["EigenDerivatives", "eigen_derivatives"]
 
-Matrix = sp.sparray | sp.spmatrix | FloatArray
 
 
 @dataclass(frozen=True, slots=True)

@@ -197,7 +197,7 @@ def building_stages(
     rel_bounds_moduli: float = 0.5, rel_bounds_devices: float = 0.3,
     prior_weight_devices: float = 0.0, global_stage: bool = True,
 ) -> tuple[Stage, Stage]:
-    """The two stages of [004]: moduli on modes above ``f_split_hz``, device ``k`` below.
+    """Return the two stages of [004]: moduli on modes above ``f_split_hz``, device ``k`` below.
 
     Parameters
     ----------

@@ -1,7 +1,9 @@
-"""Residual force-state maps (Eq. (20) of [003]): residual restoring force of the nominal
-law against drift, coloured by velocity, at a component -- the picture that says which
-effect is missing (a loop: hysteresis / friction; an odd curve: stiffness nonlinearity; a
-jump at velocity reversal: friction; a line: a k or c error; a cloud: noise)."""
+"""Residual force-state maps (Eq. (20) of [003]): which effect is missing.
+
+The residual restoring force of the nominal law against drift, coloured by velocity, at a
+component (a loop: hysteresis / friction; an odd curve: stiffness nonlinearity; a jump at
+velocity reversal: friction; a line: a k or c error; a cloud: noise).
+"""
 
 from __future__ import annotations
 
@@ -28,9 +30,11 @@ def plot_force_state(
     title: str = "",
     fitted_force: FloatArray | None = None,
 ) -> Path:
-    """Write a PNG with one panel per direction (x, y): residual ``f - (k u + c u')`` vs
-    ``u``, coloured by ``u'``; with ``fitted_force`` a second row shows what is left after
-    the candidate law."""
+    """Write a PNG with one panel per direction (x, y).
+
+    Residual ``f - (k u + c u')`` vs ``u``, coloured by ``u'``; with ``fitted_force`` a
+    second row shows what is left after the candidate law.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -67,8 +71,10 @@ def plot_force_state(
 
 def force_state_plots(model_file: str | Path, diag: Diagnosis, rec: Record,
                       folder: str | Path, *, n: int = 2) -> list[Path]:
-    """Residual force-state maps (before / after) at the components of the top ``n``
-    fitted candidates, as PNG files in ``folder``."""
+    """Write residual force-state maps (before / after) as PNG files in ``folder``.
+
+    One per component of the top ``n`` fitted candidates.
+    """
     mv = read_version(model_file)
     factory = load_model(mv.structure, theta=mv.theta or None)
     folder = Path(folder)

@@ -227,7 +227,7 @@ def _bw_advance(p, s, u, s_new):  # pragma: no cover - jitted
 
 
 @njit(cache=True)
-def bw_advance_many(idx, params, states, uv, s_new, tan, work, nsub):  # pragma: no cover
+def bw_advance_many(idx, params, states, uv, s_new, tan, work, nsub):  # pragma: no cover  # noqa: C901
     """:func:`_bw_advance` of several Bouc-Wen devices at once, bitwise the same numbers.
 
     The RK4 stages of the devices are interleaved (stage 1 of every device, then stage 2

@@ -100,7 +100,7 @@ class FEAssembly:
             raise ShapeError(msg)
         return np.asarray(self.T @ arr)
 
-    def rigid_body_modes(self, ref: Sequence[float] = (0.0, 0.0, 0.0), *,
+    def rigid_body_modes(self, ref: Sequence[float] | FloatArray = (0.0, 0.0, 0.0), *,
                          full: bool = False) -> FloatArray:
         """Return the six rigid-body vectors (translations x, y, z; rotations about ref).
 

@@ -134,7 +134,7 @@ class FEModel:
         self._node_index(node)
         return self._xyz[node].copy()
 
-    def add_node(self, node: NodeId, xyz: Sequence[float]) -> NodeId:
+    def add_node(self, node: NodeId, xyz: Sequence[float] | FloatArray) -> NodeId:
         """Add a node ``node`` (int or str id) at ``xyz`` (m); return its id."""
         if not isinstance(node, int | str) or isinstance(node, bool):
             msg = f"node: expected an int or str id, got {node!r}"

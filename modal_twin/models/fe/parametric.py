@@ -66,7 +66,7 @@ class ParametricMatrices:
                 raise OptionError(msg)
             return int(name)
         try:
-            return self.names.index(name)  # type: ignore[arg-type]
+            return self.names.index(name)
         except ValueError:
             msg = f"parameter: expected one of {list(self.names)}, got {name!r}"
             raise OptionError(msg) from None
