@@ -1,20 +1,20 @@
 """``modal-twin``: the command line of modal_twin.
 
-    modal-twin launch config/scenarios/<name>.yaml [--domain-id N] [--run-dir DIR]
-    modal-twin record -o BAG /topic [/topic:pkg/msg/Type ...]
-    modal-twin replay BAG [--rate R]
-    modal-twin bag info BAG | modal-twin bag salvage BAG [--out DIR]
-    modal-twin model info config/structures/building.yaml [--json]   (or config/vehicles/...)
-    modal-twin diagnose MODEL --train BAG --test BAG
-    modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
-    modal-twin effects history DIR [--png FILE]
-    modal-twin import FILE... --out BAG [--map MAP.yaml]       (UFF, CSMIP / SMC, CSV, NPZ)
-    modal-twin identify BAG [--method n4sid|ssi-cov|polymax] [--out DIR]
-    modal-twin update MODEL.mat|.npz --modes FILE [--out DIR]
-    modal-twin export modes|frf|model SRC --out FILE
-    modal-twin view MODEL [--n-modes N] [--html OUT]
-    modal-twin report RUN_DIR [--out FILE]
-    modal-twin demo
+modal-twin launch config/scenarios/<name>.yaml [--domain-id N] [--run-dir DIR]
+modal-twin record -o BAG /topic [/topic:pkg/msg/Type ...]
+modal-twin replay BAG [--rate R]
+modal-twin bag info BAG | modal-twin bag salvage BAG [--out DIR]
+modal-twin model info config/structures/building.yaml [--json]   (or config/vehicles/...)
+modal-twin diagnose MODEL --train BAG --test BAG
+modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --component C --law L)
+modal-twin effects history DIR [--png FILE]
+modal-twin import FILE... --out BAG [--map MAP.yaml]       (UFF, CSMIP / SMC, CSV, NPZ)
+modal-twin identify BAG [--method n4sid|ssi-cov|polymax] [--out DIR]
+modal-twin update MODEL.mat|.npz --modes FILE [--out DIR]
+modal-twin export modes|frf|model SRC --out FILE
+modal-twin view MODEL [--n-modes N] [--html OUT]
+modal-twin report RUN_DIR [--out FILE]
+modal-twin demo
 """
 
 from __future__ import annotations
@@ -286,7 +286,7 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _flags_on_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def _flags_on_commands(sub: argparse._SubParsersAction) -> None:
     for name, sp in sub.choices.items():
         if name in ("record", "replay"):  # parsed by their own mains
             continue

@@ -267,7 +267,8 @@ class Launcher:
 
     def _start_deferred(self, probe: Any, ctx: Context, end: float) -> str:
         """Call ``~/start`` of each deferred excitation node: its first block goes out
-        only after every recorder and reader of the graph has matched."""
+        only after every recorder and reader of the graph has matched.
+        """
         from modal_twin_msgs.msg import ExcitationCommand
         from modal_twin_msgs.srv import StartExcitation
         from rclpy.executors import SingleThreadedExecutor

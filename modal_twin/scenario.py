@@ -102,7 +102,8 @@ _NODE_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}")
 
 def _check_nodes(p: Path, nodes: list[NodeSpec], allow_external: bool) -> None:
     """Node names are plain ROS names (they become file names in the run folder);
-    executables are this package's nodes unless ``allow_external``."""
+    executables are this package's nodes unless ``allow_external``.
+    """
     for i, n in enumerate(nodes):
         if not _NODE_NAME.fullmatch(n.name):
             raise _err(p, f"launch.nodes[{i}].name", f"expected letters, digits and _ "

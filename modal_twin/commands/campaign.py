@@ -27,7 +27,7 @@ def _floats(text: str, name: str, n: int) -> list[float]:
     return vals
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``campaign`` parser."""
     p = sub.add_parser("campaign", help=HELP, description=HELP)
     p.add_argument("bags", type=Path, nargs="+", help="bags or folders of rotated parts")
@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.set_defaults(func=run)
 
 
-def _windows(a: argparse.Namespace) -> tuple[list, tuple[str, ...]]:  # type: ignore[type-arg]
+def _windows(a: argparse.Namespace) -> tuple[list, tuple[str, ...]]:
     from modal_twin.identification.campaign import split_windows
     from modal_twin.io.bag import read_blocks
     from modal_twin.signal_block import concatenate_blocks
@@ -68,7 +68,7 @@ def _windows(a: argparse.Namespace) -> tuple[list, tuple[str, ...]]:  # type: ig
     return windows, outputs or ()
 
 
-def _write(result, out: Path) -> list[Path]:  # type: ignore[no-untyped-def]
+def _write(result, out: Path) -> list[Path]:
     from modal_twin.viz.campaign import plot_campaign
 
     out.mkdir(parents=True, exist_ok=True)

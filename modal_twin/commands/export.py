@@ -24,7 +24,7 @@ from modal_twin.exit_codes import ExitCode
 
 __all__ = ["register", "run", "structure_arrays"]
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``export`` to the sub-commands."""
     p = sub.add_parser("export", help="modes to UFF 55, FRFs to UFF 58, a model to NPZ")
     p.add_argument("what", choices=("modes", "frf", "model"))

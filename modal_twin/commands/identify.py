@@ -33,7 +33,7 @@ NONSTATIONARY = 4.0
 """Largest / smallest window RMS above which output-only SSI is warned about."""
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``identify`` to the sub-commands."""
     p = sub.add_parser("identify", help="modes of a bag (N4SID, SSI-cov, PolyMAX)")
     p.add_argument("bag", type=Path, help="bag written by `modal-twin import` (or a run)")

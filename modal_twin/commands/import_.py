@@ -33,7 +33,7 @@ GROUND = re.compile(r"grnd|ground|basement|free.?field|^abutment", re.IGNORECASE
 """Sensor locations that measure the structure's input (base motion)."""
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``import`` to the sub-commands."""
     p = sub.add_parser("import", help="measured files (UFF, CSMIP/SMC, CSV, NPZ) to a bag")
     p.add_argument("files", nargs="+", type=Path, help="data files")
@@ -156,8 +156,11 @@ def _positions(chans: list[ChannelSpec], extra: dict[str, Any]) -> list[ChannelS
     for name, obj in extra.items():
         if name.startswith("geometry_"):
             nodes.update(obj.get("nodes", {}))
-    return [replace(c, position_m=tuple(nodes[c.node])) if c.node in nodes else c
-            for c in chans]
+    def at(c: ChannelSpec) -> ChannelSpec:
+        x, y, z = (float(v) for v in nodes[c.node][:3])
+        return replace(c, position_m=(x, y, z))
+
+    return [at(c) if c.node in nodes else c for c in chans]
 
 
 def run(a: argparse.Namespace) -> int:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from modal_twin.errors import ModalTwinError
+from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.progress import track
 
@@ -25,7 +25,7 @@ __all__ = ["load_run", "make_report", "register", "run"]
 _DEVICE_SUFFIX = ("_dx", "_dy")
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``report`` parser."""
     p = sub.add_parser("report", help="one self-contained HTML report of a run folder")
     p.add_argument("run_dir", type=Path, help="run folder (e.g. runs/demo_...)")
@@ -40,7 +40,7 @@ def _metrics(bag: Path) -> tuple[Any, dict[str, tuple[str, str, str]]]:
 
     last, meta = None, {}
     present = {t.name for t in bag_info(bag).topics}
-    wanted = [t for t in ("/twin/metrics", "/measurement/channels") if t in present]
+    wanted: list[str] = [t for t in ("/twin/metrics", "/measurement/channels") if t in present]
     for topic, _, msg in read_messages(bag, wanted) if wanted else ():
         if topic == "/twin/metrics":
             last = msg
@@ -53,7 +53,7 @@ def _metrics(bag: Path) -> tuple[Any, dict[str, tuple[str, str, str]]]:
 def _device_data(bag: Path, blamed: set[str]) -> tuple[dict[str, Any], dict[str, Any]]:
     """Measured loops of every device, force-state samples of the blamed ones."""
     from modal_twin.diagnosis.screening import drift_velocity
-    from modal_twin.diagnosis.workflow import record_from_bag
+    from modal_twin.io.records import record_from_bag
 
     rec = record_from_bag(bag)
     names = list(rec.channel_names)
@@ -93,7 +93,8 @@ def _model_frf(structure: Path, names: list[str], f_hz: np.ndarray) -> np.ndarra
 
 def _identification(bag: Path, structure: Path) -> dict[str, Any]:
     """Modes of a (low-level) record by N4SID, paired with the model's; measured vs model
-    FRF to table x (H1, Welch)."""
+    FRF to table x (H1, Welch).
+    """
     import scipy.signal as ss
 
     from modal_twin.identification.metrics import mac
@@ -156,7 +157,11 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
         from modal_twin.commands.view import model_scene
         from modal_twin.viz.scene import static_html
 
-        cmds, caption = model_scene(versions[-1].path, n_modes)
+        path = versions[-1].path
+        if path is None:
+            msg = f"{run_dir}: the last model version has no file"
+            raise OptionError(msg)
+        cmds, caption = model_scene(path, n_modes)
         scene = static_html(cmds, caption=caption)
     notes = [f"run folder: {run_dir.resolve()}"]
     ident: dict[str, Any] = {}

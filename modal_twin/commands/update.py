@@ -32,7 +32,7 @@ from modal_twin.exit_codes import ExitCode
 __all__ = ["register", "run"]
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``update`` to the sub-commands."""
     p = sub.add_parser("update", help="update a matrix model (.mat / .npz) to identified modes")
     p.add_argument("model", type=Path, help="matrix model with K_<name> substructures")
@@ -51,7 +51,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 def _by_label(dofs: tuple[dict[str, object], ...], labels: tuple[str, ...]
               ) -> np.ndarray | None:
     """Model DOFs of the shape entries from their node and direction (``"12:z"`` or
-    ``"12:uz"`` labels), or None when any entry has no match."""
+    ``"12:uz"`` labels), or None when any entry has no match.
+    """
     index = {lab: k for k, lab in enumerate(labels)}
     out = []
     for d in dofs:

@@ -19,7 +19,7 @@ from modal_twin.exit_codes import ExitCode
 __all__ = ["register", "run"]
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``view`` parser."""
     p = sub.add_parser("view", help="3D scene of a model: structure, sensors, devices, modes")
     p.add_argument("model", type=Path, help="structure file or model version file")

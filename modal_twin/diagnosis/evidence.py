@@ -334,7 +334,7 @@ def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[fl
                           elastic_kind, dk, dc, e_slope, k_slope, ratio, int(amp.size))
 
 
-def _elastic_kind(design, groups_x, b: FloatArray, n_dir: int) -> str:  # type: ignore[no-untyped-def]
+def _elastic_kind(design, groups_x, b: FloatArray, n_dir: int) -> str:
     """hardening, softening or gap: what the fitted elastic backbone does with amplitude."""
     A = design(["stiffness", "damping", "elastic"])
     _, coef = _sse(A, b)

@@ -27,20 +27,26 @@ __all__ = ["refit_jointly"]
 PARAMETER_LAWS = ("added_mass", "stiffness", "damping")
 
 
-def _pieces(factory: ModelFactory, f: FittedEffect
-            ) -> tuple[int, Callable[[FloatArray], dict[str, float]], FloatArray, FloatArray,
-                       FloatArray] | None:
+Piece = tuple[int, Callable[[FloatArray], dict[str, float]], FloatArray, FloatArray,
+              FloatArray]
+
+
+def _pieces(factory: ModelFactory, f: FittedEffect) -> Piece | None:
+    """(size, x -> params, x0, lower, upper) of an effect refitted jointly; None to keep it."""
     e = f.effect
     if e.law in PARAMETER_LAWS:
         if len(e.params) > 1:
             return None  # an added mass with its position: kept as found
         v = float(e.params[e.component])
         nom = factory.parameters()[e.component]
-        lo, hi = min(0.3 * nom, 0.5 * v), max(5.0 * nom + 1.0, 2.0 * v)
-        if e.law == "added_mass":
-            lo = 0.0
-        return (1, lambda x, n=e.component: {n: float(x[0])}, np.array([v]), np.array([lo]),
-                np.array([hi]))
+        lo = 0.0 if e.law == "added_mass" else min(0.3 * nom, 0.5 * v)
+        hi = max(5.0 * nom + 1.0, 2.0 * v)
+        name = e.component
+
+        def one(x: FloatArray) -> dict[str, float]:
+            return {name: float(x[0])}
+
+        return 1, one, np.array([v]), np.array([lo]), np.array([hi])
     spec = factory.sites.get(e.component)
     if spec is None:
         return None
@@ -48,12 +54,16 @@ def _pieces(factory: ModelFactory, f: FittedEffect
     if e.law == "linear":
         start.setdefault("c0", float(np.mean(spec.c)) or 1.0)
     try:
-        names, to_p, to_x, lo, hi = _transform(e.law, start, float(np.mean(spec.k)))
+        names, to_p, to_x, lo_x, hi_x = _transform(e.law, start, float(np.mean(spec.k)))
     except ModalTwinError:
         return None
-    x0 = np.clip(to_x(start), lo + 1e-9, hi - 1e-9)
-    return len(names), lambda x, to_p=to_p, names=names: {
-        n: v for n, v in to_p(x).items() if n in names or e.law == "linear"}, x0, lo, hi
+    x0 = np.clip(to_x(start), lo_x + 1e-9, hi_x - 1e-9)
+    keep_all = e.law == "linear"
+
+    def params(x: FloatArray) -> dict[str, float]:
+        return {n: v for n, v in to_p(x).items() if keep_all or n in names}
+
+    return len(names), params, x0, lo_x, hi_x
 
 
 def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
@@ -81,7 +91,7 @@ def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
                 effects.append(EffectSpec(f.effect.component, f.effect.law, params))
         return theta, effects
 
-    def build(x: FloatArray):  # type: ignore[no-untyped-def]
+    def build(x: FloatArray):
         theta, effects = split(x)
         return (factory.with_theta(theta) if theta else factory).plant(effects)
 

@@ -1,6 +1,7 @@
 """Diagnosis node: buffers /measurement/frames, diagnoses on request or on a schedule,
 publishes /diagnosis/report; ``~/add_effect`` fits an effect, writes model version n+1 and
-publishes it on /model/parameters so the twin loads it live."""
+publishes it on /model/parameters so the twin loads it live.
+"""
 
 from __future__ import annotations
 
@@ -113,14 +114,14 @@ class DiagnosisNode(Node):
         self.report_pub.publish(diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
                                                  FailingPlace, CandidateEffect))
 
-    def _on_run(self, req: RunDiagnosis.Request, res: RunDiagnosis.Response):  # type: ignore[no-untyped-def]
+    def _on_run(self, req: RunDiagnosis.Request, res: RunDiagnosis.Response):
         d = self._diagnose(req.window_s)
         res.success, res.message = True, d.summary
         res.report = diagnosis_to_msg(d, self.cfg.model_file, DiagnosisReport,
                                       FailingPlace, CandidateEffect)
         return res
 
-    def _on_add(self, req: AddEffect.Request, res: AddEffect.Response):  # type: ignore[no-untyped-def]
+    def _on_add(self, req: AddEffect.Request, res: AddEffect.Response):
         train, test = self._records(0.0)
         model = resolve_config(self.cfg.model_file)
         if req.effect and req.component:  # the named effect, started as the CLI starts it

@@ -134,7 +134,7 @@ class Diagnosis:
         return "\n".join(out)
 
 
-def _device_data(rec: Record, names: Iterable[str]) -> tuple[dict, dict]:  # type: ignore[type-arg]
+def _device_data(rec: Record, names: Iterable[str]) -> tuple[dict, dict]:
     drifts, forces = {}, {}
     for n in names:
         cols_d, cols_f = [f"{n}_dx", f"{n}_dy"], [f"{n}_fx", f"{n}_fy"]
@@ -160,7 +160,7 @@ def _significant(figs: Sequence[ErrorFigures]) -> tuple[str, ...]:
 
 
 def _device_jobs(factory: ModelFactory, fit_on: tuple[Record, ...],
-                 evidence: Sequence[DeviceEvidence], drifts: dict, forces: dict,  # type: ignore[type-arg]
+                 evidence: Sequence[DeviceEvidence], drifts: dict, forces: dict,
                  test: Record, n_families: int
                  ) -> tuple[list[ScreenedCandidate], list[tuple[str, Callable[[], FittedEffect]]]]:
     train = fit_on[0]

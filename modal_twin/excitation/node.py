@@ -84,12 +84,12 @@ class ExcitationNode(Node):
         self._start(config_from_command(msg, self.cfg, self.record_roots))
         return f"started {self.cfg.kind}"
 
-    def _on_start(self, req: StartExcitation.Request, res: StartExcitation.Response):  # type: ignore[no-untyped-def]
+    def _on_start(self, req: StartExcitation.Request, res: StartExcitation.Response):
         res.message = self._command(req.command)
         res.accepted = True
         return res
 
-    def _on_abort(self, req: AbortExcitation.Request, res: AbortExcitation.Response):  # type: ignore[no-untyped-def]
+    def _on_abort(self, req: AbortExcitation.Request, res: AbortExcitation.Response):
         was = self.player is not None
         self.player = None
         res.accepted, res.message = was, "aborted" if was else "nothing was running"

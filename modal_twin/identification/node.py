@@ -73,7 +73,7 @@ class IdentificationNode(Node):
         self.get_logger().info(text)
         return text
 
-    def _on_run(self, req: RunIdentification.Request, res: RunIdentification.Response):  # type: ignore[no-untyped-def]
+    def _on_run(self, req: RunIdentification.Request, res: RunIdentification.Response):
         res.message = self.run(str(req.method), req.max_order, req.window_s)
         res.success, res.model = True, self.last_msg
         return res

@@ -28,7 +28,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
-from modal_twin._types import FloatArray
+from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.identification._lagsums import lag_sums
 from modal_twin.identification._subspace import (
@@ -56,7 +56,7 @@ def correlations(y: FloatArray, y_ref: FloatArray, n_lags: int) -> FloatArray:
     return R
 
 
-def _whole_record(Ys: FloatArray, ref: FloatArray | None, Rb: list[FloatArray],
+def _whole_record(Ys: FloatArray, ref: IntArray | None, Rb: list[FloatArray],
                   edges: FloatArray, n_lags: int) -> FloatArray:
     """Unbiased correlations of the whole record from those of its consecutive blocks.
 
@@ -65,8 +65,9 @@ def _whole_record(Ys: FloatArray, ref: FloatArray | None, Rb: list[FloatArray],
     """
     n = Ys.shape[1]
     k = np.arange(n_lags)
-    S = sum(R * (int(b - a) - k)[:, None, None]
-            for R, (a, b) in zip(Rb, itertools.pairwise(edges), strict=True))
+    S: FloatArray = np.sum([R * (int(b - a) - k)[:, None, None]
+                            for R, (a, b) in zip(Rb, itertools.pairwise(edges), strict=True)],
+                           axis=0)
     Yr = Ys if ref is None else Ys[ref]
     for e in edges[1:-1]:
         for d in range(1, n_lags):

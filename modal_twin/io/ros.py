@@ -127,7 +127,8 @@ def one_line(err: BaseException, limit: int = 300) -> str:
 
 def guarded(node: Node, what: str, fn: Callable[..., Any]) -> Callable[..., Any]:
     """Wrap a subscription or timer callback: any exception is one logged line, and the
-    node keeps running (a hostile message never ends a node)."""
+    node keeps running (a hostile message never ends a node).
+    """
 
     def call(*args: Any) -> Any:
         try:
@@ -143,7 +144,8 @@ def guarded(node: Node, what: str, fn: Callable[..., Any]) -> Callable[..., Any]
 def guarded_service(node: Node, what: str, fn: Callable[[Any, Any], Any],
                     ok_field: str = "success") -> Callable[[Any, Any], Any]:
     """Wrap a service callback: any exception answers ``ok_field = False`` with a one-line
-    ``message`` naming the field, is logged once, and the node keeps running."""
+    ``message`` naming the field, is logged once, and the node keeps running.
+    """
 
     def call(req: Any, res: Any) -> Any:
         try:

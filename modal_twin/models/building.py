@@ -295,10 +295,10 @@ def build_building(path: str | Path | None = None, *, spec: StructureSpec | None
     nd = len(spec.devices)
     G = np.zeros((nd, 2, n))
     Gz = np.zeros((nd, n))
-    for d, dev in enumerate(spec.devices):
-        G[d, 0] = t_row(asm.full_dof_index(dev.node, "ux"))
-        G[d, 1] = t_row(asm.full_dof_index(dev.node, "uy"))
-        Gz[d] = t_row(asm.full_dof_index(dev.node, "uz"))
+    for di, dev in enumerate(spec.devices):
+        G[di, 0] = t_row(asm.full_dof_index(dev.node, "ux"))
+        G[di, 1] = t_row(asm.full_dof_index(dev.node, "uy"))
+        Gz[di] = t_row(asm.full_dof_index(dev.node, "uz"))
     return BuildingModel(
         spec=spec, assembly=asm, P=P, S=S, S_P=S @ P, channel_names=tuple(names),
         channel_xyz=np.array(xyz).reshape(-1, 3),
@@ -430,7 +430,9 @@ class ModalBuilding:
             raise OptionError(msg)
         r = self.n_modes
         K, C = self.linear_part(devices)
-        blocks, feed, names = [], [], []
+        blocks: list[FloatArray] = []
+        feed: list[FloatArray] = []
+        names: list[str] = []
         for o in outputs:
             if o == "acc":
                 blocks.append(self.C_acc)

@@ -62,7 +62,8 @@ class BuildingFactory:
 
     def with_theta(self, changes: Mapping[str, float]) -> BuildingFactory:
         """A factory of the same structure with some parameter values changed: the assembly
-        is shared (K(theta) is parametric), only the modal reduction is redone."""
+        is shared (K(theta) is parametric), only the modal reduction is redone.
+        """
         new = copy.copy(self)
         new.theta = {**self.theta, **changes}
         new.mb = modal_reduction(self.bld, self.n_modes, theta=new.theta or None)
@@ -71,7 +72,8 @@ class BuildingFactory:
     def parameters(self) -> dict[str, float]:
         """Current value of every model parameter: the assembly's ``theta`` (moduli, device
         rates, floor masses, group and link factors), then the damping and added-mass
-        parameters (:mod:`~modal_twin.models.building_parameters`)."""
+        parameters (:mod:`~modal_twin.models.building_parameters`).
+        """
         par = self.bld.assembly.parametric
         out = {n: float(v) for n, v in zip(par.names, par.theta_vector(
             {k: v for k, v in self.theta.items() if k in par.names} or None), strict=True)}
@@ -92,7 +94,8 @@ class BuildingFactory:
 
     def attachments(self) -> tuple[str, ...]:
         """Rigidly attached masses that an ``elastic_mount`` effect could hang on springs
-        (none in a building structure file)."""
+        (none in a building structure file).
+        """
         return ()
 
     def weight(self, component: str) -> float:

@@ -184,7 +184,8 @@ def parameter_info(building: BuildingModel, name: str, *, omega: FloatArray | No
     groups = {g.name: g for g in spec.groups}
     if name in par.names:
         v = float(par.theta0[par.index(name)])
-        kind: Kind = {"K": "stiffness", "M": "mass", "C": "damping"}[par.kinds[par.index(name)]]
+        kinds: dict[str, Kind] = {"K": "stiffness", "M": "mass", "C": "damping"}
+        kind = kinds[par.kinds[par.index(name)]]
         return _assembly_info(building, name, kind, v, groups)
     if name not in modal:
         msg = f"parameter: expected one of {[*par.names, *modal]}, got {name!r}"

@@ -557,7 +557,7 @@ def _point_mass(cx: _Ctx, entry: Mapping[str, Any], where: str, fem: FEModel,
     else:
         node = at
     _guard(cx, f"{where} (at {node!r})", lambda: fem.add_point_mass(
-        node, m, offset=offset, J=J, m_param=param))
+        node, m, offset=[float(x) for x in offset], J=J, m_param=param))
     return m
 
 
@@ -688,7 +688,8 @@ def _listed(cx: _Ctx, g: Mapping[str, Any], key: str, where: str, valid: Sequenc
 def _group_selector(cx: _Ctx, g: Mapping[str, Any], where: str,
                     floors: tuple[FloorSpec, ...]) -> Any:
     """Return ``match(n1, n2, section) -> bool`` of a group's ``nodes`` / ``between`` /
-    ``sections`` (an element matches every selector given; none given: nothing matches)."""
+    ``sections`` (an element matches every selector given; none given: nothing matches).
+    """
     pats = g.get("nodes")
     between = g.get("between")
     sections = g.get("sections")
@@ -705,7 +706,7 @@ def _group_selector(cx: _Ctx, g: Mapping[str, Any], where: str,
         raise cx.config(at=f"{where}.sections", what=f"expected a list, got {sections!r}")
 
     def node_ok(n: NodeId | None) -> bool:
-        return n is not None and any(fnmatch.fnmatchcase(str(n), str(p)) for p in pats)
+        return n is not None and any(fnmatch.fnmatchcase(str(n), str(p)) for p in pats or ())
 
     def match(n1: NodeId, n2: NodeId | None, section: str | None) -> bool:
         if pats is None and between is None:

@@ -1,5 +1,6 @@
 """Simulated test rig: a truth model (which may carry effects the nominal model lacks)
-driven by the drive signal, with sensor noise and sensitivities, producing raw blocks."""
+driven by the drive signal, with sensor noise and sensitivities, producing raw blocks.
+"""
 
 from __future__ import annotations
 

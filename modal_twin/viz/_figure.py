@@ -61,7 +61,8 @@ def short_labels(labels: Sequence[str], width: int = 14) -> list[str]:
 
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     """Write ``fig`` as a PNG at ``path`` (parents made) and return the path: the command
-    line's figures are the report's, written to files."""
+    line's figures are the report's, written to files.
+    """
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_bytes(png_bytes(fig, dpi=dpi))

@@ -164,8 +164,8 @@ def send_commands(zmq_url: str, commands: Sequence[Any], *, timeout_s: float = 1
     import umsgpack
     import zmq
 
-    ctx = zmq.Context.instance()
-    sock = ctx.socket(zmq.REQ)
+    ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
+    sock: zmq.Socket[bytes] = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.RCVTIMEO, int(1000 * timeout_s))
     sock.setsockopt(zmq.LINGER, 0)
     sock.connect(zmq_url)
@@ -186,7 +186,7 @@ def get_scene_html(zmq_url: str, *, timeout_s: float = 10.0) -> str:
     """The static HTML of the scene the server holds (meshcat's ``get_scene``)."""
     import zmq
 
-    sock = zmq.Context.instance().socket(zmq.REQ)
+    sock: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.REQ)
     sock.setsockopt(zmq.RCVTIMEO, int(1000 * timeout_s))
     sock.setsockopt(zmq.LINGER, 0)
     sock.connect(zmq_url)
@@ -204,7 +204,7 @@ def _serve(argv: Sequence[str] | None = None) -> int:  # pragma: no cover - the 
     a = p.parse_args(argv)
     from meshcat.servers.zmqserver import ZMQWebSocketBridge
 
-    class _LocalBridge(ZMQWebSocketBridge):  # type: ignore[misc]
+    class _LocalBridge(ZMQWebSocketBridge):
         def make_app(self) -> Any:
             app = super().make_app()
             listen = app.listen
