@@ -50,6 +50,7 @@ class ParameterCandidate:
     nominal: float
     start: float  # starting value (nominal + alpha h)
     gain: float  # share of the residual energy the change removes (training record)
+    companions: tuple[tuple[str, float], ...] = ()  # starting values fitted with it (position)
 
 
 def _residual(factory: ModelFactory, theta: dict[str, float], rec: Record, decimate: int,
@@ -111,18 +112,45 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
         h = rel_step * (abs(nominal) if nominal else (hi - lo))
         if h <= 0:
             continue
-        try:
-            s = (_residual(factory, {name: nominal + h}, train, decimate, scale) - r0) / h
-        except ModalTwinError:
-            continue
-        ss = float(s @ s)
-        if ss <= 0:
-            continue
-        alpha = -float(s @ r0) / ss  # least-squares step along the sensitivity
-        gain = float((s @ r0) ** 2 / ss / e0)
-        start = float(np.clip(nominal + alpha, lo, hi))
-        out.append(ParameterCandidate(name, kind, float(nominal), start, gain))
+        best: ParameterCandidate | None = None
+        for where in _positions(factory, name):  # an added mass: at the centre and corners
+            try:
+                s = (_residual(factory, {name: nominal + h, **where}, train, decimate, scale)
+                     - r0) / h
+            except ModalTwinError:
+                continue
+            ss = float(s @ s)
+            if ss <= 0:
+                continue
+            alpha = -float(s @ r0) / ss  # least-squares step along the sensitivity
+            gain = float((s @ r0) ** 2 / ss / e0)
+            if best is None or gain > best.gain:
+                best = ParameterCandidate(name, kind, float(nominal),
+                                          float(np.clip(nominal + alpha, lo, hi)), gain,
+                                          tuple(where.items()))
+        if best is not None:
+            out.append(best)
     return sorted(out, key=lambda c: -c.gain)
+
+
+def _positions(factory: ModelFactory, name: str) -> list[dict[str, float]]:
+    """Return where an added mass is tried while screening.
+
+    The plan centre and the four corners of its floor (its ``_x`` / ``_y`` bounds); one
+    empty entry for any other parameter.
+    """
+    comp = _companions(factory, name)
+    info_of = getattr(factory, "parameter_info", None)
+    if len(comp) != 2 or info_of is None:
+        return [{}]
+    (nx, ny), values = comp, factory.parameters()
+    ix, iy = info_of(nx), info_of(ny)
+    out = [{nx: values[nx], ny: values[ny]}]
+    for fx in (0.1, 0.9):
+        for fy in (0.1, 0.9):
+            out.append({nx: ix.lower + fx * (ix.upper - ix.lower),
+                        ny: iy.lower + fy * (iy.upper - iy.lower)})
+    return out
 
 
 def _companions(factory: ModelFactory, name: str) -> list[str]:
@@ -152,11 +180,12 @@ def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Record
     values = factory.parameters()
     info_of = getattr(factory, "parameter_info", None)
     los, his, x0 = [lo], [hi], [cand.start]
+    given = dict(cand.companions)
     for n in names[1:]:
         info = info_of(n) if info_of is not None else None
         los.append(info.lower if info else values[n] - 1.0)
         his.append(info.upper if info else values[n] + 1.0)
-        x0.append(values[n])
+        x0.append(given.get(n, values[n]))
     lo_a, hi_a = np.asarray(los, float), np.asarray(his, float)
     span = np.maximum(hi_a - lo_a, 1e-12)
     x0_a = np.clip(np.asarray(x0, float), lo_a + 1e-9 * span, hi_a - 1e-9 * span)
