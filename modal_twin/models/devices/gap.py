@@ -79,3 +79,7 @@ class GapSpring(Device):
     def reference_stiffness(self) -> np.ndarray:
         """Return the spring beside the gap (the gap is open at rest)."""
         return np.diag(self.params[4:6])
+
+    def reference_damping(self) -> np.ndarray:
+        """Return the dashpot beside the gap (moved into the linear modal damping)."""
+        return np.diag(self.params[6:8])
