@@ -329,8 +329,20 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         return ExitCode.INTERRUPTED
     except ModalTwinError as err:
-        print(f"modal-twin {a.cmd}: {err}", file=sys.stderr)
+        print(f"modal-twin {a.cmd}: {_one_line(err)}", file=sys.stderr)
         return ExitCode.USAGE
+    except UnicodeDecodeError as err:
+        print(f"modal-twin {a.cmd}: an input file is not UTF-8 text (binary or UTF-16?): "
+              f"{err.reason} at byte {err.start}", file=sys.stderr)
+        return ExitCode.USAGE
+    except Exception as err:  # unreadable or foreign input: one line, never a traceback
+        print(f"modal-twin {a.cmd}: {type(err).__name__}: {_one_line(err)}", file=sys.stderr)
+        return ExitCode.USAGE
+
+
+def _one_line(err: BaseException) -> str:
+    lines = str(err).strip().splitlines()
+    return lines[0][:500] if lines else ""
 
 
 if __name__ == "__main__":

@@ -25,16 +25,41 @@ import numpy as np
 
 from modal_twin.diagnosis.families import family_of, place_of
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
-from modal_twin.diagnosis.noise import ErrorFigures, error_figures
+from modal_twin.diagnosis.noise import ErrorFigures, error_figures, noise_floor
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.plant import Plant
 
-__all__ = ["figures_on", "judge", "rank"]
+__all__ = ["figures_on", "judge", "rank", "record_noise_floor"]
 
 LOWER_BY = 0.01  # training and held-out: at least 1 % lower
 WORSE_BY = 0.01  # other records: at most 1 % higher
 TIED = 0.05  # held-out errors within 5 % of the best are ranked by BIC
+
+
+def record_noise_floor(plant: Plant, rec: Record, *, seed: int = 0) -> np.ndarray:
+    """Noise floor of a model-versus-record comparison, per channel (fraction of RMS).
+
+    Two parts, added in quadrature: the sensors' own noise (:func:`.noise.noise_floor` of
+    the measured channels) and the response of the model to the noise of the measured
+    inputs (their floor, as white noise of the same RMS, driven through ``plant``): a model
+    driven by noisy inputs can do no better than that either.
+    """
+    sensors = noise_floor(rec.scored, rec.fs_hz)
+    sd_in = noise_floor(rec.inputs, rec.fs_hz) * np.sqrt(np.mean(rec.inputs**2, axis=1))
+    if not np.any(sd_in > 0):
+        return sensors
+    rng = np.random.default_rng(seed)
+    white = sd_in[:, None] * rng.standard_normal(rec.inputs.shape)
+    noisy = Record(rec.fs_hz, rec.input_names, white, rec.channel_names,
+                   np.zeros_like(rec.data), rec.source, rec.skip)
+    try:
+        y = simulate_record(plant, noisy)[:, rec.skip:]
+    except ModalTwinError:
+        return sensors
+    rms = np.sqrt(np.mean(rec.scored**2, axis=1))
+    from_inputs = np.sqrt(np.mean(y**2, axis=1)) / np.maximum(rms, 1e-300)
+    return np.clip(np.sqrt(sensors**2 + from_inputs**2), 0.0, 1.0)
 
 
 def figures_on(plant: Plant, records: Sequence[Record], noises: Sequence[np.ndarray]

@@ -44,9 +44,9 @@ from modal_twin.diagnosis.evidence import DeviceEvidence, device_evidence
 from modal_twin.diagnosis.families import FAMILY_LAWS
 from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
-from modal_twin.diagnosis.judge import figures_on, judge, rank
+from modal_twin.diagnosis.judge import figures_on, judge, rank, record_noise_floor
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
-from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures, noise_floor
+from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures
 from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter, screen_parameters
 from modal_twin.diagnosis.record import Record
 from modal_twin.diagnosis.screening import ScreenedCandidate, screen_components
@@ -204,7 +204,7 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     records, skipped = _common_channels(factory, records)
     train, test = records[0], records[1]
     nominal = factory.plant()
-    noises = [noise_floor(r.scored, r.fs_hz) for r in records]
+    noises = [record_noise_floor(nominal, r) for r in records]
     say("simulating the model on every record")
     before = figures_on(nominal, records, noises)
     pred_test = simulate_record(nominal, test)
@@ -391,7 +391,7 @@ def diagnose(
         say("refitting all effects found jointly")
         found = refit_jointly(factory, found, (records[0], *records[2:]))
     rec_c, _ = _common_channels(factory, records)
-    noises = [noise_floor(r.scored, r.fs_hz) for r in rec_c]
+    noises = [record_noise_floor(factory.plant(), r) for r in rec_c]
     final = factory
     for f in found:
         final = _apply(final, f)

@@ -15,8 +15,8 @@ import numpy as np
 
 from modal_twin.diagnosis.attachments import MOUNT_LAW, fit_attachment, screen_attachments
 from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
-from modal_twin.diagnosis.judge import figures_on, judge
-from modal_twin.diagnosis.noise import noise_floor, nrmse
+from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floor
+from modal_twin.diagnosis.noise import nrmse
 from modal_twin.diagnosis.parameters import PARAMETER_LAWS, ParameterCandidate, fit_parameter
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
 from modal_twin.diagnosis.record import Record
@@ -138,7 +138,7 @@ def add_effect(model_file: str | Path, component: str, law: str, start: dict[str
     factory = load_model(model_file)
     fitted = _fit(factory, component, law, start, train, test)
     records = [train, test, *levels]
-    noises = [noise_floor(r.scored, r.fs_hz) for r in records]
+    noises = [record_noise_floor(factory.plant(), r) for r in records]
     before = figures_on(factory.plant(), records, noises)
     plant = (factory.with_theta(fitted.effect.params).plant() if law in PARAMETER_LAWS
              else factory.plant([fitted.effect]))
