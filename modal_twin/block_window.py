@@ -47,7 +47,7 @@ class BlockWindow:
         self.n_samples = 0
 
     def follows(self, blk: SignalBlock) -> bool:
-        """True if ``blk`` continues the window (or the window is empty)."""
+        """Tell whether ``blk`` continues the window (or the window is empty)."""
         if not self.blocks:
             return True
         last = self.blocks[-1]
@@ -79,12 +79,13 @@ class BlockWindow:
         return continued
 
     def joined(self, last_s: float = 0.0) -> SignalBlock:
-        """The window as one block; ``last_s > 0``: only its last ``last_s`` seconds.
+        """Return the window as one block; ``last_s > 0``: only its last ``last_s`` seconds.
 
         Raises
         ------
         SignalError
             The window is empty.
+
         """
         if not self.blocks:
             msg = f"no {self.name} received yet"

@@ -110,12 +110,15 @@ class ChannelSpec:
         return self.role or default_role(self.name)
 
     def with_role(self, role: str) -> ChannelSpec:
-        """The same channel with another role."""
+        """Return the same channel with another role."""
         return replace(self, role=role)
 
 
 def direction_vector(direction: str) -> tuple[float, float, float] | None:
-    """Unit vector of a direction label (``x``, ``-y``, ``0.6,0.8,0``); None if not one."""
+    """Return the unit vector of a direction label (``x``, ``-y``, ``0.6,0.8,0``).
+
+    None if the label is not a direction.
+    """
     d = direction.strip().lower()
     sign = -1.0 if d.startswith("-") else 1.0
     axis = d.lstrip("+-")
@@ -133,7 +136,7 @@ def direction_vector(direction: str) -> tuple[float, float, float] | None:
 
 
 def channels_with_role(channels: Iterable[ChannelSpec], role: str) -> list[ChannelSpec]:
-    """The channels whose (effective) role is ``role``, in order."""
+    """Return the channels whose (effective) role is ``role``, in order."""
     if role not in ROLES:
         msg = f"role: expected one of {ROLES}, got {role!r}"
         raise ConfigError(msg)

@@ -79,7 +79,7 @@ def _pool(n: int) -> ProcessPoolExecutor:
 
 
 def _parse(spec: str | int) -> int | str:
-    """A worker count (``int``) or a Dask address (``str``); raises on anything else."""
+    """Return a worker count (``int``) or a Dask address (``str``); raises on anything else."""
     n = 0
     if isinstance(spec, int) and not isinstance(spec, bool):
         n = spec
@@ -100,7 +100,7 @@ def _parse(spec: str | int) -> int | str:
 
 @contextmanager
 def make_executor(spec: ExecutorSpec = None) -> Iterator[Executor]:
-    """The executor of ``spec`` (module table), shut down on leaving unless it was given.
+    """Return the executor of ``spec`` (module table), shut down on leaving unless it was given.
 
     Parameters
     ----------
@@ -116,6 +116,7 @@ def make_executor(spec: ExecutorSpec = None) -> Iterator[Executor]:
     ------
     OptionError
         An unknown spec, or ``N < 1``.
+
     """
     if isinstance(spec, Executor):
         yield spec
@@ -156,7 +157,7 @@ def map_ordered(executor: Executor, fn: Callable[[T], R], items: Iterable[T]) ->
 
 
 def mapper(executor: Executor) -> Callable[[Callable[[T], R], Iterable[T]], list[R]]:
-    """A ``map``-like callable on ``executor`` (e.g. for scipy's ``workers=``)."""
+    """Return a ``map``-like callable on ``executor`` (e.g. for scipy's ``workers=``)."""
 
     def _map(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
         return map_ordered(executor, fn, items)

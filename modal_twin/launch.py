@@ -208,7 +208,7 @@ class Launcher:
 
     # -- readiness ---------------------------------------------------------------------
     def _readers(self, topic: str) -> int:
-        """Launched processes (recorder included) that subscribe ``topic``."""
+        """Return launched processes (recorder included) that subscribe ``topic``."""
         n = int(self.record and topic in {t.partition(":")[0] for t in self.sc.record_topics})
         return n + sum(topic in NODE_ENDPOINTS.get(node.executable, ((), ()))[0]
                        for node in self.sc.nodes)
@@ -266,8 +266,10 @@ class Launcher:
             rclpy.try_shutdown(context=ctx)
 
     def _start_deferred(self, probe: Any, ctx: Context, end: float) -> str:
-        """Call ``~/start`` of each deferred excitation node: its first block goes out
-        only after every recorder and reader of the graph has matched.
+        """Call ``~/start`` of each deferred excitation node.
+
+        Its first block goes out only after every recorder and reader of the graph has
+        matched.
         """
         from modal_twin_msgs.msg import ExcitationCommand
         from modal_twin_msgs.srv import StartExcitation

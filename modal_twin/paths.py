@@ -29,5 +29,5 @@ def resolve_config(path: str | Path) -> Path:
 
 
 def config_roots() -> tuple[Path, ...]:
-    """The folders configuration files are looked up in (source tree, package share)."""
+    """Return the folders configuration files are looked up in (source tree, package share)."""
     return tuple(r for r in _ROOTS if r.is_dir())

@@ -67,7 +67,7 @@ def set_verbosity(level: Verbosity | int) -> None:
 
 
 def get_verbosity() -> Verbosity:
-    """The process-wide verbosity (library default QUIET)."""
+    """Return the process-wide verbosity (library default QUIET)."""
     return _LEVEL[0]
 
 

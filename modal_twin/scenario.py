@@ -101,8 +101,10 @@ _NODE_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}")
 
 
 def _check_nodes(p: Path, nodes: list[NodeSpec], allow_external: bool) -> None:
-    """Node names are plain ROS names (they become file names in the run folder);
-    executables are this package's nodes unless ``allow_external``.
+    """Check that node names are plain ROS names and executables this package's nodes.
+
+    Names become file names in the run folder; executables may be other programs only
+    with ``allow_external``.
     """
     for i, n in enumerate(nodes):
         if not _NODE_NAME.fullmatch(n.name):
@@ -112,6 +114,27 @@ def _check_nodes(p: Path, nodes: list[NodeSpec], allow_external: bool) -> None:
             raise _err(p, f"launch.nodes[{i}].executable",
                        f"expected one of this package's nodes {list(PACKAGE_EXECUTABLES)} "
                        f"(or --allow-external), got {n.executable!r}")
+
+
+def _node_spec(p: Path, doc: dict[str, Any], key: str, item: Any, nodes: list[NodeSpec]
+               ) -> NodeSpec:
+    """Check one entry of ``launch.nodes`` (against the nodes before it) and build it."""
+    if not isinstance(item, dict):
+        raise _err(p, key, "expected a mapping with 'name' and 'executable'")
+    unknown = sorted(set(item) - {"name", "executable", "args", "one_shot"})
+    if unknown:
+        raise _err(p, f"{key}.{unknown[0]}",
+                   "unknown key; valid: name, executable, args, one_shot")
+    for field in ("name", "executable"):
+        if not isinstance(item.get(field), str) or not item[field]:
+            raise _err(p, f"{key}.{field}", "missing or not a string")
+    if any(n.name == item["name"] for n in nodes):
+        raise _err(p, f"{key}.name", f"node name {item['name']!r} used twice")
+    args = item.get("args", [])
+    if not isinstance(args, list):
+        raise _err(p, f"{key}.args", "expected a list of strings")
+    return NodeSpec(item["name"], item["executable"], _params(p, doc, item["name"]),
+                    tuple(str(a) for a in args), bool(item.get("one_shot", False)))
 
 
 def load_scenario(path: str | Path, *, allow_external: bool = False) -> Scenario:
@@ -135,25 +158,7 @@ def load_scenario(path: str | Path, *, allow_external: bool = False) -> Scenario
         raise _err(p, "launch.nodes", "expected a non-empty list of {name, executable}")
     nodes: list[NodeSpec] = []
     for i, item in enumerate(raw_nodes):
-        key = f"launch.nodes[{i}]"
-        if not isinstance(item, dict):
-            raise _err(p, key, "expected a mapping with 'name' and 'executable'")
-        unknown = sorted(set(item) - {"name", "executable", "args", "one_shot"})
-        if unknown:
-            raise _err(p, f"{key}.{unknown[0]}",
-                       "unknown key; valid: name, executable, args, one_shot")
-        for field in ("name", "executable"):
-            if not isinstance(item.get(field), str) or not item[field]:
-                raise _err(p, f"{key}.{field}", "missing or not a string")
-        if any(n.name == item["name"] for n in nodes):
-            raise _err(p, f"{key}.name", f"node name {item['name']!r} used twice")
-        args = item.get("args", [])
-        if not isinstance(args, list):
-            raise _err(p, f"{key}.args", "expected a list of strings")
-        nodes.append(NodeSpec(
-            item["name"], item["executable"], _params(p, doc, item["name"]),
-            tuple(str(a) for a in args), bool(item.get("one_shot", False)),
-        ))
+        nodes.append(_node_spec(p, doc, f"launch.nodes[{i}]", item, nodes))
     names = {n.name for n in nodes}
     stray = sorted(k for k in doc if k not in names and k not in {"launch", "/**"})
     if stray:
@@ -186,7 +191,10 @@ def load_scenario(path: str | Path, *, allow_external: bool = False) -> Scenario
 
 
 def with_parameters(sc: Scenario, node: str, **params: Any) -> Scenario:
-    """A copy of ``sc`` with parameters of ``node`` replaced (ConfigError if not launched)."""
+    """Return a copy of ``sc`` with parameters of ``node`` replaced.
+
+    (ConfigError if not launched).
+    """
     from dataclasses import replace
 
     names = [n.name for n in sc.nodes]

@@ -92,8 +92,9 @@ def _model_frf(structure: Path, names: list[str], f_hz: np.ndarray) -> np.ndarra
 
 
 def _identification(bag: Path, structure: Path) -> dict[str, Any]:
-    """Modes of a (low-level) record by N4SID, paired with the model's; measured vs model
-    FRF to table x (H1, Welch).
+    """Identify the modes of a (low-level) record by N4SID and pair them with the model's.
+
+    Also the measured vs model FRF to table x (H1, Welch).
     """
     import scipy.signal as ss
 

@@ -50,8 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _by_label(dofs: tuple[dict[str, object], ...], labels: tuple[str, ...]
               ) -> np.ndarray | None:
-    """Model DOFs of the shape entries from their node and direction (``"12:z"`` or
-    ``"12:uz"`` labels), or None when any entry has no match.
+    """Model DOFs of the shape entries from their node and direction.
+
+    (``"12:z"`` or ``"12:uz"`` labels), or None when any entry has no match.
     """
     index = {lab: k for k, lab in enumerate(labels)}
     out = []

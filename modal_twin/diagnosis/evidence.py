@@ -91,8 +91,10 @@ class CycleFeatures:
 
 
 def velocity_cutoff(u: FloatArray, fs_hz: float) -> float:
-    """Low-pass edge for differentiating a drift: twice the frequency below which 99 % of
-    its power lies (Welch, Hann window; never above 0.45 fs), derived from the record.
+    """Low-pass edge for differentiating a drift.
+
+    Twice the frequency below which 99 % of its power lies (Welch, Hann window; never above
+    0.45 fs), derived from the record.
     """
     x = np.atleast_2d(u)
     nper = int(min(x.shape[-1], 4096))
@@ -105,8 +107,10 @@ def velocity_cutoff(u: FloatArray, fs_hz: float) -> float:
 
 
 def turning_points(u: FloatArray, threshold: float) -> FloatArray:
-    """Indices of the peaks and valleys of ``u`` that stand ``threshold`` above / below
-    their neighbours (ripples smaller than that are not cycles); the first sample leads.
+    """Return the indices of the peaks and valleys of ``u``.
+
+    Only those that stand ``threshold`` above / below their neighbours count (ripples
+    smaller than that are not cycles); the first sample leads.
     """
     ext = [0]
     cand, trend = 0, 0
@@ -156,7 +160,7 @@ def cycle_features(u: FloatArray, f: FloatArray, v: FloatArray, k: float, c: flo
 
 def _columns(u: FloatArray, v: FloatArray, a99: float, vrms: float
              ) -> dict[str, list[tuple[str, FloatArray]]]:
-    """The candidate state functions of one direction, grouped by family."""
+    """Return the candidate state functions of one direction, grouped by family."""
     cols: dict[str, list[tuple[str, FloatArray]]] = {g: [] for g in FAMILY_GROUPS}
     cols["stiffness"].append(("u", u))
     cols["damping"].append(("v", v))
@@ -206,9 +210,10 @@ class DeviceEvidence:
     notes: tuple[str, ...] = field(default_factory=tuple)
 
     def family_scores(self) -> dict[str, float]:
-        """Family (hysteresis, friction, softening, hardening, gap, stiffness, damping) ->
-        score in [0, 1]: the share of the residual it explains alone, zero when not
-        significant.
+        """Family (hysteresis, friction, softening, hardening, gap, stiffness.
+
+        Damping) -> score in [0, 1]: the share of the residual it explains alone, zero when
+        not significant.
         """
         out: dict[str, float] = {}
         for g, s in self.alone.items():

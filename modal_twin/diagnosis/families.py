@@ -47,11 +47,12 @@ _LAW_FAMILY = {
 
 def family_of(effect: EffectSpec, *, nominal_k: float | None = None,
               nominal_c: float | None = None, drift_scale: float | None = None) -> str:
-    """The family of what a fitted effect does (module docstring).
+    """Return the family of what a fitted effect does (module docstring).
 
     A bilinear hysteretic law whose elastic range ``ub`` is below 5 % of the drift it sees
     (``drift_scale``, e.g. its 99th percentile) is a slider that sticks and slips beside
     a spring: friction; with a wider elastic range it yields gradually: hysteresis.
+
     """
     law, p = effect.law, effect.params
     if law == "bilinear_hysteretic" and drift_scale and \
@@ -73,8 +74,10 @@ def family_of(effect: EffectSpec, *, nominal_k: float | None = None,
 
 
 def place_of(effect: EffectSpec) -> str:
-    """Where an effect sits: its component, or for a parameter its place in the name
-    (``m_F2`` -> ``F2``, ``kcol_1A`` -> ``1A``).
+    """Where an effect sits.
+
+    Its component, or for a parameter its place in the name (``m_F2`` -> ``F2``, ``kcol_1A`` ->
+    ``1A``).
     """
     comp = effect.component
     if effect.law in ("added_mass", "stiffness", "damping") and "_" in comp:

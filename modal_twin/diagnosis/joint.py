@@ -69,8 +69,9 @@ def _pieces(factory: ModelFactory, f: FittedEffect) -> Piece | None:
 def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
                   train: Record | Sequence[Record], *,
                   decimate: int = 5, max_nfev: int = 30) -> list[FittedEffect]:
-    """``found`` with the parameters of its device-law and parameter effects refitted
-    together on ``train``; unchanged when the joint fit does not lower the training error.
+    """``found`` with the parameters of its device-law and parameter effects refitted together.
+
+    On ``train``; unchanged when the joint fit does not lower the training error.
     """
     parts = [(_pieces(factory, f), f) for f in found]
     free = [(p, f) for p, f in parts if p is not None]

@@ -73,8 +73,9 @@ def figures_on(plant: Plant, records: Sequence[Record], noises: Sequence[np.ndar
 
 
 def _worse_tol(rec: Record) -> float:
-    """How much higher an error may come out on a record before it counts as worse: three
-    standard errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %.
+    """How much higher an error may come out on a record before it counts as worse.
+
+    Three standard errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %.
     """
     return max(WORSE_BY, 3.0 / np.sqrt(2.0 * rec.scored.shape[-1]))
 

@@ -1,6 +1,8 @@
-"""Diagnosis node: buffers /measurement/frames, diagnoses on request or on a schedule,
-publishes /diagnosis/report; ``~/add_effect`` fits an effect, writes model version n+1 and
-publishes it on /model/parameters so the twin loads it live.
+"""Diagnosis node.
+
+Buffers /measurement/frames, diagnoses on request or on a schedule, publishes /diagnosis/report;
+``~/add_effect`` fits an effect, writes model version n+1 and publishes it on /model/parameters so
+the twin loads it live.
 """
 
 from __future__ import annotations

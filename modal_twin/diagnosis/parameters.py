@@ -154,20 +154,22 @@ def _positions(factory: ModelFactory, name: str) -> list[dict[str, float]]:
 
 
 def _companions(factory: ModelFactory, name: str) -> list[str]:
-    """The position parameters fitted together with an added mass (``madd_R_x``, ``_y``)."""
+    """Return the position parameters fitted together with an added mass (``madd_R_x``, ``_y``)."""
     values = factory.parameters()
     return [n for n in (f"{name}_x", f"{name}_y") if n in values]
 
 
 def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Records,
                   test: Record, *, decimate: int = 5, max_nfev: int = 30) -> FittedEffect:
-    """Fit one parameter (an added mass with its plan position) by simulation on ``train``,
-    judge on ``test``.
+    """Fit one parameter (an added mass with its plan position) by simulation on ``train``.
+
+    Judge on ``test``.
 
     Raises
     ------
     OptionError
         A start outside the physical range (negative mass or modulus).
+
     """
     t0 = time.perf_counter()
     prefixes = tuple(getattr(factory, "parameter_prefixes", tuple(KINDS)))

@@ -197,8 +197,10 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
                    gain_threshold: float = 0.01, n_families: int = 2,
                    progress: Callable[[str], None] | None = None, mapper: Mapper = map,
                    exclude: Iterable[tuple[str, str]] = ()) -> Diagnosis:
-    """One round on ``factory``'s model: ``records[0]`` trains, ``records[1]`` is held out,
-    the rest are other levels the result must not be worse on (module docstring).
+    """One round on ``factory``'s model.
+
+    ``records[0]`` trains, ``records[1]`` is held out, the rest are other levels the result
+    must not be worse on (module docstring).
     """
     say = progress or (lambda s: None)
     records, skipped = _common_channels(factory, records)
@@ -358,9 +360,11 @@ def diagnose(
     joint: bool = True,
     **_ignored: object,
 ) -> Diagnosis:
-    """Diagnose ``factory``'s model (any version) against a training and a held-out record
-    and any other records (``levels``, e.g. a low-level run): rounds while the model still
-    fails and a candidate is accepted, then a joint refit of everything found.
+    """Diagnose ``factory``'s model.
+
+    (any version) against a training and a held-out record and any other records (``levels``,
+    e.g. a low-level run): rounds while the model still fails and a candidate is accepted, then
+    a joint refit of everything found.
 
     Parameters
     ----------
@@ -371,6 +375,7 @@ def diagnose(
     mapper : callable
         ``map``-like function the fits go through (``Executor.map`` for a process pool or
         a Dask cluster); the default runs them one after another.
+
     """
     say = progress or (lambda s: None)
     records = [train, test, *levels]
@@ -409,7 +414,7 @@ def diagnose(
 
 
 def fitted_effects(d: Diagnosis) -> list[EffectSpec]:
-    """The effects a version written from ``d`` carries (parameter changes excluded)."""
+    """Return the effects a version written from ``d`` carries (parameter changes excluded)."""
     return [f.effect for f in d.found if f.effect.law not in ("added_mass", "stiffness",
                                                                 "damping")]
 

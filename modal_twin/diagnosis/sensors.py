@@ -76,7 +76,7 @@ def screen_sensors(names: Sequence[str], measured: FloatArray, predicted: FloatA
 
 def fit_sensor(factory: ModelFactory, cand: SensorCandidate, train: Record, test: Record
                ) -> FittedEffect:
-    """The sensor effect of ``cand`` as a fitted candidate (errors on both records)."""
+    """Return the sensor effect of ``cand`` as a fitted candidate (errors on both records)."""
     t0 = time.perf_counter()
     key = "gain" if cand.law == "sensor_gain" else "angle_deg"
     effect = EffectSpec(cand.channel, cand.law, {key: cand.value})

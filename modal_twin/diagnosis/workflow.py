@@ -36,7 +36,7 @@ __all__ = [
 
 
 def _factory(mv: ModelVersion) -> ModelFactory:
-    """The factory of a version held in memory (its effects are passed to ``plant``)."""
+    """Return the factory of a version held in memory (its effects are passed to ``plant``)."""
     return load_model(mv.structure, theta=mv.theta or None)
 
 
@@ -57,10 +57,12 @@ def diagnose_model(model_file: str | Path, train: Record, test: Record,
 
 def choose_start(factory: ModelFactory, component: str, law: str, train: Record
                  ) -> dict[str, float]:
-    """Starting parameters of ``law`` at ``component`` from the training record: the best
-    mount frequency of the screening grid, a parameter's current value, or the middle of a
-    device law's grid scaled to the measured drift and force. One rule for the command line
-    and the diagnosis node.
+    """Return starting parameters of ``law`` at ``component`` from the training record.
+
+    The best mount frequency of the screening grid, a parameter's current value, or the middle
+    of a device law's grid scaled to the measured drift and force. One rule for the command
+    line and the diagnosis node.
+
     """
     if law == MOUNT_LAW:
         best = [c for c in screen_attachments(factory, train) if c.component == component]
@@ -124,15 +126,17 @@ def _write(base: ModelVersion, found: Sequence[FittedEffect], test: Record,
 def add_effect(model_file: str | Path, component: str, law: str, start: dict[str, float],
                train: Record, test: Record, folder: str | Path, *,
                levels: Sequence[Record] = ()) -> tuple[ModelVersion, FittedEffect]:
-    """Fit ``law`` at ``component`` with the model's own effects in place and write the
-    result as the next version in ``folder`` (the model as given becomes the first version
-    if the folder is empty). Each version stores its per-channel held-out NRMSE.
+    """Fit ``law`` at ``component`` with the model's own effects in place and write the result.
+
+    As the next version in ``folder`` (the model as given becomes the first version if the
+    folder is empty). Each version stores its per-channel held-out NRMSE.
 
     Raises
     ------
     OptionError
         Unknown component / law, or the fitted effect does not lower the error on the
         training and held-out records or makes another record worse (nothing is written).
+
     """
     base = read_version(model_file)
     factory = load_model(model_file)
@@ -153,8 +157,10 @@ def add_effect(model_file: str | Path, component: str, law: str, start: dict[str
 
 def add_diagnosed(model_file: str | Path, d: Diagnosis, test: Record, folder: str | Path
                   ) -> ModelVersion | None:
-    """Write every effect the diagnosis ``d`` found (accepted, unflagged, jointly refitted)
-    as the next version; None when it found nothing to add.
+    """Write every effect the diagnosis ``d`` found.
+
+    (accepted, unflagged, jointly refitted) as the next version; None when it found nothing to
+    add.
     """
     if not d.found:
         return None

@@ -48,7 +48,10 @@ class DrivePlayer:
         self.t0_s, self.t0_ns = now_s, now_ns
 
     def due(self, now_s: float) -> list[SignalBlock]:
-        """The blocks due by ``now_s`` that were not handed out yet (last one may be short)."""
+        """Return the blocks due by ``now_s`` that were not handed out yet.
+
+        (last one may be short).
+        """
         if self.t0_s is None:
             return []
         cfg, n_total = self.cfg, self.n_samples

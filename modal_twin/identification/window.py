@@ -117,12 +117,13 @@ def identify_window(
 
 def run_config(cfg: IdentificationConfig, method: str = "", max_order: int = 0,
                window_s: float = 0.0) -> tuple[IdentificationConfig, float]:
-    """The configuration and window of one run request (empty / 0 fields: ``cfg``'s).
+    """Return the configuration and window of one run request (empty / 0 fields: ``cfg``'s).
 
     Raises
     ------
     OptionError, ConfigError
         A field outside its limits (:data:`~modal_twin.validation.LIMITS`), named.
+
     """
     order = int(check_field(max_order, "max_order", "max_order"))
     win = check_field(window_s, "window_s", "window_s")

@@ -86,7 +86,7 @@ def apply_map(channels: list[ChannelSpec], user: list[ChannelSpec], given: list[
 
 
 def map_keys(path: str | Path) -> list[set[str]]:
-    """The keys each channel of a map file states (for :func:`apply_map`)."""
+    """Return the keys each channel of a map file states (for :func:`apply_map`)."""
     p = Path(path)
     d = json.loads(p.read_text()) if p.suffix.lower() == ".json" else read_yaml(p, "map")
     return [set(r) for r in d.get("channels", [])]

@@ -42,7 +42,7 @@ CHANNELS = "/measurement/channels"
 
 @contextmanager
 def atomic_dir(target: str | Path) -> Iterator[Path]:
-    """A temporary folder renamed to ``target`` on success, removed on failure."""
+    """Return a temporary folder renamed to ``target`` on success, removed on failure."""
     t = Path(target)
     if t.exists():
         msg = f"{t} exists already; choose a new path"
@@ -59,7 +59,7 @@ def atomic_dir(target: str | Path) -> Iterator[Path]:
 
 @contextmanager
 def atomic_file(target: str | Path) -> Iterator[Path]:
-    """A temporary file path renamed to ``target`` on success, removed on failure."""
+    """Return a temporary file path renamed to ``target`` on success, removed on failure."""
     t = Path(target)
     t.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{t.name}.", suffix=t.suffix, dir=t.parent)
@@ -143,10 +143,11 @@ def write_side_files(out: str | Path, extra_files: dict[str, Any]) -> Path:
 
 
 def read_imported(bag: str | Path) -> tuple[SignalBlock, list[ChannelSpec]]:
-    """The record of a bag as one block and its channel map.
+    """Return the record of a bag as one block and its channel map.
 
     The map comes from ``channel_map.json`` when the bag has one, else from the
     channel names (:func:`modal_twin.channels.default_role`).
+
     """
     from modal_twin.io.bag import read_blocks
     from modal_twin.io.channel_map import read_channel_map

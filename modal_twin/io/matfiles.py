@@ -174,7 +174,7 @@ def load_bridge_published(folder: str | Path | None = None, formulation: int = 1
 
 
 def load_matrix_model(path: str | Path) -> MatrixModel:
-    """A :class:`~modal_twin.models.matrix_model.MatrixModel` from a ``.mat`` or ``.npz``.
+    """Return a :class:`~modal_twin.models.matrix_model.MatrixModel` of a .mat / .npz file.
 
     The pedestrian-bridge file (its 17 substructures) gets the parameter order and bounds
     of :func:`load_bridge` (the project's published bounds).
@@ -185,6 +185,7 @@ def load_matrix_model(path: str | Path) -> MatrixModel:
         Not a readable ``.mat`` / ``.npz`` file.
     ModelError, ShapeError
         See :func:`~modal_twin.models.matrix_model.matrix_model_from_arrays`.
+
     """
     p = Path(path)
     arrays: dict[str, object]

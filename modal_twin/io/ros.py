@@ -126,8 +126,10 @@ def one_line(err: BaseException, limit: int = 300) -> str:
 
 
 def guarded(node: Node, what: str, fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Wrap a subscription or timer callback: any exception is one logged line, and the
-    node keeps running (a hostile message never ends a node).
+    """Wrap a subscription or timer callback.
+
+    Any exception is one logged line, and the node keeps running (a hostile message never ends
+    a node).
     """
 
     def call(*args: Any) -> Any:
@@ -143,8 +145,10 @@ def guarded(node: Node, what: str, fn: Callable[..., Any]) -> Callable[..., Any]
 
 def guarded_service(node: Node, what: str, fn: Callable[[Any, Any], Any],
                     ok_field: str = "success") -> Callable[[Any, Any], Any]:
-    """Wrap a service callback: any exception answers ``ok_field = False`` with a one-line
-    ``message`` naming the field, is logged once, and the node keeps running.
+    """Wrap a service callback.
+
+    Any exception answers ``ok_field = False`` with a one-line ``message`` naming the field, is
+    logged once, and the node keeps running.
     """
 
     def call(req: Any, res: Any) -> Any:

@@ -61,8 +61,11 @@ class BuildingFactory:
         self.sites = {d.name: d for d in self.bld.spec.devices}
 
     def with_theta(self, changes: Mapping[str, float]) -> BuildingFactory:
-        """A factory of the same structure with some parameter values changed: the assembly
-        is shared (K(theta) is parametric), only the modal reduction is redone.
+        """Return a factory of the same structure with some parameter values changed.
+
+        The assembly is shared (K(theta) is parametric), only the modal reduction is
+        redone.
+
         """
         new = copy.copy(self)
         new.theta = {**self.theta, **changes}
@@ -70,9 +73,12 @@ class BuildingFactory:
         return new
 
     def parameters(self) -> dict[str, float]:
-        """Current value of every model parameter: the assembly's ``theta`` (moduli, device
-        rates, floor masses, group and link factors), then the damping and added-mass
-        parameters (:mod:`~modal_twin.models.building_parameters`).
+        """Return current value of every model parameter.
+
+        The assembly's ``theta`` (moduli, device rates, floor masses, group and link
+        factors), then the damping and added-mass parameters
+        (:mod:`~modal_twin.models.building_parameters`).
+
         """
         par = self.bld.assembly.parametric
         out = {n: float(v) for n, v in zip(par.names, par.theta_vector(
@@ -82,18 +88,22 @@ class BuildingFactory:
         return out
 
     def parameter_info(self, name: str) -> ParameterInfo:
-        """Kind (stiffness / mass / damping), place, nominal value and plausible bounds of a
-        parameter, e.g. ``kcol_1A`` -> stiffness at "column line 1A".
+        """Kind (stiffness / mass / damping), place.
+
+        Nominal value and plausible bounds of a parameter, e.g. ``kcol_1A`` -> stiffness at
+        "column line 1A".
 
         Raises
         ------
         OptionError
             Unknown name.
+
         """
         return parameter_info(self.bld, name, omega=self.mb.omega)
 
     def attachments(self) -> tuple[str, ...]:
-        """Rigidly attached masses that an ``elastic_mount`` effect could hang on springs
+        """Rigidly attached masses that an ``elastic_mount`` effect could hang on springs.
+
         (none in a building structure file).
         """
         return ()
@@ -103,7 +113,7 @@ class BuildingFactory:
         return float(max(self.weights[self.bld.device_names.index(component)], 0.0))
 
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
-        """The plant with ``effects`` placed at their components."""
+        """Return the plant with ``effects`` placed at their components."""
         bld = self.bld
         effects, sensors = split_sensor_effects(merge_effects(self.base_effects, effects))
         devices: dict[str, Device] = {}

@@ -1,5 +1,7 @@
-"""What a model parameter is and where it acts: :class:`ParameterInfo` (shared by the building
-and the vehicle factories, read by the diagnosis to name a candidate's family and place).
+"""What a model parameter is and where it acts.
+
+:class:`ParameterInfo` (shared by the building and the vehicle factories, read by the diagnosis to
+name a candidate's family and place).
 """
 
 from __future__ import annotations

@@ -1,5 +1,7 @@
-"""The channel map of a rig file: measured table inputs, then the structure's sensors,
-each with the rig's sensitivity for its quantity (what the acquisition calibrates with).
+"""The channel map of a rig file.
+
+Measured table inputs, then the structure's sensors, each with the rig's sensitivity for its
+quantity (what the acquisition calibrates with).
 """
 
 from __future__ import annotations
@@ -14,8 +16,9 @@ __all__ = ["rig_channels", "table_channels", "with_sensitivity"]
 
 
 def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
-    """Channels of a rig (table inputs, then the structure's), with the rig's
-    sensitivities per quantity: the channel map the acquisition applies.
+    """Channels of a rig (table inputs, then the structure's).
+
+    With the rig's sensitivities per quantity: the channel map the acquisition applies.
     """
     from modal_twin.models.loading import load_model
 
@@ -25,8 +28,9 @@ def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
 
 
 def table_channels(plant: Plant) -> tuple[ChannelSpec, ...]:
-    """Measured input channels ``table_<input>`` of a plant (table motion, track
-    irregularity), each with the plant's quantity for it.
+    """Measured input channels ``table_<input>`` of a plant.
+
+    (table motion, track irregularity), each with the plant's quantity for it.
     """
     return tuple(ChannelSpec(f"table_{n}", q, "table", n.removeprefix("a"))
                  for n, q in zip(plant.input_names, plant.input_quantities, strict=True))

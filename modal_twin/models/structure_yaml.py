@@ -687,8 +687,10 @@ def _listed(cx: _Ctx, g: Mapping[str, Any], key: str, where: str, valid: Sequenc
 
 def _group_selector(cx: _Ctx, g: Mapping[str, Any], where: str,
                     floors: tuple[FloorSpec, ...]) -> Any:
-    """Return ``match(n1, n2, section) -> bool`` of a group's ``nodes`` / ``between`` /
-    ``sections`` (an element matches every selector given; none given: nothing matches).
+    """Return ``match(n1, n2.
+
+    Section) -> bool`` of a group's ``nodes`` / ``between`` / ``sections`` (an element matches
+    every selector given; none given: nothing matches).
     """
     pats = g.get("nodes")
     between = g.get("between")

@@ -80,13 +80,16 @@ class VehicleFactory:
         return {n: parameter_value(spec, n) for n in theta_names(spec)}
 
     def parameter_info(self, name: str) -> ParameterInfo:
-        """Kind (stiffness / mass / damping), place, nominal value (the file's) and plausible
-        bounds of a parameter, from its prefix (:data:`_PREFIX_INFO`).
+        """Kind (stiffness / mass / damping), place, nominal value.
+
+        (the file's) and plausible bounds of a parameter, from its prefix
+        (:data:`_PREFIX_INFO`).
 
         Raises
         ------
         OptionError
             Unknown name.
+
         """
         if name not in theta_names(self.spec):
             msg = f"parameter: expected one of {list(theta_names(self.spec))}, got {name!r}"

@@ -1,5 +1,7 @@
-"""Simulated test rig: a truth model (which may carry effects the nominal model lacks)
-driven by the drive signal, with sensor noise and sensitivities, producing raw blocks.
+"""Simulated test rig.
+
+A truth model (which may carry effects the nominal model lacks) driven by the drive signal, with
+sensor noise and sensitivities, producing raw blocks.
 """
 
 from __future__ import annotations
@@ -17,8 +19,10 @@ __all__ = ["TruthRig", "rig_channels", "table_channels", "with_sensitivity"]
 
 
 class TruthRig:
-    """Turn drive blocks into raw measurement blocks: the measured table inputs
-    (``table_<input>``) then the plant's channels; raw = sensitivity x (SI + noise).
+    """Turn drive blocks into raw measurement blocks.
+
+    The measured table inputs (``table_<input>``) then the plant's channels; raw = sensitivity
+    x (SI + noise).
 
     Parameters
     ----------
@@ -30,6 +34,7 @@ class TruthRig:
         Sensor noise RMS per quantity (SI), e.g. ``{"acceleration": 0.002}``.
     seed : int
         Noise seed.
+
     """
 
     def __init__(self, plant: Plant, dt: float, *, noise_rms: dict[str, float] | None = None,

@@ -137,9 +137,11 @@ def pairs_table(upd: ModelUpdate) -> list[tuple[int, int, float, float, float, f
 
 
 def isolation_split_hz(bld: BuildingModel, theta: FloatArray | None = None) -> float:
-    """The frequency between a building's isolation modes and its superstructure modes: the
-    geometric mean of the model's last isolation mode and first superstructure mode
+    """Return the frequency between a building's isolation modes and its superstructure modes.
+
+    The geometric mean of the model's last isolation mode and first superstructure mode
     (``damping.n_isolation_modes`` of the structure file).
+
     """
     n = int(bld.spec.damping.n_isolation_modes)
     par = bld.assembly.parametric

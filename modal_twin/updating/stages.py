@@ -118,7 +118,7 @@ def _stage_problem(
     par: ParametricMatrices, S: Matrix | IntArray, targets: ModeTargets, st: Stage,
     th: FloatArray, *, n_modes: int | None, r_f: float, r_mac: float,
 ) -> UpdatingProblem:
-    """The updating problem of one stage at the current estimate ``th``."""
+    """Return the updating problem of one stage at the current estimate ``th``."""
     if not st.parameters:
         msg = f"stage {st.name!r}: expected at least one parameter, got none"
         raise OptionError(msg)

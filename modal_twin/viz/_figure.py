@@ -18,7 +18,7 @@ _QUANTITY = {"d": "drift", "f": "force", "v": "velocity", "a": "acceleration"}
 
 
 def new_figure(width_in: float, height_in: float) -> Figure:
-    """A figure on its own Agg canvas (constrained layout: labels are never cut)."""
+    """Return a figure on its own Agg canvas (constrained layout: labels are never cut)."""
     fig = Figure(figsize=(width_in, height_in), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
@@ -60,8 +60,9 @@ def short_labels(labels: Sequence[str], width: int = 14) -> list[str]:
 
 
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
-    """Write ``fig`` as a PNG at ``path`` (parents made) and return the path: the command
-    line's figures are the report's, written to files.
+    """Write ``fig`` as a PNG at ``path`` (parents made) and return the path.
+
+    The command line's figures are the report's, written to files.
     """
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -1,10 +1,13 @@
-"""Error history of a model line: one point per version, channels grouped so that many
-channels stay readable ("add the effect and watch the error fall").
+"""Error history of a model line.
+
+One point per version, channels grouped so that many channels stay readable ("add the effect and
+watch the error fall").
 
 One small panel per direction / quantity group (acceleration x, y, z, drift, force ...);
 in each, the median over the channels of the group as a line with the 10-90 % band, and
 the worst place of the group named. Legend outside the panels, labels never cut
 (constrained layout).
+
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ def _group_key(name: str) -> str:
 
 def error_history_figure(labels: Sequence[str], errors: Sequence[Mapping[str, float]], *,
                          metric: str = "held-out NMSE, %") -> Figure:
-    """Small multiples of the per-channel error against model version.
+    r"""Small multiples of the per-channel error against model version.
 
     Parameters
     ----------
@@ -87,7 +90,7 @@ def error_history_figure(labels: Sequence[str], errors: Sequence[Mapping[str, fl
 
 
 def version_labels(notes: Sequence[tuple[str, str]], width: int = 18) -> list[str]:
-    """``"v1\\n<note cut to width>"`` for each (label, note)."""
+    r"""``"v1\\n<note cut to width>"`` for each (label, note)."""
     return [f"{lab}\n{note[:width]}" for lab, note in notes]
 
 

@@ -1,5 +1,6 @@
-"""Device hysteresis loops, measured vs model: force against drift, one panel per device
-and direction (the picture of Figs. 10-12 of [004]).
+"""Device hysteresis loops, measured vs model.
+
+Force against drift, one panel per device and direction (the picture of Figs. 10-12 of [004]).
 """
 
 from __future__ import annotations

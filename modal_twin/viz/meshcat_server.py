@@ -183,7 +183,7 @@ def send_commands(zmq_url: str, commands: Sequence[Any], *, timeout_s: float = 1
 
 
 def get_scene_html(zmq_url: str, *, timeout_s: float = 10.0) -> str:
-    """The static HTML of the scene the server holds (meshcat's ``get_scene``)."""
+    """Return the static HTML of the scene the server holds (meshcat's ``get_scene``)."""
     import zmq
 
     sock: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.REQ)

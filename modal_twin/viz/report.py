@@ -1,11 +1,14 @@
-"""The run report: one self-contained HTML file (figures as base64 PNG, CSS inline, the
-3D scene as an inline ``srcdoc``; nothing is fetched from a network).
+"""The run report.
+
+One self-contained HTML file (figures as base64 PNG, CSS inline, the 3D scene as an inline
+``srcdoc``; nothing is fetched from a network).
 
 :class:`RunData` holds plain data (arrays, result objects, model versions) gathered by the
 command line (:mod:`modal_twin.commands.report` reads a run folder); :func:`render_report`
 turns it into HTML with one section per kind of data present, in the order of the loop of
 the design card: the 3D scene, identification (stabilization diagram, modes table, MAC),
 FRF overlay, where the model fails, evidence, hysteresis loops, error history.
+
 """
 
 from __future__ import annotations
@@ -189,7 +192,7 @@ def _scene(d: RunData) -> str:
 
 
 def render_report(d: RunData) -> str:
-    """The HTML of the report (sections without data are left out)."""
+    """Return the HTML of the report (sections without data are left out)."""
     sections = [("scene", "3D scene", _scene(d)),
                 ("identification", "identification", _identification(d)),
                 ("frf", "FRF overlay", _frf(d)),

@@ -123,7 +123,7 @@ def building_geometry(structure_file: str | Path) -> StructureGeometry:
 
 
 def building_modes(structure_file: str | Path, n_modes: int = 6) -> SceneModes:
-    """The lowest ``n_modes`` model modes of a structure file, on all its nodes."""
+    """Return the lowest ``n_modes`` model modes of a structure file, on all its nodes."""
     from modal_twin.models.building import modal_reduction
 
     bld = _building(str(Path(structure_file).resolve()))
@@ -298,7 +298,7 @@ def _command_js(cmd: Any) -> str:
 
 def overlay_html(geom: StructureGeometry, modes: SceneModes | None,
                  blamed: Mapping[str, str] | None = None) -> str:
-    """The caption of the scene: modes with f and zeta, blamed places with their family."""
+    """Return the caption of the scene: modes with f and zeta, blamed places with their family."""
     items = [f"<b>{html.escape(geom.name)}</b>: structure at the right (sensors blue, "
              "devices green), modes from right to left"]
     if modes is not None:

@@ -25,9 +25,10 @@ Groups = Mapping[str, tuple[str, str, str]]
 
 def channel_groups(names: Sequence[str], meta: Groups | None = None
                    ) -> list[tuple[str, str, str]]:
-    """(place, direction, quantity) of each channel: from ``meta`` (the channel map's
-    location / direction / quantity) where given, else from the name
-    (:func:`~modal_twin.viz._figure.channel_parts`).
+    """(place, direction, quantity) of each channel.
+
+    From ``meta`` (the channel map's location / direction / quantity) where given, else from
+    the name (:func:`~modal_twin.viz._figure.channel_parts`).
     """
     meta = meta or {}
     return [meta[n] if n in meta else channel_parts(n) for n in names]

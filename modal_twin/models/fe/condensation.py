@@ -1,4 +1,4 @@
-"""Exact static condensation of the massless DOFs of a parametric model.
+r"""Exact static condensation of the massless DOFs of a parametric model.
 
 A DOF without mass and damping carries no inertia: in ``K phi = omega^2 M phi`` its rows
 read ``K_IB phi_B + K_II phi_I = 0``, so ``phi_I = -K_II^-1 K_IB phi_B`` and the
@@ -72,11 +72,14 @@ def _massless(par: ParametricMatrices) -> BoolArray:
 
 def _row_param(par: ParametricMatrices, K0: sp.csr_array, dK: list[sp.csr_array | None]
                ) -> IntArray:
-    """Per DOF: the one parameter whose elements make its whole row of K (``-1``: no
-    parameter), or ``-2`` where the row mixes parameters or fixed and scaled stiffness.
+    """Per DOF.
+
+    The one parameter whose elements make its whole row of K (``-1``: no parameter), or ``-2``
+    where the row mixes parameters or fixed and scaled stiffness.
 
     Two coupled rows labelled ``p`` and ``q >= -1`` must share the label (K is symmetric),
     so a connected group of labelled rows scales with one parameter.
+
     """
     n = K0.shape[0]
     touch = np.zeros(n, dtype=np.int64)

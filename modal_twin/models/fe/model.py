@@ -70,10 +70,13 @@ def skew(r: FloatArray) -> FloatArray:
 
 
 def rigid_body_mass_block(r: FloatArray, J: FloatArray, m: float = 1.0) -> FloatArray:
-    """Return the 6x6 mass of a body (mass ``m``, rotary inertia ``J`` about its centre)
-    at offset ``r`` from a reference point, on the point's ``(u, theta)``.
+    """Return the 6x6 mass of a body.
+
+    (mass ``m``, rotary inertia ``J`` about its centre) at offset ``r`` from a reference point,
+    on the point's ``(u, theta)``.
 
     ``[[m I, -m S(r)], [m S(r), J - m S(r)^2]]`` (see :meth:`FEModel.add_point_mass`).
+
     """
     S = skew(np.asarray(r, dtype=float))
     out = np.zeros((6, 6))
@@ -227,7 +230,7 @@ class FEModel:
         J: float, rho: float, orientation: Sequence[float] | None, Asy: float | None,
         Asz: float | None, mass: MassKind, E_param: str | None, rho_param: str | None,
     ) -> tuple[FloatArray, FloatArray]:
-        """Validated global ``k / E`` and ``m / rho`` (12 x 12) of a frame ``n1``-``n2``."""
+        """Return validated global ``k / E`` and ``m / rho`` (12 x 12) of a frame ``n1``-``n2``."""
         label = f"frame {self.n_frames} ({n1!r}-{n2!r})"
         section_check(label, E=E, G=G, A=A, Iy=Iy, Iz=Iz, J=J, rho=rho, Asy=Asy, Asz=Asz)
         _check_param_name("E_param", E_param)
