@@ -1,0 +1,72 @@
+"""Joint refit of effects found one after another, and the flags of implausible fits."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
+from modal_twin.diagnosis.joint import refit_jointly
+from modal_twin.diagnosis.judge import _flags
+from modal_twin.diagnosis.record import Record
+from modal_twin.excitation import signals
+from modal_twin.models.building_factory import INPUTS_6DOF, BuildingFactory
+from modal_twin.models.effects import EffectSpec
+
+BUILDING = Path(__file__).resolve().parents[2] / "config" / "structures" / "building.yaml"
+FS = 200.0
+
+
+@pytest.fixture(scope="module")
+def factory() -> BuildingFactory:
+    return BuildingFactory(BUILDING, n_modes=12)
+
+
+def record_of(factory: BuildingFactory, theta: dict[str, float], seed: int) -> Record:
+    rng = np.random.default_rng(seed)
+    ag = signals.band_limited_random(6, 8.0, FS, f_min_hz=0.3, f_max_hz=20.0, rms=1.0,
+                                     rng=rng) * np.array([1.0, 1.0, 0.3, 0, 0, 0])[:, None]
+    plant = factory.with_theta(theta).plant()
+    names = tuple(c for c in plant.channel_names if c.endswith(("_x", "_y")) and "_" in c
+                  and not c.startswith(("ESB", "RB", "SDP")))
+    blank = Record(FS, INPUTS_6DOF, ag, names, np.zeros((len(names), ag.shape[1])), "t")
+    return Record(FS, INPUTS_6DOF, ag, names, simulate_record(plant, blank), f"seed{seed}")
+
+
+def found(name: str, value: float) -> FittedEffect:
+    return FittedEffect(EffectSpec(name, "added_mass", {name: value}), 1, 1.0, 1.0, 1.0, 0.0,
+                        1, 0.0)
+
+
+def test_joint_refit_recovers_two_masses_found_apart(factory: BuildingFactory) -> None:
+    nominal = factory.parameters()
+    truth = {"m_F1": 1.3 * nominal["m_F1"], "m_F3": 1.25 * nominal["m_F3"]}
+    train = record_of(factory, truth, seed=1)
+    # each found with the other frozen at its nominal value: both off
+    first = [found("m_F1", 1.12 * nominal["m_F1"]), found("m_F3", 1.45 * nominal["m_F3"])]
+    out = refit_jointly(factory, first, train)
+    got = {f.effect.component: f.effect.params[f.effect.component] for f in out}
+    assert got["m_F1"] == pytest.approx(truth["m_F1"], rel=0.01)
+    assert got["m_F3"] == pytest.approx(truth["m_F3"], rel=0.01)
+
+
+def test_a_single_effect_is_left_as_found(factory: BuildingFactory) -> None:
+    train = record_of(factory, {}, seed=2)
+    one = [found("m_F1", 20000.0)]
+    assert refit_jointly(factory, one, train) == one
+
+
+def test_implausible_added_mass_and_bound_are_flagged() -> None:
+    tiny = found("madd_R", 0.26)  # 0.26 kg on a roof of 17 t
+    flags = _flags(tiny, {"madd_R": 0.0}, {"m_R": 17280.0})
+    assert any("below 1 %" in f for f in flags)
+    negative = found("m_F2", 19000.0)
+    assert any("cannot be negative" in f
+               for f in _flags(negative, {"m_F2": 19520.0}, {"m_F2": 19520.0}))
+    at_bound = FittedEffect(EffectSpec("RB1", "linear", {"k": 1.0}), 1, 1.0, 1.0, 1.0, 0.0, 1,
+                            0.0, at_bound=("k",))
+    assert _flags(at_bound, {}, {}) == ("k at its bound",)
+    plausible = found("madd_R", 2000.0)
+    assert _flags(plausible, {"madd_R": 0.0}, {"m_R": 17280.0}) == ()
