@@ -280,13 +280,9 @@ def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[fl
     r_var = float(np.sum((r - r.mean(axis=1, keepdims=True)) ** 2))
 
     def design(names: Sequence[str]) -> FloatArray:
-        blocks = []
-        for i in range(n_dir):
-            cols = [np.ones(nt)] + [c_ for g in names for _, c_ in groups_x[i][g]]
-            blocks.append(np.column_stack(cols))
-        rows = [np.hstack([blocks[i] if j == i else np.zeros_like(blocks[j])
-                           for j in range(n_dir)]) for i in range(n_dir)]
-        return np.vstack(rows)
+        return _blockdiag([np.column_stack([np.ones(nt)] + [c_ for g in names
+                                                           for _, c_ in groups_x[i][g]])
+                           for i in range(n_dir)])
 
     b = r.ravel()
     sse_lin, coef_lin = _sse(design(["stiffness", "damping"]), b)

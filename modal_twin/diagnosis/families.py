@@ -46,15 +46,19 @@ _LAW_FAMILY = {
 
 
 def family_of(effect: EffectSpec, *, nominal_k: float | None = None,
-              nominal_c: float | None = None, drift_scale: float | None = None) -> str:
+              nominal_c: float | None = None, drift_scale: float | None = None,
+              evidence_family: str = "") -> str:
     """Return the family of what a fitted effect does (module docstring).
 
     A bilinear hysteretic law whose elastic range ``ub`` is below 5 % of the drift it sees
     (``drift_scale``, e.g. its 99th percentile) is a slider that sticks and slips beside
-    a spring: friction; with a wider elastic range it yields gradually: hysteresis.
+    a spring: friction; with a wider elastic range it yields gradually: hysteresis. When
+    the evidence at its place named one of the two (``evidence_family``), that decides.
 
     """
     law, p = effect.law, effect.params
+    if law == "bilinear_hysteretic" and evidence_family in ("friction", "hysteresis"):
+        return evidence_family  # the law can be either: the evidence at its place decides
     if law == "bilinear_hysteretic" and drift_scale and \
             float(p.get("ub", np.inf)) < 0.05 * drift_scale:
         return "friction"

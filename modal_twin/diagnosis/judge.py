@@ -135,9 +135,7 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
         if rejected:
             break
     family = family_of(f.effect, nominal_k=nominal_k, nominal_c=nominal_c,
-                       drift_scale=drift_scale)
-    if f.effect.law == "bilinear_hysteretic" and evidence_family in ("friction", "hysteresis"):
-        family = evidence_family
+                       drift_scale=drift_scale, evidence_family=evidence_family)
     return replace(f, family=family,
                    place=place_of(f.effect), records=rows, rejected=rejected,
                    flags=_flags(f, nominal_values or {}, floor_mass or {}))

@@ -24,7 +24,7 @@ import numpy as np
 from scipy import signal
 
 from modal_twin._types import FloatArray
-from modal_twin.errors import ShapeError
+from modal_twin.twin.metrics import channel_metrics
 
 __all__ = ["ErrorFigures", "error_figures", "noise_floor", "nrmse"]
 
@@ -35,22 +35,13 @@ SIGNIFICANT_RATIO = 2.0
 
 
 def nrmse(predicted: FloatArray, measured: FloatArray) -> FloatArray:
-    """RMS(measured - predicted) / RMS(measured) per row (NaN for a silent channel)."""
-    if predicted.shape != measured.shape:
-        msg = f"predicted: expected shape {measured.shape}, got {predicted.shape}"
-        raise ShapeError(msg)
-    den = np.sqrt(np.mean(measured**2, axis=-1))
-    num = np.sqrt(np.mean((measured - predicted) ** 2, axis=-1))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(den > 0, num / den, np.nan)
+    """Return RMS(measured - predicted) / RMS(measured) per row (NaN for a silent channel)."""
+    return channel_metrics(predicted, measured).residual_pct / 100.0
 
 
 def eq8_error(predicted: FloatArray, measured: FloatArray) -> FloatArray:
-    """Eq. (8) of [004]: |RMS(predicted) - RMS(measured)| / RMS(measured) per row."""
-    rm = np.sqrt(np.mean(measured**2, axis=-1))
-    rp = np.sqrt(np.mean(predicted**2, axis=-1))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(rm > 0, np.abs(rp - rm) / rm, np.nan)
+    """Return Eq. (8) of [004], |RMS(predicted) - RMS(measured)| / RMS(measured), per row."""
+    return channel_metrics(predicted, measured).rms_error_pct / 100.0
 
 
 def noise_floor(measured: FloatArray, fs_hz: float, *, top_fraction: float = 0.3
@@ -128,5 +119,6 @@ class ErrorFigures:
 def error_figures(predicted: FloatArray, measured: FloatArray, channels: tuple[str, ...],
                   noise: FloatArray, record: str = "") -> ErrorFigures:
     """:class:`ErrorFigures` of a prediction of ``measured`` (noise floor given)."""
-    return ErrorFigures(record, tuple(channels), nrmse(predicted, measured),
-                        np.asarray(noise, float), eq8_error(predicted, measured))
+    m = channel_metrics(predicted, measured)
+    return ErrorFigures(record, tuple(channels), m.residual_pct / 100.0,
+                        np.asarray(noise, float), m.rms_error_pct / 100.0)

@@ -53,7 +53,6 @@ from modal_twin.diagnosis.screening import ScreenedCandidate, screen_components
 from modal_twin.diagnosis.sensors import SensorCandidate, fit_sensor, screen_sensors
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
 from modal_twin.errors import ModalTwinError
-from modal_twin.models.effects import EffectSpec
 from modal_twin.models.loading import ModelFactory, with_effects
 
 __all__ = ["Diagnosis", "diagnose", "diagnose_round"]
@@ -90,11 +89,6 @@ class Diagnosis:
             return self.found[0]
         usable = [f for f in self.fitted if not f.rejected and not f.flags]
         return usable[0] if self.significant and usable else None
-
-    @property
-    def effects(self) -> tuple[EffectSpec, ...]:
-        """Every effect found, as placed in the model."""
-        return tuple(f.effect for f in self.found)
 
     def format(self) -> str:
         """Report text: errors against noise, where, evidence, candidates, decision."""
@@ -396,7 +390,7 @@ def diagnose(
         say("refitting all effects found jointly")
         found = refit_jointly(factory, found, (records[0], *records[2:]))
     rec_c, _ = _common_channels(factory, records)
-    noises = [record_noise_floor(factory.plant(), r) for r in rec_c]
+    noises = [f.noise for f in first.before]  # the floors of the model as given
     final = factory
     for f in found:
         final = _apply(final, f)
@@ -411,10 +405,3 @@ def diagnose(
         summary += f"; still above the noise after that: {d.summary}"
     return replace(first, summary=summary, found=tuple(found), after=after,
                    rounds=len(found) + 1)
-
-
-def fitted_effects(d: Diagnosis) -> list[EffectSpec]:
-    """Return the effects a version written from ``d`` carries (parameter changes excluded)."""
-    return [f.effect for f in d.found if f.effect.law not in ("added_mass", "stiffness",
-                                                                "damping")]
-
