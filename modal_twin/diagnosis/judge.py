@@ -82,7 +82,9 @@ def _worse_tol(rec: Record) -> float:
 
 def _flags(f: FittedEffect, nominal: Mapping[str, float], floor_mass: Mapping[str, float]
            ) -> tuple[str, ...]:
-    flags = [f"{n} at its bound" for n in f.at_bound]
+    # a radius of gyration at 0 is a point mass, not a fit stopped by its bound
+    flags = [f"{n} at its bound" for n in f.at_bound
+             if not (n.endswith("_r") and abs(f.effect.params.get(n, 1.0)) < 1e-6)]
     if f.effect.law == "added_mass":
         name = f.effect.component
         added = f.effect.params[name] - nominal.get(name, 0.0)

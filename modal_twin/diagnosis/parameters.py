@@ -59,6 +59,7 @@ def _residual(factory: ModelFactory, theta: dict[str, float], rec: Record, decim
     return normalised_residual(plant, rec, decimate, scale)
 
 
+_MASS_COMPANIONS = ("added_mass_x", "added_mass_y", "added_mass_r")
 _KIND_LAW = {"mass": "added_mass", "stiffness": "stiffness", "damping": "damping"}
 
 
@@ -74,7 +75,7 @@ def _info(factory: ModelFactory, name: str, nominal: float,
         except ModalTwinError:
             info = None
         if info is not None:
-            if info.family in ("added_mass_x", "added_mass_y"):
+            if info.family in _MASS_COMPANIONS:
                 return None  # fitted with their added mass, never alone
             law = _KIND_LAW[info.kind]
             lo = {"added_mass": 0.0, "damping": 0.01 * nominal}.get(law, info.lower)
@@ -136,14 +137,14 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
 def _positions(factory: ModelFactory, name: str) -> list[dict[str, float]]:
     """Return where an added mass is tried while screening.
 
-    The plan centre and the four corners of its floor (its ``_x`` / ``_y`` bounds); one
-    empty entry for any other parameter.
+    The plan centre and the four corners of its floor (its ``_x`` / ``_y`` bounds), as a
+    point mass; one empty entry for any other parameter.
     """
     comp = _companions(factory, name)
     info_of = getattr(factory, "parameter_info", None)
-    if len(comp) != 2 or info_of is None:
+    if len(comp) < 2 or info_of is None:
         return [{}]
-    (nx, ny), values = comp, factory.parameters()
+    (nx, ny), values = comp[:2], factory.parameters()
     ix, iy = info_of(nx), info_of(ny)
     out = [{nx: values[nx], ny: values[ny]}]
     for fx in (0.1, 0.9):
@@ -154,9 +155,12 @@ def _positions(factory: ModelFactory, name: str) -> list[dict[str, float]]:
 
 
 def _companions(factory: ModelFactory, name: str) -> list[str]:
-    """Return the position parameters fitted together with an added mass (``madd_R_x``, ``_y``)."""
+    """Return the parameters fitted together with an added mass.
+
+    Its position and radius of gyration (``madd_R_x``, ``_y``, ``_r``).
+    """
     values = factory.parameters()
-    return [n for n in (f"{name}_x", f"{name}_y") if n in values]
+    return [n for n in (f"{name}_x", f"{name}_y", f"{name}_r") if n in values]
 
 
 def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Records,
@@ -187,7 +191,10 @@ def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Record
         info = info_of(n) if info_of is not None else None
         los.append(info.lower if info else values[n] - 1.0)
         his.append(info.upper if info else values[n] + 1.0)
-        x0.append(given.get(n, values[n]))
+        start = given.get(n, values[n])
+        if info is not None and info.family == "added_mass_r" and start <= info.lower:
+            start = info.lower + 0.25 * (info.upper - info.lower)  # d(m rg^2)/d rg = 0 at 0
+        x0.append(start)
     lo_a, hi_a = np.asarray(los, float), np.asarray(his, float)
     span = np.maximum(hi_a - lo_a, 1e-12)
     x0_a = np.clip(np.asarray(x0, float), lo_a + 1e-9 * span, hi_a - 1e-9 * span)

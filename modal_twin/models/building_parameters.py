@@ -10,15 +10,17 @@ families act at the modal reduction (:func:`modal_twin.models.building.modal_red
   coefficients ``alpha``, ``beta`` (``C += alpha M + beta K``);
 * an added mass per rigid floor, the candidate "a mass the model lacks" with its position:
   ``madd_<floor>`` (kg, nominal 0) at ``(madd_<floor>_x, madd_<floor>_y)`` (m, nominal the
-  floor's plan centre). On the floor's master ``(ux, uy, rz)`` it is the in-plane part of
-  the rigid-body mass of a point mass at offset ``r = (dx, dy)`` (see
-  :func:`~modal_twin.models.fe.rigid_body_mass_block`)::
+  floor's plan centre) with radius of gyration ``madd_<floor>_r`` (m, nominal 0: a point
+  mass) about its own centre. On the floor's master ``(ux, uy, rz)`` it is the in-plane
+  part of the rigid-body mass of a body of mass ``m`` and polar inertia ``m rg^2`` at
+  offset ``(dx, dy)`` (see :func:`~modal_twin.models.fe.rigid_body_mass_block`)::
 
-      m [[1, 0, -dy], [0, 1, dx], [-dy, dx, dx^2 + dy^2]]
+      m [[1, 0, -dy], [0, 1, dx], [-dy, dx, dx^2 + dy^2 + rg^2]]
 
-  exact for a rigid diaphragm: translation, eccentricity and rotary inertia (``m |r|^2``
-  about the master) move together. Its vertical translation is lumped at the floor node
-  nearest the plan centre (the floor is not rigid out of its plane).
+  exact for a rigid diaphragm: translation, eccentricity and rotary inertia (parallel-axis
+  theorem) move together as one candidate; a mass spread over the plan (equipment over
+  several bays) has ``rg > 0``. Its vertical translation is shared by the floor's nodes
+  around its position (:func:`vertical_shares`; the floor is not rigid out of its plane).
 
 :func:`parameter_info` gives every parameter's kind (stiffness / mass / damping), place and
 plausible bounds, for screening and for reports ("stiffness at column line 1A").
@@ -31,6 +33,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.optimize import nnls
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
@@ -72,12 +75,13 @@ def _floor_geometry(building: BuildingModel, floor: str) -> tuple[FloatArray, Fl
 
 
 def added_mass_parameters(building: BuildingModel) -> dict[str, float]:
-    """``madd_<floor>`` (0 kg) and ``madd_<floor>_x / _y`` (plan centre, m) of every floor."""
+    """``madd_<floor>`` (0 kg), ``_x / _y`` (plan centre, m) and ``_r`` (0 m) of every floor."""
     out: dict[str, float] = {}
     for f in building.spec.floors:
         _, c = _floor_geometry(building, f.name)
         base = f"{ADDED_MASS_PREFIX}{f.name}"
-        out.update({base: 0.0, f"{base}_x": float(c[0]), f"{base}_y": float(c[1])})
+        out.update({base: 0.0, f"{base}_x": float(c[0]), f"{base}_y": float(c[1]),
+                    f"{base}_r": 0.0})
     return out
 
 
@@ -128,29 +132,57 @@ def added_mass_matrix(building: BuildingModel, theta: Mapping[str, float]) -> sp
         if m < 0.0:
             msg = f"{base}: expected an added mass >= 0 kg, got {m!r}"
             raise OptionError(msg)
-        master, centre = _floor_geometry(building, f.name)
+        master, _ = _floor_geometry(building, f.name)
         dx = float(theta[f"{base}_x"]) - master[0]
         dy = float(theta[f"{base}_y"]) - master[1]
         d = [asm.dof_index(f.master, n) for n in ("ux", "uy", "rz")]
-        block = m * np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [-dy, dx, dx * dx + dy * dy]])
+        rg = float(theta.get(f"{base}_r", 0.0))
+        if rg < 0.0:
+            msg = f"{base}_r: expected a radius of gyration >= 0 m, got {rg!r}"
+            raise OptionError(msg)
+        block = m * np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx],
+                              [-dy, dx, dx * dx + dy * dy + rg * rg]])
         for i in range(3):
             for j in range(3):
                 rows.append(d[i])
                 cols.append(d[j])
                 vals.append(float(block[i, j]))
-        # vertical translation at the floor node nearest the plan centre
+        # vertical translation shared by the floor's nodes around its plan position
         nodes = list(f.nodes)
-        dist = [float(np.linalg.norm(building.spec.model.xyz(n)[:2] - centre)) for n in nodes]
-        zfull = asm.full_dof_index(nodes[int(np.argmin(dist))], "uz")
-        zdof = int(np.searchsorted(asm.free_dofs, zfull))
-        if zdof < asm.n_dof and asm.free_dofs[zdof] == zfull:  # not a supported DOF
-            rows.append(zdof)
-            cols.append(zdof)
-            vals.append(m)
+        xy = np.array([building.spec.model.xyz(n)[:2] for n in nodes])
+        shares = vertical_shares(xy, master[:2] + np.array([dx, dy]))
+        for node, w in zip(nodes, shares, strict=True):
+            zfull = asm.full_dof_index(node, "uz")
+            zdof = int(np.searchsorted(asm.free_dofs, zfull))
+            if w > 0.0 and zdof < asm.n_dof and asm.free_dofs[zdof] == zfull:  # not supported
+                rows.append(zdof)
+                cols.append(zdof)
+                vals.append(m * float(w))
     if not vals:
         return None
     n = asm.n_dof
     return sp.csr_array(sp.coo_array((vals, (rows, cols)), shape=(n, n)))
+
+
+def vertical_shares(xy: FloatArray, at: FloatArray) -> FloatArray:
+    """Shares of a mass at plan point ``at`` lumped on nodes ``xy`` (n, 2) for vertical motion.
+
+    Non-negative, summing to 1, with their centroid at ``at`` wherever ``at`` lies in the
+    nodes' convex hull (the mass's static vertical load and its first moments about both
+    plan axes are kept, so rocking sees it where it is); among such shares those on the
+    nearest nodes (least squares with a small penalty growing with each node's distance,
+    by NNLS): a mass at a node stays on it. Outside the hull, the centroid is the hull's
+    nearest point.
+    """
+    xy = np.asarray(xy, dtype=float)
+    span = float(np.ptp(xy, axis=0).max()) or 1.0
+    rows = np.vstack([np.ones(len(xy)), (xy - at).T / span])
+    dist = np.linalg.norm(xy - at, axis=1) / span
+    a = np.vstack([1e3 * rows, 1e-3 * np.diag(dist + 1e-3)])
+    b = np.concatenate([[1e3, 0.0, 0.0], np.zeros(len(xy))])
+    w, _ = nnls(a, b)
+    total = float(w.sum())
+    return w / total if total > 0 else np.full(len(xy), 1.0 / len(xy))
 
 
 def _floor_mass(building: BuildingModel, floor: str) -> float:
@@ -203,6 +235,11 @@ def parameter_info(building: BuildingModel, name: str, *, omega: FloatArray | No
             a = "xy"[ax]
             return ParameterInfo(name, "mass", f"floor {f.name} ({a} of the added mass)", v,
                                  float(xy.min()), float(xy.max()), "m", f"added_mass_{a}")
+        if name == f"{base}_r":
+            xy = np.array([spec.model.xyz(n)[:2] for n in f.nodes])
+            half_diag = 0.5 * float(np.linalg.norm(xy.max(axis=0) - xy.min(axis=0)))
+            return ParameterInfo(name, "mass", f"floor {f.name} (radius of gyration of the "
+                                 "added mass)", v, 0.0, half_diag, "m", "added_mass_r")
     w = np.array([2.0 * np.pi]) if omega is None else np.asarray(omega, dtype=float)
     if name == d.alpha_param:
         return ParameterInfo(name, "damping", "Rayleigh mass-proportional damping", v, 0.0,

@@ -31,7 +31,8 @@ class ParameterInfo:
         ``"Pa"``, ``"N/m"``, ``"kg"``, ``"m"``, ``"1"`` (a factor), ``"1/s"``, ``"s"`` ...
     family : str
         ``modulus``, ``device``, ``mass``, ``group``, ``link``, ``added_mass``,
-        ``added_mass_x``, ``added_mass_y``, ``modal_damping``, ``rayleigh``, ``other``.
+        ``added_mass_x``, ``added_mass_y``, ``added_mass_r``, ``modal_damping``,
+        ``rayleigh``, ``other``.
     """
 
     name: str

@@ -15,6 +15,7 @@ import yaml
 from modal_twin.errors import ConfigError, ModelError, OptionError
 from modal_twin.models.building import DEFAULT_BUILDING_YAML, build_building, modal_reduction
 from modal_twin.models.building_factory import BuildingFactory
+from modal_twin.models.building_parameters import vertical_shares
 from modal_twin.models.fe import FEModel, rigid_body_mass_block
 from modal_twin.models.structure_yaml import parse_structure
 
@@ -170,6 +171,30 @@ def test_added_mass_family_of_the_factory(tmp_path) -> None:
                                rtol=1e-10)
     with pytest.raises(OptionError, match="madd_F: expected an added mass >= 0 kg"):
         fac.with_theta({"madd_F": -1.0})
+    # a body spread over the plan: its rotary inertia m rg^2 about its own centre (the
+    # parallel-axis theorem on top of the eccentricity), the same closed form with J = m rg^2
+    rg = 1.7
+    spread = fac.with_theta({"madd_F": m, "madd_F_x": e, "madd_F_r": rg})
+    np.testing.assert_allclose(np.sort(spread.mb.omega**2),
+                               _eccentric_closed_form(m, e, m * rg * rg), rtol=1e-10)
+    r_info = fac.parameter_info("madd_F_r")
+    assert (r_info.nominal, r_info.lower, r_info.unit) == (0.0, 0.0, "m")
+    assert r_info.upper == pytest.approx(5.0)  # half the 8 m x 6 m plan's diagonal
+    with pytest.raises(OptionError, match="madd_F_r: expected a radius of gyration >= 0 m"):
+        fac.with_theta({"madd_F": m, "madd_F_r": -1.0})
+
+
+@pytest.mark.parametrize("at", [(6.857, 11.143), (4.0, 6.0), (8.0, 12.0), (0.5, 0.3)])
+def test_vertical_shares_keep_the_load_and_its_moments(at) -> None:
+    # a 2 x 3 bay plan (the shipped building's grid with its mid-span nodes)
+    xy = np.array([[0, 0], [8, 0], [0, 12], [8, 12], [4, 12], [8, 9], [4, 0], [0, 6],
+                   [8, 6], [0, 3], [4, 6]], dtype=float)
+    w = vertical_shares(xy, np.asarray(at))
+    assert np.all(w >= 0.0)
+    assert w.sum() == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(w @ xy, at, atol=1e-3)  # the centroid where the mass is
+    if tuple(at) == (8.0, 12.0):  # a mass on a node stays on it
+        assert w[3] == pytest.approx(1.0, abs=1e-6)
 
 
 def test_rayleigh_damping_gives_alpha_over_2w_plus_beta_w_over_2() -> None:
