@@ -18,7 +18,7 @@ FAMILIES = ("hysteresis", "friction", "softening", "hardening", "gap", "damping"
 
 # device laws (models.effects) that can express each family at a component, best first
 FAMILY_LAWS: dict[str, tuple[str, ...]] = {
-    "friction": ("stick_slip", "bilinear_hysteretic"),
+    "friction": ("stick_slip", "regularised_friction", "bilinear_hysteretic"),
     "hysteresis": ("bouc_wen", "bilinear_hysteretic", "stick_slip"),
     "softening": ("bilinear", "cubic"),
     "hardening": ("cubic", "bilinear", "gap"),
@@ -30,6 +30,7 @@ FAMILY_LAWS: dict[str, tuple[str, ...]] = {
 # parameter kinds (diagnosis.parameters.KINDS) and other effect laws -> family
 _LAW_FAMILY = {
     "stick_slip": "friction",
+    "regularised_friction": "friction",
     "coulomb": "friction",
     "bouc_wen_esb": "friction",
     "bouc_wen": "hysteresis",

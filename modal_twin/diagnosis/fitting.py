@@ -153,6 +153,20 @@ class SimulationObjective:
             return np.full(self.size, 1e3)
 
 
+# bounds that are a law's extension switched off, not a fit stopped short: at them the law
+# is its classical form (no spring beside the slider, no speed dependence, no static
+# excess; a linear contact, a stop on one side only); -1 lower, +1 upper bound
+SWITCHED_OFF: dict[str, dict[str, int]] = {
+    "stick_slip": {"kp": -1, "v_s": -1, "Fs": -1},
+    "regularised_friction": {"kp": -1, "Fs": -1},
+    "gap": {"n": -1, "g_neg": 1, "g": 1},
+    "cubic": {"m": -1},
+}
+# of those, the optional extensions of a law (fitted once its classical form is)
+EXTENSIONS: dict[str, tuple[str, ...]] = {"stick_slip": ("kp", "v_s"),
+                                          "regularised_friction": ("kp",), "gap": ("n",)}
+
+
 def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_params: int,
               train: Records, test: Record, objective: SimulationObjective, t0: float,
               std: dict[str, float]) -> FittedEffect:
@@ -165,7 +179,9 @@ def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_par
     N = sol.fun.size
     sse = float(sol.fun @ sol.fun)
     mask = np.asarray(getattr(sol, "active_mask", np.zeros(len(std))))
-    at_bound = tuple(n for n, a in zip(std, mask, strict=False) if a != 0)
+    off = SWITCHED_OFF.get(effect.law, {})
+    at_bound = tuple(n for n, a in zip(std, mask, strict=False)
+                     if a != 0 and off.get(n) != int(a))
     return FittedEffect(
         effect, n_params,
         float(np.mean(record_nmse(simulate_record(fitted, train), train))),
@@ -182,14 +198,28 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
     interacts with it (``kt_factor`` of friction, ``k`` of the others): adding friction or
     softening at a bearing changes what its linear stiffness should be.
     """
-    if law == "stick_slip":
+    if law == "stick_slip":  # with a spring beside it and a speed-dependent limit
         lf = np.log(start["Fk"])
-        return (["Fk", "Fs", "kt_factor"],
+        return (["Fk", "Fs", "kt_factor", "kp", "v_s"],
                 lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1]),
-                           "kt_factor": float(x[2])},
+                           "kt_factor": float(np.exp(x[2])), "kp": float(x[3]),
+                           "v_s": float(10.0 ** x[4])},
                 lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"],
-                                    p.get("kt_factor", 1.0)]),
-                np.array([lf - 3, 1.0, 0.5]), np.array([lf + 3, 3.0, 2.0]))
+                                    np.log(p.get("kt_factor", 1.0)), p.get("kp", 0.0),
+                                    np.log10(p.get("v_s", 0.0) or 1e-4)]),
+                np.array([lf - 3, 1.0, np.log(0.5), 0.0, -4.0]),
+                np.array([lf + 3, 3.0, np.log(50.0), 1.5, 0.0]))
+    if law == "regularised_friction":  # limit at rest and sliding, speeds, spring beside
+        lf = np.log(start["Fk"])
+        return (["Fk", "Fs", "kp", "v_s", "v_reg"],
+                lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1]),
+                           "kp": float(x[2]), "v_s": float(10.0 ** x[3]),
+                           "v_reg": float(10.0 ** x[4])},
+                lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"], p.get("kp", 0.0),
+                                    np.log10(p.get("v_s", 0.05)),
+                                    np.log10(p.get("v_reg", 0.005))]),
+                np.array([lf - 3, 1.0, 0.0, -3.0, -4.0]),
+                np.array([lf + 3, 3.0, 1.5, 0.0, -1.0]))
     if law == "bilinear":
         lu = np.log(start["ub"])
         return (["ub", "ratio", "k"],
@@ -211,17 +241,32 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
                 lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2])},
                 lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k]),
                 np.array([lu - 3, 0.0, 0.7]), np.array([lu + 3, 1.0, 1.3]))
-    if law == "cubic":
-        s = abs(start["k3"]) or 1.0
-        return (["k3", "k"], lambda x: {"k3": float(x[0] * s), "k": k * float(x[1])},
-                lambda p: np.array([p["k3"] / s, p.get("k", k) / k]),
-                np.array([-50.0, 0.7]), np.array([50.0, 1.3]))
-    if law == "gap":  # clearance and contact stiffness; kp (the spring beside) as started
+    if law == "cubic":  # k3 u |u|^(m-1) = sign k (|u| / u_h)^(m-1) u: u_h, k, m free
+        sign = 1.0 if start["k3"] >= 0 else -1.0
+        m0 = float(start.get("m", 3.0))
+        lu = np.log((k / max(abs(start["k3"]), 1e-300)) ** (1.0 / (m0 - 1.0)))
+
+        def power(x: FloatArray) -> dict[str, float]:
+            kk, m = k * float(x[1]), float(x[2])
+            return {"k3": sign * kk / float(np.exp(x[0])) ** (m - 1.0), "k": kk, "m": m}
+
+        def back(p: dict[str, float]) -> FloatArray:
+            kk, m = p.get("k", k), p.get("m", 3.0)
+            return np.array([np.log((kk / max(abs(p["k3"]), 1e-300)) ** (1.0 / (m - 1.0))),
+                             kk / k, m])
+
+        return (["k3", "k", "m"], power, back, np.array([lu - 4.0, 0.7, 2.0]),
+                np.array([lu + 4.0, 1.3, 9.0]))
+    if law == "gap":  # clearances on both sides and contact stiffness; kp as started
         lg, kp = np.log(start["g"]), float(start.get("kp", 0.0))
-        return (["g", "k", "kp"],
-                lambda x: {"g": float(np.exp(x[0])), "k": k * float(np.exp(x[1])), "kp": kp},
-                lambda p: np.array([np.log(p["g"]), np.log(p.get("k", k) / k)]),
-                np.array([lg - 3, np.log(0.02)]), np.array([lg + 3, np.log(50.0)]))
+        lgn = np.log(start.get("g_neg", start["g"]))
+        return (["g", "k", "g_neg", "n", "kp"],
+                lambda x: {"g": float(np.exp(x[0])), "k": k * float(np.exp(x[1])),
+                           "g_neg": float(np.exp(x[2])), "n": float(x[3]), "kp": kp},
+                lambda p: np.array([np.log(p["g"]), np.log(p.get("k", k) / k),
+                                    np.log(p.get("g_neg", p["g"])), p.get("n", 1.0)]),
+                np.array([lg - 3, np.log(0.02), lgn - 3, 1.0]),
+                np.array([lg + 3, np.log(50.0), lgn + 3, 3.0]))
     if law == "linear":
         return (["k", "ky", "c", "cy"],
                 lambda x: {"k": k * float(x[0]), "ky": k * float(x[1]),
@@ -265,6 +310,7 @@ def fit_effect(
     x0 = np.clip(to_x(start), lo + 1e-9, hi - 1e-9)
     objective = SimulationObjective(
         lambda x: factory.plant([EffectSpec(component, law, to_params(x))]), train, decimate)
+    x0 = _classical_first(objective, law, names, x0, lo, hi, max_nfev)
     sol = least_squares(objective, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
                         x_scale="jac")
     params = to_params(sol.x)
@@ -272,6 +318,35 @@ def fit_effect(
                         if law != "linear" else params)
     return judge_fit(effect, factory.plant([effect]), factory.plant(), sol, len(names), train,
                      test, objective, t0, _parameter_std(sol, to_params, names))
+
+
+def _classical_first(objective: SimulationObjective, law: str, names: list[str],
+                     x0: FloatArray, lo: FloatArray, hi: FloatArray,
+                     max_nfev: int) -> FloatArray:
+    """Fit the law's classical form first, its extensions held switched off.
+
+    Extensions (:data:`SWITCHED_OFF`) that start at their "off" bound have no gradient
+    there; freeing them from the first step lets the optimizer wander. The start of the
+    full fit is the classical optimum (``x0`` unchanged when nothing starts off).
+    """
+    off = {n: SWITCHED_OFF[law][n] for n in EXTENSIONS.get(law, ())}
+    held = np.array([i < x0.size and names[i] in off and
+                     (x0[i] - lo[i] if off[names[i]] < 0 else hi[i] - x0[i])
+                     <= 1e-6 * (hi[i] - lo[i]) for i in range(x0.size)])
+    if not held.any() or held.all():
+        return x0
+    free = ~held
+
+    def sub(xs: FloatArray) -> FloatArray:
+        x = x0.copy()
+        x[free] = xs
+        return objective(x)
+
+    sol = least_squares(sub, x0[free], bounds=(lo[free], hi[free]), diff_step=1e-3,
+                        max_nfev=max_nfev, x_scale="jac")
+    out = x0.copy()
+    out[free] = sol.x
+    return out
 
 
 def _parameter_std(sol: object, to_params: Callable[[FloatArray], dict[str, float]],
@@ -286,10 +361,17 @@ def _parameter_std(sol: object, to_params: Callable[[FloatArray], dict[str, floa
     dof = max(J.shape[0] - J.shape[1], 1)
     s2 = float(sol.fun @ sol.fun) / dof  # type: ignore[attr-defined]
     JTJ = J.T @ J
-    w = np.linalg.eigvalsh(JTJ)
-    if w.size == 0 or w[0] <= 1e-10 * max(w[-1], 1e-300):  # data do not determine them
+    w, v = np.linalg.eigh(JTJ)
+    if w.size == 0 or w[-1] <= 0.0:
         return {n: float("nan") for n in names}
-    cov_x = s2 * np.linalg.inv(JTJ)
+    # directions the data do not determine (e.g. a clearance beyond every drift seen): the
+    # coordinates that take part in them are "not determined"; the others get their
+    # covariance with those held (a lower bound, like the rest of this estimate)
+    null = v[:, w <= 1e-10 * w[-1]]
+    free = ~np.any(np.abs(null) > 0.1, axis=1) if null.size else np.ones(x.size, bool)
+    cov_x = np.full((x.size, x.size), np.nan)
+    if free.any():
+        cov_x[np.ix_(free, free)] = s2 * np.linalg.inv(JTJ[np.ix_(free, free)])
     p0 = to_params(x)
     T = np.zeros((len(names), x.size))
     for j in range(x.size):
@@ -298,5 +380,14 @@ def _parameter_std(sol: object, to_params: Callable[[FloatArray], dict[str, floa
         xp[j] += h
         pj = to_params(xp)
         T[:, j] = [(pj[n] - p0[n]) / h for n in names]
-    cov_p = T @ cov_x @ T.T
-    return {n: float(np.sqrt(max(cov_p[i, i], 0.0))) for i, n in enumerate(names)}
+    out = {}
+    for i, n in enumerate(names):
+        used = T[i] != 0.0
+        if not used.any():  # held fixed
+            out[n] = 0.0
+        elif not free[used].all():
+            out[n] = float("nan")
+        else:
+            c = cov_x[np.ix_(used, used)]
+            out[n] = float(np.sqrt(max(float(T[i, used] @ c @ T[i, used]), 0.0)))
+    return out

@@ -55,6 +55,10 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
     if law == "stick_slip":
         fk = [0.4 * f_max, 0.6 * f_max, 0.8 * f_max]
         return [{"Fs": r * a, "Fk": a} for a in fk for r in (1.0, 1.5)]
+    if law == "regularised_friction":
+        fk = [0.4 * f_max, 0.6 * f_max, 0.8 * f_max]
+        return [{"Fs": r * a, "Fk": a, "kp": kp, "v_s": 0.05, "v_reg": 0.005} for a in fk
+                for r in (1.0, 1.5) for kp in (0.0, 0.3)]
     if law == "bilinear":
         return [{"ub": g * u_max, "ratio": r} for g in (0.2, 0.4, 0.6) for r in (0.5, 0.75)]
     if law == "bilinear_hysteretic":  # yielding, and a stiff slider beside a soft spring
@@ -63,11 +67,16 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
                    for r in (0.03, 0.1)])
     if law == "bouc_wen":
         return [{"uy": g * u_max, "alpha": a} for g in (0.2, 0.4, 0.6) for a in (0.05, 0.5)]
-    if law == "cubic":
-        return [{"k3": s * 0.3 * k / max(u_max, 1e-9) ** 2} for s in (-1.0, 1.0)]
-    if law == "gap":  # a stop beside the component's own spring-dashpot (kp = 1)
-        return [{"g": g * u_max, "k": r * k, "kp": 1.0} for g in (0.3, 0.5, 0.7)
-                for r in (0.5, 2.0)]
+    if law == "cubic":  # Duffing, and a stiffer power (the shape's scale is fitted)
+        u = max(u_max, 1e-9)
+        return [{"k3": s * 0.3 * k / u ** (m - 1.0), "m": m} for s in (-1.0, 1.0)
+                for m in (3.0, 5.0)]
+    if law == "gap":  # a stop beside the component's own spring-dashpot (kp = 1): on
+        # both sides, or on one (the other clearance beyond every drift seen)
+        far = 10.0 * u_max
+        return [{"g": gp, "g_neg": gn, "k": r * k, "kp": 1.0}
+                for g in (0.3 * u_max, 0.5 * u_max, 0.7 * u_max) for r in (0.5, 2.0)
+                for gp, gn in ((g, g), (g, far), (far, g))]
     return [{}]
 
 

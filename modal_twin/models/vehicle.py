@@ -304,10 +304,10 @@ class VehicleModel:
             atts = []
             for b, side in enumerate(("front", "rear")):
                 B = (self.D_sec[b] @ Phi)[None, :]
-                K = K - sp_.k_secondary * B.T @ B  # law supplies k_s d + c_s d'
-                C = C - sp_.c_secondary * B.T @ B
-                dev = LinearDevice([sp_.k_secondary], [sp_.c_secondary],
-                                   name=f"secondary_{side}")
+                ks, cs = sp_.suspension("k_secondary", b), sp_.suspension("c_secondary", b)
+                K = K - ks * B.T @ B  # law supplies k_s d + c_s d'
+                C = C - cs * B.T @ B
+                dev = LinearDevice([ks], [cs], name=f"secondary_{side}")
                 atts.append(DeviceAttachment(device=dev, B=B))
             devices = tuple(atts)
         SPhi = self.S @ Phi
@@ -372,17 +372,18 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
         d[car.cb_index(xb)] = 1.0
         d[iz] = -1.0
         D_sec[b] = d
-        _add_pair(K, d, spec.k_secondary)
-        _add_pair(C, d, spec.c_secondary)
+        _add_pair(K, d, spec.suspension("k_secondary", b))
+        _add_pair(C, d, spec.suspension("c_secondary", b))
         for s, off in enumerate((a, -a)):
             i = 2 * b + s  # wheelset 1 leads: front bogie, front axle
             g = np.zeros(n)
             g[iz] = 1.0
             g[ib] = off
-            _add_pair(K, g, spec.k_primary)
-            _add_pair(C, g, spec.c_primary)
-            Gamma[:, i] = -spec.k_primary * g  # simulator: ... = -Gamma u
-            Gamma[:, 4 + i] = -spec.c_primary * g
+            kp, cp = spec.suspension("k_primary", b), spec.suspension("c_primary", b)
+            _add_pair(K, g, kp)
+            _add_pair(C, g, cp)
+            Gamma[:, i] = -kp * g  # simulator: ... = -Gamma u
+            Gamma[:, 4 + i] = -cp * g
     for k, e in enumerate(elastic):
         ie = n_cb + 4 + k
         M[ie, ie] = e.mass

@@ -156,6 +156,18 @@ class VehicleSpec:
     sensors: tuple[SensorSpec, ...]
     speed_kmh: float = 300.0
     source: str = "<spec>"
+    # per-bogie factors (front, rear) on the suspensions' k and c: one worn damper or a
+    # sagging spring is a change at one bogie, not at the car
+    bogie_factors: tuple[tuple[str, float, float], ...] = ()
+
+    def suspension(self, name: str, bogie: int) -> float:
+        """Value of ``k_primary`` / ``c_primary`` / ``k_secondary`` / ``c_secondary`` at a bogie.
+
+        ``bogie`` 0 is the front one, 1 the rear one.
+        """
+        factor = next(((f[1] if bogie == 0 else f[2]) for f in self.bogie_factors
+                       if f[0] == name), 1.0)
+        return float(getattr(self, name)) * factor
 
     @property
     def carbody_mass(self) -> float:
@@ -227,16 +239,21 @@ def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float) ->
 _SCALAR_THETA = {"EI_carbody": "EI", "zeta_carbody": "zeta_carbody",
                  "k_primary": "k_primary", "c_primary": "c_primary",
                  "k_secondary": "k_secondary", "c_secondary": "c_secondary"}
+_SUSPENSIONS = ("k_primary", "c_primary", "k_secondary", "c_secondary")
+BOGIES = ("front", "rear")
+# the suspension of one bogie (N/m or N s/m): k_primary_front ... c_secondary_rear
+_BOGIE_THETA = {f"{n}_{b}": (n, i) for n in _SUSPENSIONS for i, b in enumerate(BOGIES)}
 
 
 def theta_names(spec: VehicleSpec) -> tuple[str, ...]:
     """Parameter names :func:`apply_theta` accepts for ``spec``.
 
-    ``EI_carbody``, ``zeta_carbody``, ``k_/c_primary``, ``k_/c_secondary``, and per
-    equipment item ``m_<name>``; per elastic item also ``f_<name>`` (mount frequency, Hz)
+    ``EI_carbody``, ``zeta_carbody``, ``k_/c_primary``, ``k_/c_secondary``, the same per
+    bogie (``c_secondary_front``, ``k_primary_rear`` ...), and per equipment item
+    ``m_<name>``; per elastic item also ``f_<name>`` (mount frequency, Hz)
     and ``zeta_<name>``.
     """
-    names = list(_SCALAR_THETA)
+    names = [*_SCALAR_THETA, *_BOGIE_THETA]
     for e in spec.equipment:
         names.append(f"m_{e.name}")
         if e.mount == "elastic":
@@ -275,7 +292,19 @@ def apply_theta(spec: VehicleSpec, theta: Mapping[str, float] | None) -> Vehicle
                (("m", "mass"), ("f", "f_mount_hz"), ("zeta", "zeta_mount"))
                if f"{p}_{e.name}" in theta}
         eq.append(replace(e, **upd) if upd else e)
-    return replace(spec, equipment=tuple(eq), **changes)
+    out = replace(spec, equipment=tuple(eq), **changes)
+    return _with_bogie_values(out, {k: float(v) for k, v in theta.items() if k in _BOGIE_THETA})
+
+
+def _with_bogie_values(spec: VehicleSpec, values: Mapping[str, float]) -> VehicleSpec:
+    """Set per-bogie suspension values as factors on the car's value (after the car's)."""
+    if not values:
+        return spec
+    factors = {f[0]: [f[1], f[2]] for f in spec.bogie_factors}
+    for key, val in values.items():
+        name, bogie = _BOGIE_THETA[key]
+        factors.setdefault(name, [1.0, 1.0])[bogie] = val / float(getattr(spec, name))
+    return replace(spec, bogie_factors=tuple((n, f[0], f[1]) for n, f in factors.items()))
 
 
 # ---------------------------------------------------------------------------- loading
@@ -345,6 +374,8 @@ def parameter_value(spec: VehicleSpec, name: str) -> float:
     """
     if name in _SCALAR_THETA:
         return float(getattr(spec, _SCALAR_THETA[name]))
+    if name in _BOGIE_THETA:
+        return spec.suspension(*_BOGIE_THETA[name])
     prefix, _, item = name.partition("_")
     field_of = {"m": "mass", "f": "f_mount_hz", "zeta": "zeta_mount"}
     if prefix in field_of and name in theta_names(spec):

@@ -70,3 +70,27 @@ def test_implausible_added_mass_and_bound_are_flagged() -> None:
     assert _flags(at_bound, {}, {}) == ("k at its bound",)
     plausible = found("madd_R", 2000.0)
     assert _flags(plausible, {"madd_R": 0.0}, {"m_R": 17280.0}) == ()
+
+
+def test_parameter_std_marks_only_the_undetermined_ones() -> None:
+    # y = a t + b + noise; a third coordinate the data never see (a clearance beyond every
+    # drift: its column of J is zero) and a fourth held fixed by the transform
+    from types import SimpleNamespace
+
+    from modal_twin.diagnosis.fitting import _parameter_std
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 1.0, 400)
+    r = rng.normal(0.0, 0.1, t.size)  # the residual at the optimum
+    J = np.column_stack([t, np.ones_like(t), np.zeros_like(t)])
+    sol = SimpleNamespace(jac=J, x=np.array([2.0, 1.0, 5.0]), fun=r)
+
+    def to_params(x: np.ndarray) -> dict[str, float]:
+        return {"a": float(x[0]), "b": float(x[1]), "g_neg": float(np.exp(x[2])), "kp": 1.0}
+
+    std = _parameter_std(sol, to_params, ["a", "b", "g_neg", "kp"])
+    s2 = float(r @ r) / (t.size - 3)
+    cov = s2 * np.linalg.inv(J[:, :2].T @ J[:, :2])  # the closed form of the other two
+    np.testing.assert_allclose([std["a"], std["b"]], np.sqrt(np.diag(cov)), rtol=1e-6)
+    assert np.isnan(std["g_neg"])
+    assert std["kp"] == 0.0

@@ -38,12 +38,14 @@ W = 1.5e6  # carried weight, N
 ABSOLUTE = {
     "linear": {},
     "stick_slip": {"Fs": 0.09 * W, "Fk": 0.06 * W, "kt": 2.5e6},
+    "regularised_friction": {"Fs": 0.09 * W, "Fk": 0.06 * W, "kt": 2.5e6, "v_s": 0.05,
+                             "v_reg": 0.005},
     "bilinear": {"k": 2.5e6, "kb": 0.75 * 2.5e6, "ub": 0.03},
     "bilinear_hysteretic": {"k": 2.5e6, "kb": 0.75 * 2.5e6, "ub": 0.03},
     "bouc_wen": {"A": 1.0, "beta": 0.5 / 0.03**2, "gamma": 0.5 / 0.03**2,
                  "K": [[2.0e6, 0.0], [0.0, 3.0e6]], "alpha": 0.3},
     "bouc_wen_esb": {"A": 47.13, "beta": 10.41, "gamma": 36.72},
-    "cubic": {"k1": 2.5e6, "k3": 0.0},
+    "cubic": {"k1": 2e6, "k1y": 3e6, "k3": 0.0},  # the mean k kept per direction
     "gap": {"k": 2.5e6, "g": 0.01},
     "prandtl": {"Fs": 1.0e4, "Kb": 5.0e5},
 }
@@ -117,6 +119,7 @@ def test_every_law_builds_from_effect_params(law: str) -> None:
 @pytest.mark.parametrize(("law", "relative"), [
     ("linear", {}),
     ("stick_slip", {"kt_factor": 2.5e6 / 2.5e6}),
+    ("regularised_friction", {}),
     ("bilinear", {"k": 2.5e6}),
     ("bilinear_hysteretic", {"k": 2.5e6}),
     ("bouc_wen", {}),
@@ -159,8 +162,11 @@ def test_alias_builds_the_same_device_with_one_deprecation_note(
 
 def test_kind_codes_equal_the_dispatch() -> None:
     """The dispatch called with a law's registry kind runs that law's jitted function."""
-    kinds = [e.kind for e in LAWS.values()]
-    assert sorted(kinds) == list(range(len(LAWS)))  # one code per law, no gap
+    # one code per law class, no gap (regularised_friction is a mode of CoulombFriction,
+    # v_reg > 0, and shares its code and jitted function)
+    by_class = {e.cls: e.kind for e in LAWS.values()}
+    assert sorted(by_class.values()) == list(range(len(by_class)))
+    assert all(by_class[e.cls] == e.kind for e in LAWS.values())
     rng = np.random.default_rng(7)
     for law, e in LAWS.items():
         dev = build_device(law, ABSOLUTE[law], _site())
@@ -178,8 +184,10 @@ def test_kind_codes_equal_the_dispatch() -> None:
 
 def test_law_names_by_family_and_form() -> None:
     assert law_names(relative=True) == EFFECT_LAWS == (
-        "linear", "stick_slip", "bilinear", "bilinear_hysteretic", "bouc_wen", "cubic", "gap")
-    assert law_names(family="friction") == ("stick_slip", "bouc_wen_esb", "prandtl")
+        "linear", "stick_slip", "regularised_friction", "bilinear", "bilinear_hysteretic",
+        "bouc_wen", "cubic", "gap")
+    assert law_names(family="friction") == ("stick_slip", "regularised_friction",
+                                            "bouc_wen_esb", "prandtl")
     assert law_names(family="hardening") == ("cubic",)
     assert set(law_names(family="hysteresis")) == {
         "bilinear_hysteretic", "bouc_wen", "bouc_wen_esb", "prandtl"}

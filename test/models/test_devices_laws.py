@@ -194,6 +194,62 @@ def test_gap_zero_inside() -> None:
     )
 
 
+def test_gap_one_sided_hertz_contact_closed_form() -> None:
+    # a stop on the positive side only (g_neg beyond the path), Hertz contact n = 1.5:
+    # f = k d (d / g)^0.5 for d = u - g > 0, i.e. k_h d^1.5 with k_h = k / sqrt(g)
+    k, g = 2e6, 0.04
+    d = GapSpring(k, g, n_dir=1, g_neg=10.0, n=1.5)
+    u = np.linspace(-0.1, 0.1, 201)
+    r = d.respond(u[None, :])
+    over = np.maximum(u - g, 0.0)
+    np.testing.assert_allclose(r.f[0], k / np.sqrt(g) * over**1.5, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(r.Kt[0, 0], 1.5 * k / np.sqrt(g) * over**0.5, rtol=1e-12,
+                               atol=1e-9)
+    assert np.all(r.f[0, u < 0] == 0.0)  # nothing on the open side
+    # asymmetric clearances, linear contact: the closed form on each side
+    a = GapSpring(1e5, 0.01, n_dir=1, g_neg=0.02).respond(u[None, :])
+    want = 1e5 * (np.maximum(u - 0.01, 0.0) + np.minimum(u + 0.02, 0.0))
+    np.testing.assert_allclose(a.f[0], want, atol=1e-6)
+    with pytest.raises(ModelError, match="contact exponent in"):
+        GapSpring(1.0, 0.01, n=0.5)
+
+
+def test_friction_speed_dependent_limit_and_spring_beside() -> None:
+    # sliding at constant speed V after breakaway: the limit Fk + (Fs - Fk) exp(-(V/v_s)^2)
+    # plus the spring beside the slider kp u (Stribeck, closed form)
+    Fs, Fk, kt, kp, v_s = 2e4, 1e4, 1e9, 3e5, 0.05
+    for speed in (0.02, 0.05, 0.2):
+        t = np.linspace(0.0, 1.0, 2001)
+        u = speed * t
+        r = CoulombFriction(Fs, Fk, kt, kp=(kp, 0.0), v_s=v_s).respond(
+            u[None, :], np.full((1, t.size), speed))
+        limit = Fk + (Fs - Fk) * np.exp(-((speed / v_s) ** 2))
+        sliding = u > 2.0 * Fs / kt + 2.0 * speed * t[1]  # after the breakaway sample
+        np.testing.assert_allclose(r.f[0, sliding], limit + kp * u[sliding], rtol=1e-12)
+    # v_s = 0 and kp = 0: the classical law, unchanged
+    base = CoulombFriction(Fs, Fk, kt).respond(u[None, :])
+    assert np.allclose(base.f[0, u > 2.0 * Fs / kt], Fk)
+
+
+def test_regularised_friction_closed_form() -> None:
+    # f = kp u + mu(s) v / sqrt(s^2 + v_reg^2), s = |v| (bidirectional), at any (u, v)
+    Fs, Fk, kp, v_s, v_reg = 2e4, 1e4, (3e5, 2e5), 0.05, 0.002
+    rng = np.random.default_rng(4)
+    u = rng.normal(0.0, 0.05, (2, 400))
+    v = rng.normal(0.0, 0.05, (2, 400))
+    d = CoulombFriction(Fs, Fk, 1.0, n_dir=2, kp=kp, v_s=v_s, v_reg=v_reg)
+    r = d.respond(u, v)
+    s = np.hypot(v[0], v[1])
+    mu = Fk + (Fs - Fk) * np.exp(-((s / v_s) ** 2))
+    want = np.array(kp)[:, None] * u + mu * v / np.sqrt(s**2 + v_reg**2)
+    np.testing.assert_allclose(r.f, want, rtol=1e-12)
+    # below v_reg it is a dashpot of Fs / v_reg, far above it friction at Fk
+    slow = d.respond(np.zeros((2, 1)), np.array([[1e-6], [0.0]]))
+    assert slow.f[0, 0] == pytest.approx(Fs / v_reg * 1e-6, rel=1e-3)
+    fast = d.respond(np.zeros((2, 1)), np.array([[1.0], [0.0]]))
+    assert fast.f[0, 0] == pytest.approx(Fk, rel=1e-4)
+
+
 def test_errors() -> None:
     with pytest.raises(ModelError, match="expected one of"):
         table10_rubber_bearing("RB3")

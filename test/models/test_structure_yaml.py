@@ -111,7 +111,8 @@ CASES = [
     ("devices/1/k", [KX], ConfigError, r"devices\[1\] \(D2\)\.k: expected a list of 2"),
     ("devices/0/kz", -1.0, ModelError, r"devices\[0\] \(D1\)\.kz: expected >= 0"),
     ("devices/0/type", "magic", ConfigError,
-     r"unknown device type 'magic'; valid: \['linear', 'stick_slip', 'bilinear'"),
+     r"unknown device type 'magic'; valid: \['linear', 'stick_slip', 'regularised_friction', "
+     r"'bilinear'"),
     ("devices/0/node", "ghost", ModelError, r"devices\[0\] \(D1\): .*unknown node id 'ghost'"),
     ("devices/0/params", [1, 2], ConfigError, r"devices\[0\] \(D1\)\.params: expected a mapping"),
     ("devices/1/name", "D1", ConfigError, r"duplicate device name 'D1'"),

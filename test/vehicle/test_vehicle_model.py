@@ -153,6 +153,25 @@ def test_theta_changes_model(spec):
         apply_theta(spec, {"m_EQ1": -1.0})
 
 
+def test_suspension_of_one_bogie(spec, nominal):
+    from modal_twin.models.vehicle_spec import parameter_value
+
+    # both bogies at a value = the car at that value (the same matrices, exactly)
+    both = assemble_vehicle(spec, theta={"c_secondary_front": 1.2e4,
+                                         "c_secondary_rear": 1.2e4})
+    car = assemble_vehicle(spec, theta={"c_secondary": 1.2e4})
+    np.testing.assert_allclose(both.C, car.C, rtol=1e-12, atol=1e-9)
+    # one bogie: a two-DOF damper pair (pivot, bogie) changes by the difference, nothing else
+    front = assemble_vehicle(spec, theta={"c_secondary_front": 1.2e4})
+    d = front.D_sec[0]
+    np.testing.assert_allclose(front.C - nominal.C, (1.2e4 - spec.c_secondary) * np.outer(d, d),
+                               atol=1e-6)
+    s2 = apply_theta(spec, {"k_primary": 3e6, "k_primary_rear": 1.5e6})
+    assert parameter_value(s2, "k_primary_rear") == pytest.approx(1.5e6)
+    assert parameter_value(s2, "k_primary_front") == pytest.approx(3e6)  # follows the car
+    assert {"c_secondary_front", "k_primary_rear"} <= set(theta_names(spec))
+
+
 def test_plant_and_secondary_devices(spec, nominal):
     plant = build_vehicle(spec)
     assert plant.input_names == INPUT_NAMES

@@ -216,6 +216,7 @@ _BILINEAR = {"ratio": 0.75, "ub": 0.03}
 _BOUC_WEN = {"alpha": 0.3, "uy": 0.03}
 _CUBIC = {"k3": 0.0}
 _GAP = {"g": 0.01, "kp": 0.0}
+_REG_FRICTION = {"kp": 0.0, "v_s": 0.05, "v_reg": 0.005}
 
 
 def _rel_linear(p: dict[str, Any], site: Site) -> Device:
@@ -223,19 +224,37 @@ def _rel_linear(p: dict[str, Any], site: Site) -> Device:
                         [_take(p, "c", site.c[0]), _take(p, "cy", site.c[1])], name=site.name)
 
 
+def _friction_limits(p: dict[str, Any], site: Site, law: str) -> tuple[float, float]:
+    """(Fs, Fk) given, or mu_s, mu_k (default 0.09, 0.06) times the carried weight."""
+    if "Fs" in p or "Fk" in p:
+        return _take(p, "Fs", 0.0), _take(p, "Fk", 0.0)
+    W = site.weight or 0.0
+    if W <= 0:
+        msg = f"{law} at {site.name}: mu_s / mu_k need the carried weight; give Fs, Fk"
+        raise OptionError(msg)
+    return (_take(p, "mu_s", _STICK_SLIP["mu_s"]) * W,
+            _take(p, "mu_k", _STICK_SLIP["mu_k"]) * W)
+
+
 def _rel_stick_slip(p: dict[str, Any], site: Site) -> Device:
     """Coulomb friction in series with the nominal stiffness (Sec. 6 of [004])."""
-    if "Fs" in p or "Fk" in p:
-        Fs, Fk = _take(p, "Fs", 0.0), _take(p, "Fk", 0.0)
-    else:
-        W = site.weight or 0.0
-        if W <= 0:
-            msg = f"stick_slip at {site.name}: mu_s / mu_k need the carried weight; give Fs, Fk"
-            raise OptionError(msg)
-        Fs = _take(p, "mu_s", _STICK_SLIP["mu_s"]) * W
-        Fk = _take(p, "mu_k", _STICK_SLIP["mu_k"]) * W
+    Fs, Fk = _friction_limits(p, site, "stick_slip")
     kt = _kmean(site) * _take(p, "kt_factor", _STICK_SLIP["kt_factor"])
-    return CoulombFriction(Fs, Fk, kt, float(np.mean(site.c)), n_dir=2, name=site.name)
+    # kp: the share of the component's own spring kept beside the slider (0 by default)
+    share = _take(p, "kp", 0.0)
+    kp = (share * float(site.k[0]), share * float(site.k[1]))
+    return CoulombFriction(Fs, Fk, kt, float(np.mean(site.c)), n_dir=2, name=site.name,
+                           kp=kp, v_s=_take(p, "v_s", 0.0))
+
+
+def _rel_regularised_friction(p: dict[str, Any], site: Site) -> Device:
+    """Viscous-regularised friction with a speed-dependent limit beside a share of k."""
+    Fs, Fk = _friction_limits(p, site, "regularised_friction")
+    share = _take(p, "kp", _REG_FRICTION["kp"])
+    kp = (share * float(site.k[0]), share * float(site.k[1]))
+    return CoulombFriction(Fs, Fk, _kmean(site), float(np.mean(site.c)), n_dir=2,
+                           name=site.name, kp=kp, v_s=_take(p, "v_s", _REG_FRICTION["v_s"]),
+                           v_reg=_take(p, "v_reg", _REG_FRICTION["v_reg"]))
 
 
 def _rel_bilinear(cls: type[BilinearElastic]) -> Builder:
@@ -257,8 +276,10 @@ def _rel_bouc_wen(p: dict[str, Any], site: Site) -> Device:
 
 
 def _rel_cubic(p: dict[str, Any], site: Site) -> Device:
-    return CubicSpring(_take(p, "k", _kmean(site)), _take(p, "k3", _CUBIC["k3"]),
-                       [float(v) for v in site.c], name=site.name)
+    # k: the mean linear stiffness; each direction keeps the nominal spring's anisotropy
+    kx, ky = _take(p, "k", _kmean(site)) / _kmean(site) * np.asarray(site.k, float)[:2]
+    return CubicSpring(float(kx), _take(p, "k3", _CUBIC["k3"]), [float(v) for v in site.c],
+                       name=site.name, m=_take(p, "m", 3.0), k1y=float(ky))
 
 
 def _rel_gap(p: dict[str, Any], site: Site) -> Device:
@@ -267,9 +288,10 @@ def _rel_gap(p: dict[str, Any], site: Site) -> Device:
     share = _take(p, "kp", _GAP["kp"])
     kp = (share * float(site.k[0]), share * float(site.k[1]))
     cp = (share * float(site.c[0]), share * float(site.c[1]))
-    return GapSpring(_take(p, "k", _kmean(site)), _take(p, "g", _GAP["g"]),
+    g = _take(p, "g", _GAP["g"])
+    return GapSpring(_take(p, "k", _kmean(site)), g,
                      0.0 if share else float(np.mean(site.c)), n_dir=2, name=site.name,
-                     kp=kp, cp=cp)
+                     kp=kp, cp=cp, g_neg=_take(p, "g_neg", g), n=_take(p, "n", 1.0))
 
 
 _NOM_C = {"c": "nominal c"}
@@ -283,6 +305,13 @@ _ENTRIES = (
              ("Fs", "Fk", "kt", "c"), {"c": "mean nominal c"}, "Sec. 6 of [004]",
              _abs_coulomb, ("mu_s", "mu_k", "Fs", "Fk", "kt_factor"), _STICK_SLIP,
              build_relative=_rel_stick_slip),
+    LawEntry("regularised_friction", CoulombFriction, law_coulomb, ("friction",),
+             ("Fs", "Fk", "kt", "c", "kp", "v_s", "v_reg"),
+             {"c": "mean nominal c", "kp": (0.0, 0.0), "v_s": 0.0},
+             "viscous-regularised Coulomb friction, Stribeck speed dependence",
+             _abs_coulomb, ("mu_s", "mu_k", "Fs", "Fk", "kp", "v_s", "v_reg"),
+             {"mu_s": 0.09, "mu_k": 0.06, **_REG_FRICTION},
+             build_relative=_rel_regularised_friction),
     LawEntry("bilinear", BilinearElastic, law_bilinear_elastic,
              ("softening",), ("k", "kb", "ub", "c"), _NOM_C, "Eq. (9) of [004]",
              _abs_bilinear(BilinearElastic), ("k", "ratio", "ub"), _BILINEAR,
@@ -301,10 +330,12 @@ _ENTRIES = (
              {"c": "nominal c", "W": "auto (carried weight)", "mu0": 0.0606, "mu1": -0.5883,
               "mu2": 0.1148, "S": 0.1018}, "Eqs. (10), (11a) of [004]", _abs_bw_esb),
     LawEntry("cubic", CubicSpring, law_cubic, ("softening", "hardening"),
-             ("k1", "k3", "c"), _NOM_C, "Eq. (3) of [003], K1 and K3 terms", _abs_cubic,
-             ("k", "k3"), _CUBIC, build_relative=_rel_cubic),
-    LawEntry("gap", GapSpring, law_gap, ("gap",), ("k", "g", "c"),
-             {"c": "mean nominal c"}, "dead band, contact spring", _abs_gap, ("k", "g", "kp"),
+             ("k1", "k3", "c", "m"), {**_NOM_C, "m": 3.0},
+             "Eq. (3) of [003], K1 and K3 terms (free exponent m)", _abs_cubic,
+             ("k", "k3", "m"), _CUBIC, build_relative=_rel_cubic),
+    LawEntry("gap", GapSpring, law_gap, ("gap",), ("k", "g", "c", "g_neg", "n"),
+             {"c": "mean nominal c", "g_neg": "g", "n": 1.0}, "dead band or one-sided stop, "
+             "contact spring (linear or Hertz-like)", _abs_gap, ("k", "g", "kp", "g_neg", "n"),
              _GAP,
              build_relative=_rel_gap),
     LawEntry("prandtl", PrandtlJoint, law_prandtl, ("hysteresis", "friction"),
