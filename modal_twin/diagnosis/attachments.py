@@ -16,6 +16,7 @@ A factory offers the masses it can hang through ``attachments()`` and builds the
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -36,6 +37,8 @@ from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.models.effects import MOUNT_LAW, EffectSpec
 
+log = logging.getLogger(__name__)
+
 __all__ = ["MOUNT_LAW", "AttachmentCandidate", "fit_attachment", "screen_attachments"]
 
 _ZETA_BOUNDS = (0.005, 0.4)
@@ -50,8 +53,9 @@ class AttachmentCandidate:
     gain: float  # share of the training residual energy it removes
 
 
-def _mount(component: str, f_hz: float, zeta: float) -> EffectSpec:
-    return EffectSpec(component, MOUNT_LAW, {"f_hz": float(f_hz), "zeta": float(zeta)})
+def _mount(component: str, f_hz: float, zeta: float, **hardening: float) -> EffectSpec:
+    return EffectSpec(component, MOUNT_LAW, {"f_hz": float(f_hz), "zeta": float(zeta),
+                                             **hardening})
 
 
 def screen_attachments(factory: Any, train: Record, *, freqs_hz: FloatArray | None = None,
@@ -118,6 +122,40 @@ def fit_attachment(factory: Any, component: str, start: dict[str, float], train:
     x0 = np.clip([np.log(f0), z0], lo + 1e-9, hi - 1e-9)
     sol = least_squares(objective, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
                         x_scale=[0.1, 0.02])
-    effect = _mount(component, **to_params(sol.x))
-    return judge_fit(effect, factory.plant([effect]), factory.plant(), sol, 2, train, test,
-                     objective, t0, _parameter_std(sol, to_params, ["f_hz", "zeta"]))
+    linear = judge_fit(_mount(component, **to_params(sol.x)),
+                       factory.plant([_mount(component, **to_params(sol.x))]), factory.plant(),
+                       sol, 2, train, test, objective, t0,
+                       _parameter_std(sol, to_params, ["f_hz", "zeta"]))
+    hard = _fit_hardening(factory, component, sol.x, lo, hi, train, test, decimate, max_nfev)
+    return hard if hard is not None and hard.bic < linear.bic else linear
+
+
+def _fit_hardening(factory: Any, component: str, x_lin: FloatArray, lo: FloatArray,
+                   hi: FloatArray, train: Records, test: Record, decimate: int,
+                   max_nfev: int) -> FittedEffect | None:
+    """Refit a mount that hardens: ``k d (1 + (|d| / u_h)^(m - 1))``, from the linear fit.
+
+    None when the model cannot carry a hardening mount.
+    """
+    t0 = time.perf_counter()
+
+    def to_params(x: FloatArray) -> dict[str, float]:
+        return {"f_hz": float(np.exp(x[0])), "zeta": float(x[1]),
+                "u_h": float(np.exp(x[2])), "m": float(x[3])}
+
+    objective = SimulationObjective(
+        lambda x: factory.plant([_mount(component, **to_params(x))]), train, decimate)
+    lo4 = np.r_[lo, np.log(1e-5), 2.0]
+    hi4 = np.r_[hi, np.log(1.0), 9.0]
+    x0 = np.clip(np.r_[x_lin, np.log(1e-2), 3.0], lo4 + 1e-9, hi4 - 1e-9)
+    try:
+        sol = least_squares(objective, x0, bounds=(lo4, hi4), diff_step=1e-3,
+                            max_nfev=max_nfev, x_scale="jac")
+        effect = _mount(component, **to_params(sol.x))
+        fitted = factory.plant([effect])
+    except (ModalTwinError, ValueError) as err:
+        log.debug("hardening mount at %s not fitted: %s", component, err)
+        return None
+    names = ["f_hz", "zeta", "u_h", "m"]
+    return judge_fit(effect, fitted, factory.plant(), sol, 4, train, test, objective, t0,
+                     _parameter_std(sol, to_params, names))

@@ -30,7 +30,7 @@ from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.plant import Plant
 
-__all__ = ["figures_on", "judge", "rank", "record_noise_floor"]
+__all__ = ["figures_on", "judge", "rank", "record_noise_floor", "worse_tolerance"]
 
 LOWER_BY = 0.01  # training and held-out: at least 1 % lower
 WORSE_BY = 0.01  # other records: at most 1 % higher
@@ -72,7 +72,7 @@ def figures_on(plant: Plant, records: Sequence[Record], noises: Sequence[np.ndar
     return tuple(out)
 
 
-def _worse_tol(rec: Record) -> float:
+def worse_tolerance(rec: Record) -> float:
     """How much higher an error may come out on a record before it counts as worse.
 
     Three standard errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %.
@@ -125,12 +125,12 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
         # pooled over the channels, and the median channel: neither may get worse
         for what, vb, va in (("", b.total, a.total),
                              ("median ", b.median_nrmse, a.median_nrmse)):
-            if must_lower and what and va <= vb * (1 + _worse_tol(records[i])):
+            if must_lower and what and va <= vb * (1 + worse_tolerance(records[i])):
                 continue  # the median channel need not fall (a sensor fault is one channel)
             if must_lower and not va < (1 - lower_by) * vb:
                 rejected = (f"does not lower the {what}error on {name} "
                             f"({100 * vb:.2f} % -> {100 * va:.2f} %)")
-            elif not must_lower and va > (1 + _worse_tol(records[i])) * vb:
+            elif not must_lower and va > (1 + worse_tolerance(records[i])) * vb:
                 rejected = f"makes {what}{name} worse ({100 * vb:.2f} % -> {100 * va:.2f} %)"
             if rejected:
                 break

@@ -44,7 +44,7 @@ from modal_twin.diagnosis.evidence import DeviceEvidence, device_evidence
 from modal_twin.diagnosis.families import FAMILY_LAWS
 from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
-from modal_twin.diagnosis.judge import figures_on, judge, rank, record_noise_floor
+from modal_twin.diagnosis.judge import figures_on, judge, rank, record_noise_floor, worse_tolerance
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
 from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures
 from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter, screen_parameters
@@ -340,6 +340,35 @@ def _apply(factory: ModelFactory, f: FittedEffect) -> ModelFactory:
     return with_effects(factory, [f.effect])
 
 
+def _apply_all(factory: ModelFactory, found: Sequence[FittedEffect]) -> ModelFactory:
+    for f in found:
+        factory = _apply(factory, f)
+    return factory
+
+
+def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
+                  noises: Sequence[np.ndarray], say: Callable[[str], None]
+                  ) -> list[FittedEffect]:
+    """Drop effects the others made idle (backward elimination after the joint refit).
+
+    An effect found early can stand in for one found later (a column line for the storey
+    it belongs to); after the joint refit it may do nothing. It is dropped when the model
+    without it is not worse on any record (within the sampling tolerance of an RMS).
+    """
+    keep = list(found)
+    for f in list(found):
+        if len(keep) < 2:
+            break
+        rest = [g for g in keep if g is not f]
+        with_all = figures_on(_apply_all(factory, keep).plant(), records, noises)
+        without = figures_on(_apply_all(factory, rest).plant(), records, noises)
+        if all(b.total <= a.total * (1.0 + worse_tolerance(r))
+               for a, b, r in zip(with_all, without, records, strict=True)):
+            say(f"dropped {f.family} at {f.place}: the other effects do its work")
+            keep = rest
+    return keep
+
+
 def diagnose(
     factory: ModelFactory,
     train: Record,
@@ -391,10 +420,9 @@ def diagnose(
         found = refit_jointly(factory, found, (records[0], *records[2:]))
     rec_c, _ = _common_channels(factory, records)
     noises = [f.noise for f in first.before]  # the floors of the model as given
-    final = factory
-    for f in found:
-        final = _apply(final, f)
-    after = figures_on(final.plant(), rec_c, noises)
+    if len(found) > 1:
+        found = _without_idle(factory, found, rec_c, noises, say)
+    after = figures_on(_apply_all(factory, found).plant(), rec_c, noises)
     names = ", ".join(f"{f.family} at {f.place} ({f.effect.law})" for f in found)
     b, a = first.before[1], after[1]
     summary = (f"missing: {names} -- held-out NRMSE {100 * b.median_nrmse:.2f} % -> "

@@ -50,7 +50,7 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.craig_bampton import CBReduction, craig_bampton
-from modal_twin.models.devices import LinearDevice
+from modal_twin.models.devices import CubicSpring, LinearDevice
 from modal_twin.models.fe import FEAssembly, FEModel
 from modal_twin.models.plant import Plant, Source
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
@@ -214,6 +214,8 @@ class VehicleModel:
         Floor ``uz`` of each sensor from ``x``.
     D_sec : (2, n) float array
         Secondary-suspension drifts ``u_pivot - z_b`` (front, rear) from ``x``.
+    D_mount : (n_elastic, n) float array
+        Mount drifts ``z_e - u_floor`` of the elastic equipment items from ``x``.
     f_hz, omega : (n,) float arrays
         Undamped natural frequencies of the coupled model.
     Phi : (n, n) float array
@@ -231,6 +233,7 @@ class VehicleModel:
     dof_names: tuple[str, ...]
     S: FloatArray
     D_sec: FloatArray
+    D_mount: FloatArray
     f_hz: FloatArray
     omega: FloatArray
     Phi: FloatArray
@@ -310,6 +313,8 @@ class VehicleModel:
                 dev = LinearDevice([ks], [cs], name=f"secondary_{side}")
                 atts.append(DeviceAttachment(device=dev, B=B))
             devices = tuple(atts)
+        K, C, mounts = self._hardening_mounts(Phi, K, C)
+        devices = devices + mounts
         SPhi = self.S @ Phi
         z = np.zeros_like(SPhi)
         return ReducedSystem(M=np.eye(r), C=0.5 * (C + C.T), K=0.5 * (K + K.T),
@@ -318,6 +323,23 @@ class VehicleModel:
                              D_out=np.zeros((SPhi.shape[0], len(INPUT_NAMES))),
                              output_names=tuple(c.name for c in self.channels))
 
+
+    def _hardening_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray
+                          ) -> tuple[FloatArray, FloatArray, tuple[DeviceAttachment, ...]]:
+        """Carry hardening mounts as 1-direction power springs (their linear part moved)."""
+        elastic = [e for e in self.spec.equipment if e.mount == "elastic"]
+        atts = []
+        for e, d in zip(elastic, self.D_mount, strict=True):
+            if e.u_h_mount <= 0.0:
+                continue
+            B = (d @ Phi)[None, :]
+            K = K - e.k_mount * B.T @ B
+            C = C - e.c_mount * B.T @ B
+            k3 = e.k_mount / e.u_h_mount ** (e.m_mount - 1.0)
+            dev = CubicSpring(e.k_mount, k3, [e.c_mount], name=f"mount_{e.name}",
+                              m=e.m_mount)
+            atts.append(DeviceAttachment(device=dev, B=B))
+        return K, C, tuple(atts)
 
 
 def _add_pair(A: FloatArray, d: FloatArray, k: float) -> None:
@@ -384,10 +406,11 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
             _add_pair(C, g, cp)
             Gamma[:, i] = -kp * g  # simulator: ... = -Gamma u
             Gamma[:, 4 + i] = -cp * g
+    D_mount = np.zeros((len(elastic), n))
     for k, e in enumerate(elastic):
         ie = n_cb + 4 + k
         M[ie, ie] = e.mass
-        d = np.zeros(n)
+        d = D_mount[k]
         d[ie] = 1.0
         d[car.cb_index(e.x)] = -1.0
         _add_pair(K, d, e.k_mount)
@@ -408,7 +431,8 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
     channels = tuple(ChannelSpec(f"floor_{s.label}_z", "acceleration", f"floor_{s.label}",
                                  "z", position_m=(s.x, 0.0, 0.0)) for s in spec.sensors)
     return VehicleModel(spec=spec, carbody=car, M=M, C=C, K=K, Gamma=Gamma,
-                        dof_names=tuple(names), S=S, D_sec=D_sec, f_hz=omega / (2 * math.pi),
+                        dof_names=tuple(names), S=S, D_sec=D_sec, D_mount=D_mount,
+                        f_hz=omega / (2 * math.pi),
                         omega=omega, Phi=Phi, channels=channels)
 
 

@@ -130,7 +130,9 @@ class VehicleFactory:
                        f"rigid items: {list(self.attachments())}")
                 raise OptionError(msg)
             spec = equipment_mounted(spec, e.component, float(e.params["f_hz"]),
-                                     float(e.params.get("zeta", 0.05)))
+                                     float(e.params.get("zeta", 0.05)),
+                                     u_h=float(e.params.get("u_h", 0.0)),
+                                     m=float(e.params.get("m", 3.0)))
         plant = build_vehicle(spec, theta=self.theta or None)
         plant = replace(plant, name=f"{plant.name}#{self.label}") if self.label else plant
         return with_sensor_effects(plant, sensors)

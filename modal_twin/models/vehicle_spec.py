@@ -76,6 +76,11 @@ class EquipmentSpec:
         Vertical mount frequency ``sqrt(k / m) / 2 pi`` when elastic, Hz.
     zeta_mount : float
         Mount damping ratio when elastic (``c = 2 zeta m 2 pi f``).
+    u_h_mount : float
+        Hardening of the mount: its spring force is ``k d (1 + (|d| / u_h)^(m - 1))`` for a
+        drift ``d`` (the stiffening of rubber hangers); 0: linear (default), m.
+    m_mount : float
+        Exponent ``m`` of that hardening, in [2, 9].
     """
 
     name: str
@@ -84,6 +89,8 @@ class EquipmentSpec:
     mount: Mount = "rigid"
     f_mount_hz: float = 10.0
     zeta_mount: float = 0.05
+    u_h_mount: float = 0.0
+    m_mount: float = 3.0
 
     @property
     def k_mount(self) -> float:
@@ -212,8 +219,11 @@ class VehicleSpec:
         raise OptionError(msg)
 
 
-def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float) -> VehicleSpec:
+def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float, *,
+                      u_h: float = 0.0, m: float = 3.0) -> VehicleSpec:
     """Return a copy of ``spec`` with equipment ``name`` on elastic mounts (f_hz, zeta).
+
+    ``u_h > 0`` makes the mount harden (:class:`EquipmentSpec`).
 
     The "elastic attachment" candidate of the diagnosis (Fig. 3b of [002]).
 
@@ -231,7 +241,11 @@ def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float) ->
     if not (math.isfinite(zeta) and zeta >= 0.0):
         msg = f"zeta: expected a finite value >= 0, got {zeta!r}"
         raise ModelError(msg)
-    eq = tuple(replace(e, mount="elastic", f_mount_hz=float(f_hz), zeta_mount=float(zeta))
+    if not (math.isfinite(u_h) and u_h >= 0.0 and 2.0 <= m <= 9.0):
+        msg = f"u_h, m: expected u_h >= 0 m and m in [2, 9], got {u_h!r}, {m!r}"
+        raise ModelError(msg)
+    eq = tuple(replace(e, mount="elastic", f_mount_hz=float(f_hz), zeta_mount=float(zeta),
+                       u_h_mount=float(u_h), m_mount=float(m))
                if e.name == name else e for e in spec.equipment)
     return replace(spec, equipment=eq)
 

@@ -94,3 +94,22 @@ def test_parameter_std_marks_only_the_undetermined_ones() -> None:
     np.testing.assert_allclose([std["a"], std["b"]], np.sqrt(np.diag(cov)), rtol=1e-6)
     assert np.isnan(std["g_neg"])
     assert std["kp"] == 0.0
+
+
+def test_an_effect_the_others_made_idle_is_dropped(factory: BuildingFactory) -> None:
+    from modal_twin.diagnosis.judge import record_noise_floor
+    from modal_twin.diagnosis.pipeline import _without_idle
+
+    nominal = factory.parameters()
+    truth = {"m_F3": 1.25 * nominal["m_F3"]}
+    recs = [record_of(factory, truth, seed=s) for s in (3, 4)]
+    noises = [record_noise_floor(factory.plant(), r) for r in recs]
+    # a mass found first at F1, refitted back to its nominal value: it does nothing
+    idle = found("m_F1", nominal["m_F1"])
+    real = found("m_F3", truth["m_F3"])
+    assert _without_idle(factory, [idle, real], recs, noises, print) == [real]
+    # two effects that both act are both kept
+    truth2 = {**truth, "m_F1": 1.3 * nominal["m_F1"]}
+    recs2 = [record_of(factory, truth2, seed=s) for s in (5, 6)]
+    both = [found("m_F1", truth2["m_F1"]), real]
+    assert _without_idle(factory, both, recs2, noises, print) == both

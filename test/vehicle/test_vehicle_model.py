@@ -172,6 +172,27 @@ def test_suspension_of_one_bogie(spec, nominal):
     assert {"c_secondary_front", "k_primary_rear"} <= set(theta_names(spec))
 
 
+def test_hardening_mount_is_a_power_spring_on_the_mount_drift(spec):
+    el = equipment_mounted(spec, "EQ1", 10.0, 0.05, u_h=0.002, m=3.0)
+    vm = assemble_vehicle(el)
+    system = vm.to_reduced_system()
+    (att,) = system.devices
+    eq = el.equipment_named("EQ1")
+    dev = att.device
+    # f = k d (1 + (|d| / u_h)^2) + c d': the closed form along a drift history
+    d = np.linspace(-0.004, 0.004, 81)
+    r = dev.respond(d[None, :])
+    np.testing.assert_allclose(r.f[0], eq.k_mount * d * (1.0 + (np.abs(d) / 0.002) ** 2),
+                               rtol=1e-12)
+    # the drift it sees is z_EQ1 - u_floor, and the linear part left K and C: the linear
+    # model plus the device's tangent at rest is the linear elastic mount
+    lin = assemble_vehicle(equipment_mounted(spec, "EQ1", 10.0, 0.05)).to_reduced_system()
+    np.testing.assert_allclose(system.K + eq.k_mount * att.B.T @ att.B, lin.K, atol=1e-6)
+    np.testing.assert_allclose(system.C + eq.c_mount * att.B.T @ att.B, lin.C, atol=1e-9)
+    with pytest.raises(ModelError, match="u_h, m: expected"):
+        equipment_mounted(spec, "EQ1", 10.0, 0.05, u_h=-1.0)
+
+
 def test_plant_and_secondary_devices(spec, nominal):
     plant = build_vehicle(spec)
     assert plant.input_names == INPUT_NAMES
