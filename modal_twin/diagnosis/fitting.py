@@ -235,12 +235,14 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
                                     np.log(p.get("k", k) / k)]),
                 np.array([lu - 4, np.log(0.005), min(lk, 0.0) + np.log(0.5)]),
                 np.array([lu + 4, np.log(3.0), max(lk, 0.0) + np.log(30.0)]))
-    if law == "bouc_wen":
+    if law == "bouc_wen":  # with its dashpot free (a device whose viscous part changed)
         lu = np.log(start["uy"])
-        return (["uy", "alpha", "k"],
-                lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2])},
-                lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k]),
-                np.array([lu - 3, 0.0, 0.7]), np.array([lu + 3, 1.0, 1.3]))
+        return (["uy", "alpha", "k", "c_factor"],
+                lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2]),
+                           "c_factor": float(x[3])},
+                lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k,
+                                    p.get("c_factor", 1.0)]),
+                np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 1.3, 3.0]))
     if law == "cubic":  # k3 u |u|^(m-1) = sign k (|u| / u_h)^(m-1) u: u_h, k, m free
         sign = 1.0 if start["k3"] >= 0 else -1.0
         m0 = float(start.get("m", 3.0))

@@ -40,8 +40,9 @@ ABSOLUTE = {
     "stick_slip": {"Fs": 0.09 * W, "Fk": 0.06 * W, "kt": 2.5e6},
     "regularised_friction": {"Fs": 0.09 * W, "Fk": 0.06 * W, "kt": 2.5e6, "v_s": 0.05,
                              "v_reg": 0.005},
-    "bilinear": {"k": 2.5e6, "kb": 0.75 * 2.5e6, "ub": 0.03},
-    "bilinear_hysteretic": {"k": 2.5e6, "kb": 0.75 * 2.5e6, "ub": 0.03},
+    # the relative forms keep the nominal anisotropy (k_y / k_x = 1.5) about the mean k
+    "bilinear": {"k": 2e6, "kb": 0.75 * 2e6, "ub": 0.03, "y_scale": 1.5},
+    "bilinear_hysteretic": {"k": 2e6, "kb": 0.75 * 2e6, "ub": 0.03, "y_scale": 1.5},
     "bouc_wen": {"A": 1.0, "beta": 0.5 / 0.03**2, "gamma": 0.5 / 0.03**2,
                  "K": [[2.0e6, 0.0], [0.0, 3.0e6]], "alpha": 0.3},
     "bouc_wen_esb": {"A": 47.13, "beta": 10.41, "gamma": 36.72},

@@ -250,6 +250,17 @@ def test_regularised_friction_closed_form() -> None:
     assert fast.f[0, 0] == pytest.approx(Fk, rel=1e-4)
 
 
+@pytest.mark.parametrize("cls", [BilinearElastic, BilinearHysteretic])
+def test_bilinear_anisotropic_bearing_scales_y(cls) -> None:
+    # the same drift history in x and y: y's force is y_scale times x's (same yield drift)
+    u = 0.05 * np.sin(np.linspace(0.0, 4.0 * np.pi, 400))
+    r = cls(2e6, 0.5e6, 0.01, [0.0, 0.0], y_scale=1.3).respond(np.vstack([u, u]))
+    np.testing.assert_allclose(r.f[1], 1.3 * r.f[0], rtol=1e-12)
+    np.testing.assert_allclose(r.Kt[1, 1], 1.3 * r.Kt[0, 0], rtol=1e-12)
+    iso = cls(2e6, 0.5e6, 0.01, [0.0]).respond(u[None, :])
+    np.testing.assert_array_equal(iso.f[0], r.f[0])
+
+
 def test_errors() -> None:
     with pytest.raises(ModelError, match="expected one of"):
         table10_rubber_bearing("RB3")

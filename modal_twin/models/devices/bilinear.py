@@ -41,9 +41,7 @@ __all__ = [
 
 @njit(cache=True)
 def law_bilinear_elastic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
-    """Eq. (9) of [004] (sign-corrected); p = [k, kb, ub, cx, cy, n_dir]."""
-    k = p[0]
-    kb = p[1]
+    """Eq. (9) of [004] (sign-corrected); p = [k, kb, ub, cx, cy, n_dir, y_scale]."""
     ub = p[2]
     nd = int(p[5])
     for i in range(2):
@@ -53,6 +51,9 @@ def law_bilinear_elastic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - ji
         f[i] = 0.0
         if i >= nd:
             continue
+        sc = 1.0 if i == 0 else p[6]  # y stiffnesses are y_scale times x's
+        k = p[0] * sc
+        kb = p[1] * sc
         x = u[i]
         fi = k * x + p[3 + i] * v[i]  # Eq. (9) of [004], linear part
         kt = k
@@ -70,9 +71,7 @@ def law_bilinear_elastic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - ji
 
 @njit(cache=True)
 def law_bilinear_hysteretic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
-    """Kinematic-hardening bilinear; p = [k, kb, ub, cx, cy, n_dir]; s[2:4] elastic part."""
-    k = p[0]
-    kb = p[1]
+    """Kinematic-hardening bilinear; p = [k, kb, ub, cx, cy, n_dir, y_scale]; s[2:4] elastic."""
     ub = p[2]
     nd = int(p[5])
     for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
@@ -84,6 +83,9 @@ def law_bilinear_hysteretic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover -
         f[i] = 0.0
         if i >= nd:
             continue
+        sc = 1.0 if i == 0 else p[6]
+        k = p[0] * sc
+        kb = p[1] * sc
         e = s[2 + i] + (u[i] - s[i])  # elastic trial (return mapping)
         kt = k
         if e > ub:
@@ -124,18 +126,25 @@ class BilinearElastic(Device):
         Viscous damping per direction, N s/m (length n_dir).
     name : str
         Label.
+    y_scale : float
+        Stiffnesses in y over those in x (an anisotropic bearing; the yield displacement is
+        the same), default 1.
     """
 
     kind = KIND_BILINEAR_ELASTIC
 
     def __init__(
-        self, k: float, kb: float, ub: float, c: list[float], *, name: str = "RB"
+        self, k: float, kb: float, ub: float, c: list[float], *, name: str = "RB",
+        y_scale: float = 1.0,
     ) -> None:
         c = [float(x) for x in np.atleast_1d(c)]
         _check(k, kb, ub, c)
+        if not y_scale > 0:
+            msg = f"y_scale: expected > 0, got {y_scale}"
+            raise ModelError(msg)
         n = len(c)
         cc = c + [0.0] * (2 - n)
-        super().__init__([k, kb, ub, *cc, float(n)], n_dir=n, name=name)
+        super().__init__([k, kb, ub, *cc, float(n), float(y_scale)], n_dir=n, name=name)
 
     def reference_damping(self) -> FloatArray:
         """Return diag(c)."""

@@ -213,7 +213,7 @@ def _abs_prandtl(p: dict[str, Any], site: Site) -> Device:
 # ---------------------------------------------------------------- relative forms (effects)
 _STICK_SLIP = {"mu_s": 0.09, "mu_k": 0.06, "kt_factor": 1.0}
 _BILINEAR = {"ratio": 0.75, "ub": 0.03}
-_BOUC_WEN = {"alpha": 0.3, "uy": 0.03}
+_BOUC_WEN = {"alpha": 0.3, "uy": 0.03, "c_factor": 1.0}
 _CUBIC = {"k3": 0.0}
 _GAP = {"g": 0.01, "kp": 0.0}
 _REG_FRICTION = {"kp": 0.0, "v_s": 0.05, "v_reg": 0.005}
@@ -259,9 +259,13 @@ def _rel_regularised_friction(p: dict[str, Any], site: Site) -> Device:
 
 def _rel_bilinear(cls: type[BilinearElastic]) -> Builder:
     def build(p: dict[str, Any], site: Site) -> Device:
-        k1 = _take(p, "k", _kmean(site))
+        # k: the mean initial stiffness; each direction keeps the nominal anisotropy
+        kx, ky = float(site.k[0]), float(site.k[1])
+        aniso = kx > 0 and ky > 0
+        k1 = _take(p, "k", _kmean(site)) * (kx / _kmean(site) if aniso else 1.0)
         return cls(k1, _take(p, "ratio", _BILINEAR["ratio"]) * k1,
-                   _take(p, "ub", _BILINEAR["ub"]), [float(v) for v in site.c], name=site.name)
+                   _take(p, "ub", _BILINEAR["ub"]), [float(v) for v in site.c], name=site.name,
+                   y_scale=ky / kx if aniso else 1.0)
     return build
 
 
@@ -270,9 +274,10 @@ def _rel_bouc_wen(p: dict[str, Any], site: Site) -> Device:
     scale = _take(p, "k", _kmean(site)) / _kmean(site)
     uy = _take(p, "uy", _BOUC_WEN["uy"])
     b = 0.5 / uy**2
+    c_factor = _take(p, "c_factor", _BOUC_WEN["c_factor"])  # the dashpot beside it
     return BoucWenSDP(1.0, b, b, np.diag(scale * np.asarray(site.k, float)),
-                      _take(p, "alpha", _BOUC_WEN["alpha"]), [float(v) for v in site.c],
-                      name=site.name)
+                      _take(p, "alpha", _BOUC_WEN["alpha"]),
+                      [c_factor * float(v) for v in site.c], name=site.name)
 
 
 def _rel_cubic(p: dict[str, Any], site: Site) -> Device:
@@ -323,7 +328,7 @@ _ENTRIES = (
              build_relative=_rel_bilinear(BilinearHysteretic)),
     LawEntry("bouc_wen", BoucWenSDP, law_bw_sdp, ("hysteresis",),
              ("A", "beta", "gamma", "K", "alpha", "c"), _NOM_C, "Eqs. (10), (11b) of [004]",
-             _abs_bw_sdp, ("k", "uy", "alpha"), _BOUC_WEN, aliases=("bouc_wen_sdp",),
+             _abs_bw_sdp, ("k", "uy", "alpha", "c_factor"), _BOUC_WEN, aliases=("bouc_wen_sdp",),
              build_relative=_rel_bouc_wen),
     LawEntry("bouc_wen_esb", BoucWenESB, law_bw_esb, ("hysteresis", "friction"),
              ("A", "beta", "gamma", "c", "W", "mu0", "mu1", "mu2", "S"),
