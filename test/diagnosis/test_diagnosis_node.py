@@ -59,7 +59,7 @@ def test_diagnosis_node_finds_and_adds_the_effect(domain_id: int, tmp_path: Path
             ex.spin_once(timeout_sec=0.05)
         for _ in range(40):
             ex.spin_once(timeout_sec=0.05)
-        assert node.frames.n_samples == 16000
+        assert node.service.frames.n_samples == 16000
         fut = empty.call_async(RunDiagnosis.Request())
         ex.spin_until_future_complete(fut, timeout_sec=240)
         res = fut.result()
