@@ -5,8 +5,9 @@ from __future__ import annotations
 from typing import Any
 
 from modal_twin.io.convert import to_float_array
+from modal_twin.updating.run import pairs_table
 
-__all__ = ["diagnosis_to_msg", "version_to_parameters_msg"]
+__all__ = ["diagnosis_to_msg", "update_to_msgs", "version_to_parameters_msg"]
 
 
 def diagnosis_to_msg(d: Any, model_version: str, msg_cls: Any, place_cls: Any,
@@ -59,3 +60,33 @@ def version_to_parameters_msg(mv: Any, msg_cls: Any) -> Any:
     msg.std = to_float_array(nan)
     msg.units = [""] * len(mv.theta)
     return msg
+
+
+def update_to_msgs(upd: Any, report_cls: Any, pair_cls: Any, params_cls: Any
+                   ) -> tuple[Any, Any]:
+    """(UpdateReport, ModelParameters) of a :class:`~modal_twin.updating.run.ModelUpdate`.
+
+    The parameters carry the last stage's standard deviations (NaN where not estimated).
+    """
+    r = report_cls()
+    v = upd.version
+    r.model_version_before = "" if v.parent is None else f"v{v.parent}"
+    r.model_version_after = v.label
+    r.stages = list(upd.result.stage_names)
+    for i, j, f, fb, fa, mb, ma in pairs_table(upd):
+        p = pair_cls()
+        p.identified_index, p.model_index = i, j
+        p.identified_frequency_hz = f
+        p.model_frequency_hz_before, p.model_frequency_hz_after = fb, fa
+        p.mac_before, p.mac_after = mb, ma
+        r.pairs.append(p)
+    r.cost_before = float(upd.result.stages[0].cost_before)
+    r.cost_after = float(upd.result.stages[-1].cost_after)
+    r.converged = all(s.converged for s in upd.result.stages)
+    r.message = f"{v.label} written to {v.path}: {v.note}"
+    params = version_to_parameters_msg(v, params_cls)
+    last = upd.result.stages[-1]
+    if last.uncertainty is not None:
+        std = dict(zip(last.uncertainty.names, last.uncertainty.std, strict=True))
+        params.std = to_float_array([std.get(n, float("nan")) for n in params.names])
+    return r, params
