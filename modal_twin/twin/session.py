@@ -1,0 +1,78 @@
+"""What the twin node does, without ROS: run the model on frames, switch model versions.
+
+The node (:mod:`modal_twin.twin.node`) only converts messages; a restart of the measured
+stream, a new model version and the per-channel error table are handled here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from modal_twin.acquisition.continuity import BlockVerdict, StreamMonitor, Verdict
+from modal_twin.models.loading import load_model
+from modal_twin.paths import config_roots, resolve_config
+from modal_twin.signal_block import SignalBlock
+from modal_twin.twin.runner import TwinRunner, TwinStep
+from modal_twin.validation import check_request_path
+
+__all__ = ["TwinSession"]
+
+
+class TwinSession:
+    """The twin beside a measured stream.
+
+    Parameters
+    ----------
+    model_file : str
+        Structure or model version file (as configured; resolved here).
+    fs_hz : float
+        Frame rate the twin runs at, Hz.
+    window_s : float
+        Metrics window, s.
+    versions_dir : path
+        Folder of the model versions a parameter message may name (besides the working
+        folder, the model's folder and the configuration roots).
+    """
+
+    def __init__(self, model_file: str, fs_hz: float, window_s: float,
+                 versions_dir: str | Path) -> None:
+        self.model_file = model_file
+        self.fs_hz, self.window_s = float(fs_hz), float(window_s)
+        self.plant = load_model(resolve_config(model_file)).plant()
+        self.version = self.plant.name
+        self.roots: Sequence[Path] = [Path.cwd(), Path(versions_dir),
+                                      resolve_config(model_file).resolve().parent,
+                                      *config_roots()]
+        self.runner = TwinRunner(self.plant, self.fs_hz, window_s=self.window_s)
+        self.monitor = StreamMonitor()
+
+    def frame(self, block: SignalBlock) -> tuple[BlockVerdict, TwinStep | None]:
+        """Check a measured block and run the twin on it (None when the block is dropped).
+
+        A restart of the stream (a new run) starts the structure from rest.
+        """
+        v = self.monitor.check(block)
+        if v.block is None:
+            return v, None
+        if v.verdict is Verdict.RESTART:
+            self.runner = TwinRunner(self.plant, self.fs_hz, window_s=self.window_s)
+        return v, self.runner.step(v.block)
+
+    def load_version(self, model_file: str, theta: Mapping[str, float], label: str) -> str:
+        """Run another model version from now on; return its label.
+
+        Raises
+        ------
+        ModalTwinError
+            A path outside the allowed folders, or a model that does not load (the running
+            one stays).
+        """
+        path = self.model_file
+        if model_file:
+            path = str(check_request_path(model_file, "ModelParameters.model_file",
+                                          self.roots))
+        plant = load_model(resolve_config(path), theta=dict(theta)).plant()
+        self.plant, self.version = plant, label or plant.name
+        self.runner = TwinRunner(plant, self.fs_hz, window_s=self.window_s)
+        return self.version
