@@ -25,8 +25,6 @@ from modal_twin.paths import config_roots
 
 __all__ = ["ExcitationNode", "main"]
 
-WAIT_READERS_S = 15.0  # start anyway (and say so) when the readers have not matched by then
-
 
 class ExcitationNode(Node):
     """Wiring: command -> configuration -> drive -> paced blocks."""
@@ -45,7 +43,6 @@ class ExcitationNode(Node):
         self.create_service(AbortExcitation, "~/abort", self._on_abort)
         self.player: DrivePlayer | None = None
         self.stream_index = 0
-        self.waiting_since = time.monotonic()
         self.create_timer(min(self.cfg.block_size / self.cfg.fs_hz, 0.05),
                           guarded(self, "drive tick", self._tick))
         if self.cfg.autostart:
@@ -53,8 +50,8 @@ class ExcitationNode(Node):
 
     def _start(self, cfg: ExcitationConfig) -> None:
         drive = make_drive(cfg)  # may raise: nothing is changed before it succeeds
-        self.cfg, self.player = cfg, DrivePlayer(drive, cfg, self.stream_index)
-        self.waiting_since = time.monotonic()
+        self.cfg = cfg
+        self.player = DrivePlayer(drive, cfg, self.stream_index, created_s=time.monotonic())
         self.get_logger().info(f"drive {cfg.kind}: {drive.shape[0]} channels x "
                                f"{drive.shape[1]} samples at {cfg.fs_hz} Hz")
 
@@ -62,14 +59,10 @@ class ExcitationNode(Node):
         p = self.player
         if p is None:
             return
-        if not p.started:
-            waited = time.monotonic() - self.waiting_since
-            if self.pub.get_subscription_count() < self.cfg.wait_subscribers:
-                if waited < WAIT_READERS_S:
-                    return
-                self.get_logger().warning(f"starting without {self.cfg.wait_subscribers} "
-                                          f"matched readers after {waited:.0f} s")
-            p.start(time.monotonic(), time.time_ns())
+        warning = p.start_when_read(time.monotonic(), time.time_ns(),
+                                    self.pub.get_subscription_count())
+        if warning:
+            self.get_logger().warning(warning)
         for block in p.due(time.monotonic()):
             self.pub.publish(block_to_msg(block, SignalBlockMsg))
             self.stream_index = block.next_index

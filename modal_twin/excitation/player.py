@@ -6,7 +6,9 @@ from modal_twin._types import FloatArray
 from modal_twin.excitation.drive import ExcitationConfig
 from modal_twin.signal_block import SignalBlock
 
-__all__ = ["DrivePlayer"]
+__all__ = ["WAIT_READERS_S", "DrivePlayer"]
+
+WAIT_READERS_S = 15.0  # start anyway (and say so) when the readers have not matched by then
 
 
 class DrivePlayer:
@@ -22,11 +24,30 @@ class DrivePlayer:
         Stream index of the drive's first sample (streams continue across drives).
     """
 
-    def __init__(self, drive: FloatArray, cfg: ExcitationConfig, first_index: int = 0) -> None:
+    def __init__(self, drive: FloatArray, cfg: ExcitationConfig, first_index: int = 0,
+                 *, created_s: float = 0.0) -> None:
         self.drive, self.cfg, self.first_index = drive, cfg, first_index
         self.next_sample = 0
         self.t0_s: float | None = None
         self.t0_ns = 0
+        self.created_s = created_s  # monotonic time the drive was made (for the reader wait)
+
+    def start_when_read(self, now_s: float, now_ns: int, readers: int) -> str | None:
+        """Start the clock once ``cfg.wait_subscribers`` readers matched.
+
+        Or after :data:`WAIT_READERS_S` without them; return a warning then, else None.
+        """
+        if self.started:
+            return None
+        waited = now_s - self.created_s
+        if readers < self.cfg.wait_subscribers:
+            if waited < WAIT_READERS_S:
+                return None
+            self.start(now_s, now_ns)
+            return (f"starting without {self.cfg.wait_subscribers} matched readers after "
+                    f"{waited:.0f} s")
+        self.start(now_s, now_ns)
+        return None
 
     @property
     def n_samples(self) -> int:
