@@ -83,7 +83,7 @@ from typing import Literal
 import numpy as np
 import scipy.linalg
 
-from modal_twin._types import FloatArray
+from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError, SignalError
 from modal_twin.models.devices.base import (
     KIND_BW_ESB,
@@ -132,6 +132,11 @@ def _discretise(lam: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.
     return Phi, E0, E1
 
 
+def _split(Z: ComplexArray) -> FloatArray:
+    """Real matrix acting on [Re xi; Im xi] that returns Re(Z xi)."""
+    return np.ascontiguousarray(np.hstack([Z.real, -Z.imag]))
+
+
 class Simulator:
     """Streaming integrator of a :class:`ReducedSystem` (state kept between blocks).
 
@@ -177,15 +182,23 @@ class Simulator:
         self.dt = float(dt)
         self.rtol = float(rtol)
         self.max_iter = int(max_iter)
-        n, n_in = system.n, system.n_in
-        nd = len(system.devices)
-        nf = 2 * nd
         M = np.asarray(system.M, float)
         cM = np.linalg.cond(M)
         if not np.isfinite(cM) or cM > 1e12:
             msg = f"M: expected a well-conditioned mass matrix, cond(M) = {cM:.3e}"
             raise ModelError(msg)
-        Bs = np.zeros((nf, n))
+        Bs = self._gather_devices(system)
+        self._Minv = np.linalg.inv(M)
+        lam, Vw, G = self._modal_basis(system, Bs)
+        lam_d, e0, e1 = _discretise(lam, self.dt)
+        self._kernel_matrices(system, Bs, Vw, G, lam_d, e0, e1)
+        self._output_matrices(system, Bs, Vw)
+        self.reset()
+
+    def _gather_devices(self, system: ReducedSystem) -> FloatArray:
+        """Device kinds, parameters, reference (linear) parts and rows; return ``B_s``."""
+        nd = len(system.devices)
+        Bs = np.zeros((2 * nd, system.n))
         self.kinds = np.zeros(nd, dtype=np.int64)
         self.params = np.zeros((nd, N_PARAM))
         self.Kr = np.zeros((nd, 2, 2))
@@ -222,6 +235,15 @@ class Simulator:
             np.int64
         )
         self._Bs = Bs
+        return Bs
+
+    def _modal_basis(self, system: ReducedSystem, Bs: FloatArray
+                     ) -> tuple[ComplexArray, ComplexArray, ComplexArray]:
+        """Eigenvalues kept (one per conjugate pair), weighted modes ``V w`` and ``V^-1 B_w``.
+
+        Of the state matrix with the devices' reference parts (the module docstring).
+        """
+        n, n_in, nd = system.n, system.n_in, len(system.devices)
         Kl = system.K + sum(
             (Bs[2 * d : 2 * d + 2].T @ self.Kr[d] @ Bs[2 * d : 2 * d + 2] for d in range(nd)),
             np.zeros((n, n)),
@@ -230,10 +252,10 @@ class Simulator:
             (Bs[2 * d : 2 * d + 2].T @ self.Cr[d] @ Bs[2 * d : 2 * d + 2] for d in range(nd)),
             np.zeros((n, n)),
         )
-        Minv = np.linalg.inv(M)
-        self._Minv = Minv
+        Minv = self._Minv
         A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ Kl, -Minv @ Cl]])
-        Bw = np.vstack([np.zeros((n, n_in + nf)), -Minv @ np.hstack([system.Gamma, Bs.T])])
+        Bw = np.vstack([np.zeros((n, n_in + 2 * nd)),
+                        -Minv @ np.hstack([system.Gamma, Bs.T])])
         lam, V = np.linalg.eig(A)
         self.cond_V = float(np.linalg.cond(V))
         if not np.isfinite(self.cond_V) or self.cond_V > 1e10:
@@ -251,9 +273,13 @@ class Simulator:
             msg = f"A: eigenvalues not in conjugate pairs ({lam.size} found)"
             raise ModelError(msg)
         w = np.where(lam[keep].imag > tol, 2.0, 1.0)
-        Vw = V[:, keep] * w
-        G = Vinv[keep] @ Bw
-        lam_d, e0, e1 = _discretise(lam[keep], self.dt)
+        return lam[keep], V[:, keep] * w, Vinv[keep] @ Bw
+
+    def _kernel_matrices(self, system: ReducedSystem, Bs: FloatArray, Vw: ComplexArray,
+                         G: ComplexArray, lam_d: ComplexArray, e0: ComplexArray,
+                         e1: ComplexArray) -> None:
+        """Build the real matrices the per-sample kernel multiplies (module docstring)."""
+        n, n_in = system.n, system.n_in
         self._ns = lam_d.size
         c = np.ascontiguousarray
         # rows Re / Im of exp(lambda dt), E0, E1 (one array: few pointers for the compiler)
@@ -261,20 +287,15 @@ class Simulator:
         Ga, Gf = G[:, :n_in], G[:, n_in:]
         self._GaT = c(np.vstack([Ga.real, Ga.imag]).T)  # (n_in, 2 ns)
         self._GfT = c(np.vstack([Gf.real, Gf.imag]).T)  # (nf, 2 ns)
-
-        def split(Z: np.ndarray) -> FloatArray:
-            """Real matrix acting on [Re xi; Im xi] that returns Re(Z xi)."""
-            return c(np.hstack([Z.real, -Z.imag]))
-
         Pu, Pv = Bs @ Vw[:n], Bs @ Vw[n:]
-        self._P = c(np.vstack([split(Pu), split(Pv)]))
+        self._P = c(np.vstack([_split(Pu), _split(Pv)]))
         e1G = e1[:, None] * Gf
         self._HT = c(np.vstack([(Pu @ e1G).real, (Pv @ e1G).real]).T)  # (nf, 2 nf)
         # the drift prediction of the next sample split into a part known before this
         # sample's device forces and a short product of them (see the kernel):
         # P xi_p,k+1 = Q xi_p,k + Ua0 a_k + Ua1 a_k+1 + Hf ft_k
         Pc = np.vstack([Pu, Pv])
-        self._Q = c(split(Pc * lam_d[None, :]))  # (2 nf, 2 ns)
+        self._Q = c(_split(Pc * lam_d[None, :]))  # (2 nf, 2 ns)
         self._Ua0T = c((Pc @ (e0[:, None] * Ga)).real.T)  # (n_in, 2 nf)
         self._Ua1T = c((Pc @ (e1[:, None] * Ga)).real.T)  # (n_in, 2 nf)
         self._HfT = c((Pc @ ((lam_d * e1 + e0)[:, None] * Gf)).real.T)  # (nf, 2 nf)
@@ -283,19 +304,24 @@ class Simulator:
         e1Ga, e0Ga = e1[:, None] * Ga, e0[:, None] * Ga
         self._PinT = c(np.vstack([e1Ga.real, e1Ga.imag, e0Ga.real, e0Ga.imag,
                                   self._Ua1T.T, self._Ua0T.T]).T)  # (n_in, 4 ns + 4 nf)
-        # outputs from the kernel rows z = [xi; a_g; f]: q, q' from the modal state, q''
-        # from Eq. (12) of [004]; y = C_out [q; q'; q''] + D_out a_g
-        Lq, Lv = split(Vw[:n]), split(Vw[n:])
+
+    def _output_matrices(self, system: ReducedSystem, Bs: FloatArray, Vw: ComplexArray) -> None:
+        """Build the outputs from the kernel rows ``z = [xi; a_g; f]``.
+
+        q, q' from the modal state, q'' from Eq. (12) of [004]; y = C_out [q; q'; q''] +
+        D_out a_g.
+        """
+        n, n_in, nf = system.n, system.n_in, Bs.shape[0]
+        Lq, Lv = _split(Vw[:n]), _split(Vw[n:])
         Co = np.asarray(system.C_out, float)
         Cq, Cv, Ca = Co[:, :n], Co[:, n : 2 * n], Co[:, 2 * n :]
-        Wa = -Minv @ np.hstack([system.C @ Lv + system.K @ Lq, system.Gamma, Bs.T])  # (12)
+        Wa = -self._Minv @ np.hstack([system.C @ Lv + system.K @ Lq, system.Gamma, Bs.T])
         Wy = np.hstack([Cq @ Lq + Cv @ Lv, system.D_out, np.zeros((Co.shape[0], nf))])
         Wy += Ca @ Wa
         zero = np.zeros((n, n_in + nf))
-        self._Wy = c(Wy)
-        self._Wall = c(np.vstack([Wy, np.hstack([Lq, zero]), np.hstack([Lv, zero]), Wa]))
-        self._Bs = Bs
-        self.reset()
+        self._Wy = np.ascontiguousarray(Wy)
+        self._Wall = np.ascontiguousarray(
+            np.vstack([Wy, np.hstack([Lq, zero]), np.hstack([Lv, zero]), Wa]))
 
     def reset(self) -> None:
         """Return to rest (virgin device states, zero motion, time 0)."""
