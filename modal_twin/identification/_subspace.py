@@ -26,7 +26,8 @@ from modal_twin.errors import ModelError, OptionError
 from modal_twin.identification.modal_model import PoleSet, normalize_shapes
 from modal_twin.progress import track
 
-__all__ = ["check_orders", "default_block_rows", "leading_eigh", "poles_over_orders"]
+__all__ = ["check_orders", "choose_block_rows", "default_block_rows", "leading_eigh",
+           "leading_subspace", "poles_over_orders", "std_blocks"]
 
 
 def check_orders(orders: object, max_allowed: int, what: str) -> IntArray:
@@ -245,3 +246,39 @@ def leading_eigh(
                                     lapack_driver="stemr", check_finite=False)
     U = _back_transform(c, tau, Z[:, ::-1])
     return w[::-1][:n_sv], U
+
+
+def choose_block_rows(fs_hz: float, f_min_hz: float | None, orders: object,
+                      block_rows: int | None, n_ref: int, width: int, *, floor: int) -> int:
+    """Return the horizon ``i``: ``block_rows`` when given, else :func:`default_block_rows`.
+
+    Raises
+    ------
+    OptionError
+        A horizon below 2.
+    """
+    o_req = np.atleast_1d(np.asarray(orders))
+    n_max_req = int(o_req.max()) if o_req.size and np.issubdtype(o_req.dtype, np.integer) else 1
+    i = (default_block_rows(fs_hz, f_min_hz, n_max_req, n_ref, width, floor=floor)
+         if block_rows is None else int(block_rows))
+    if i < 2:
+        msg = f"block_rows: expected an integer >= 2, got {block_rows!r}"
+        raise OptionError(msg)
+    return i
+
+
+def std_blocks(n_blocks_std: int | None) -> int:
+    """Return the data blocks for the standard deviations (0: none; 1 means none too)."""
+    return int(n_blocks_std) if n_blocks_std and n_blocks_std > 1 else 0
+
+
+def leading_subspace(P: FloatArray, n_max: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """(singular values, leading ``n_max`` vectors, their 1 / s^2) of ``P = U S^2 U^T``.
+
+    ``P``'s lower triangle is reduced in place (:func:`leading_eigh`); a zero singular value
+    gives 0 in ``1 / s^2``.
+    """
+    s2, U = leading_eigh(P, n_max, overwrite=True)
+    s = np.sqrt(np.clip(s2, 0.0, None))
+    s2_inv = 1.0 / np.where(s2[:n_max] > 0, s2[:n_max], np.inf)
+    return s, U[:, :n_max], s2_inv

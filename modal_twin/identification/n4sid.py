@@ -40,13 +40,14 @@ import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
-from modal_twin.errors import OptionError, ShapeError
+from modal_twin.errors import ShapeError
 from modal_twin.identification._lagsums import hankel_gram
 from modal_twin.identification._subspace import (
     check_orders,
-    default_block_rows,
-    leading_eigh,
+    choose_block_rows,
+    leading_subspace,
     poles_over_orders,
+    std_blocks,
 )
 from modal_twin.identification.modal_model import PoleSweep
 from modal_twin.validation import as_channels, check_positive, check_rank
@@ -217,58 +218,64 @@ def n4sid(
         raise ShapeError(msg)
     check_rank(U, "u")
     m, l = U.shape[0], Y.shape[0]
-    n = U.shape[1]
-    o_req = np.atleast_1d(np.asarray(orders))
-    n_max_req = int(o_req.max()) if o_req.size and np.issubdtype(o_req.dtype, np.integer) else 1
-    i = (
-        default_block_rows(fs, f_min_hz, n_max_req, l, m + l, floor=6)
-        if block_rows is None
-        else int(block_rows)
-    )
-    if i < 2:
-        msg = f"block_rows: expected an integer >= 2, got {block_rows!r}"
-        raise OptionError(msg)
-    k = 2 * i * (m + l)
-    j = n - 2 * i + 1
+    i = choose_block_rows(fs, f_min_hz, orders, block_rows, l, m + l, floor=6)
+    k, j = 2 * i * (m + l), Y.shape[1] - 2 * i + 1
     if j < 2 * k:
         msg = (
             f"y: expected at least {2 * k + 2 * i - 1} samples for block_rows = {i} with "
-            f"{m} inputs and {l} outputs, got {n}"
+            f"{m} inputs and {l} outputs, got {Y.shape[1]}"
         )
         raise ShapeError(msg)
     o = check_orders(orders, l * (i - 1), f"n_out * (block_rows - 1) = {l} * {i - 1}")
-    nb = int(n_blocks_std) if n_blocks_std and n_blocks_std > 1 else 0
+    nb = _fit_blocks(std_blocks(n_blocks_std), j, k)
+    z, sy = _unit_rms(U, Y)
+    G, s, G_blocks = _observability(z, m, l, i, j, nb, int(o[-1]))
+    _log.debug("n4sid: i=%d, hankel %d x %d, %d std blocks", i, k, j, len(G_blocks))
+    poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=sy)
+    return PoleSweep("n4sid", o, poles, s, len(G_blocks))
+
+
+def _fit_blocks(nb: int, j: int, k: int) -> int:
+    """Std blocks that keep at least ``k`` Hankel columns each (a warning when fewer)."""
     if nb and j // nb < k:
         nb_fit = j // k
         warnings.warn(
             f"n_blocks_std: {nb} blocks of {j // nb} Hankel columns are fewer than the "
             f"{k} rows; using {nb_fit if nb_fit > 1 else 0} blocks",
             RuntimeWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
         nb = nb_fit if nb_fit > 1 else 0
-    z = np.empty((m + l, n))  # z = [u; y], means removed, unit RMS per channel
+    return nb
+
+
+def _unit_rms(U: FloatArray, Y: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``z = [u; y]`` with means removed and unit RMS per channel, and the outputs' RMS."""
+    m, n = U.shape[0], U.shape[1]
+    z = np.empty((m + Y.shape[0], n))
     np.subtract(U, U.mean(axis=1, keepdims=True), out=z[:m])
     np.subtract(Y, Y.mean(axis=1, keepdims=True), out=z[m:])
     sz = np.sqrt(np.einsum("ij,ij->i", z, z) / n)
     z /= sz[:, None]
-    sy = sz[m:]
+    return z, sz[m:]
+
+
+def _observability(z: FloatArray, m: int, l: int, i: int, j: int, nb: int, nm: int
+                   ) -> tuple[FloatArray, FloatArray, list[FloatArray]]:
+    """Return the observability basis ``G`` (leading ``nm`` vectors), singular values, blocks.
+
+    From the exact Gram matrix of ``[U_f; U_p; Y_p]`` (lag sums), its projection ``L32``
+    (PO-MOESP) and the one factorisation ``L32 L32^T = U S^2 U^T``; per std block
+    ``Gamma_b = L32b L32b^T U S^-2``.
+    """
     mf, p = m * i, (m + l) * i
     edges = np.linspace(0, j, nb + 1).astype(int) if nb else np.array([0, j])
     # exact, from lag sums; rows of [U_f; U_p; Y_p] only (Phi_33 is never used)
     Phi_b = hankel_gram(z, 2 * i, edges, _groups(m, l, i), row_groups=3)
     Phi = Phi_b[0] if len(Phi_b) == 1 else np.sum(Phi_b, axis=0)  # = H H^T = L L^T
     W2 = _l32(Phi, mf, p)
-    # the one factorisation: L32 L32^T = U S^2 U^T (lower triangle, by SYRK, factorised in place)
+    # the one factorisation: L32 L32^T = U S^2 U^T (lower triangle, by SYRK, in place)
     P = sla.blas.dsyrk(1.0, W2.T, lower=1)
-    nm = int(o[-1])
-    s2, Uo = leading_eigh(P, nm, overwrite=True)
-    s = np.sqrt(np.clip(s2, 0.0, None))
-    G = Uo[:, :nm]
-    s2_inv = 1.0 / np.where(s2[:nm] > 0, s2[:nm], np.inf)
-    G_blocks = []
-    for Pk in Phi_b if nb else ():
-        G_blocks.append(_l32_times(Pk, mf, p, G) * s2_inv)  # Gamma_b = L32b L32b^T U S^-2
-    _log.debug("n4sid: i=%d, hankel %d x %d, %d std blocks", i, k, j, len(G_blocks))
-    poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=sy)
-    return PoleSweep("n4sid", o, poles, s, len(G_blocks))
+    s, G, s2_inv = leading_subspace(P, nm)
+    G_blocks = [_l32_times(Pk, mf, p, G) * s2_inv for Pk in (Phi_b if nb else ())]
+    return G, s, G_blocks

@@ -33,9 +33,10 @@ from modal_twin.errors import OptionError, ShapeError
 from modal_twin.identification._lagsums import lag_sums
 from modal_twin.identification._subspace import (
     check_orders,
-    default_block_rows,
-    leading_eigh,
+    choose_block_rows,
+    leading_subspace,
     poles_over_orders,
+    std_blocks,
 )
 from modal_twin.identification.modal_model import PoleSweep
 from modal_twin.validation import as_channels, check_positive
@@ -151,17 +152,8 @@ def ssi_cov(
         msg = f"ref_channels: expected indices in [0, {l}), got {ref.tolist()}"
         raise OptionError(msg)
     r = ref.size
-    o_req = np.atleast_1d(np.asarray(orders))
-    n_max_req = int(o_req.max()) if o_req.size and np.issubdtype(o_req.dtype, np.integer) else 1
-    i = (
-        default_block_rows(fs, f_min_hz, n_max_req, r, l, floor=10)
-        if block_rows is None
-        else int(block_rows)
-    )
-    if i < 2:
-        msg = f"block_rows: expected an integer >= 2, got {block_rows!r}"
-        raise OptionError(msg)
-    nb = int(n_blocks_std) if n_blocks_std and n_blocks_std > 1 else 0
+    i = choose_block_rows(fs, f_min_hz, orders, block_rows, r, l, floor=10)
+    nb = std_blocks(n_blocks_std)
     n_lags = 2 * i
     need = 4 * n_lags * max(nb, 1)
     if n < need:
@@ -174,31 +166,35 @@ def ssi_cov(
     o = check_orders(orders, min(l * (i - 1), r * i), f"rank limit of {l * i} x {r * i} Toeplitz")
     scale = np.sqrt(np.mean((Y - Y.mean(axis=1, keepdims=True)) ** 2, axis=1))
     Ys = (Y - Y.mean(axis=1, keepdims=True)) / scale[:, None]
-    all_ref = r == l and bool(np.all(ref == np.arange(l)))  # y_ref IS y: one FFT a segment
+    T, Tb = _toeplitz_blocks(Ys, ref, i, nb)
+    # the one factorisation for every order: T T^T = U S^2 U^T (symmetric eigen-solve,
+    # about half the cost of the SVD of T; the leading singular vectors are the same)
+    TT = sla.blas.dsyrk(1.0, T.T, trans=1, lower=1)  # T T^T, lower triangle, Fortran order
+    s, G, s2_inv = leading_subspace(TT, int(o[-1]))
+    TtG = T.T @ G
+    G_blocks = [(Tk @ TtG) * s2_inv for Tk in Tb]  # O_b = T_b V S^-1 with V = T^T U S^-1
+    poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=scale)
+    return PoleSweep("ssi_cov", o, poles, s, len(G_blocks))
+
+
+def _toeplitz_blocks(Ys: FloatArray, ref: IntArray, i: int, nb: int
+                     ) -> tuple[FloatArray, list[FloatArray]]:
+    """Block Toeplitz matrix of output correlations, and one per std block (``nb`` > 1).
+
+    The point estimate comes from the whole record's correlations, as without blocks: the
+    blocks' lag sums plus the pairs that straddle their edges (a few per lag).
+    """
+    l, n = Ys.shape
+    n_lags = 2 * i
+    all_ref = ref.size == l and bool(np.all(ref == np.arange(l)))  # y_ref IS y
 
     def corr(a: int, b: int) -> FloatArray:
         yb = Ys[:, a:b]
         return correlations(yb, yb if all_ref else Ys[ref, a:b], n_lags)
 
-    if nb:
-        edges = np.linspace(0, n, nb + 1).astype(int)
-        Rb = [corr(a, b) for a, b in itertools.pairwise(edges)]
-        Tb = [_toeplitz(R, i) for R in Rb]
-        # the point estimate from the whole record's correlations, as without blocks: the
-        # blocks' lag sums plus the pairs that straddle their edges (a few per lag)
-        T = _toeplitz(_whole_record(Ys, None if all_ref else ref, Rb, edges, n_lags), i)
-    else:
-        Tb = []
-        T = _toeplitz(corr(0, n), i)
-    # the one factorisation for every order: T T^T = U S^2 U^T (symmetric eigen-solve,
-    # about half the cost of the SVD of T; the leading singular vectors are the same)
-    nm = int(o[-1])
-    TT = sla.blas.dsyrk(1.0, T.T, trans=1, lower=1)  # T T^T, lower triangle, Fortran order
-    s2, U = leading_eigh(TT, nm, overwrite=True)
-    s = np.sqrt(np.clip(s2, 0.0, None))
-    G = U[:, :nm]
-    s2_inv = 1.0 / np.where(s2[:nm] > 0, s2[:nm], np.inf)
-    TtG = T.T @ G
-    G_blocks = [(Tk @ TtG) * s2_inv for Tk in Tb]  # O_b = T_b V S^-1 with V = T^T U S^-1
-    poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=scale)
-    return PoleSweep("ssi_cov", o, poles, s, len(G_blocks))
+    if not nb:
+        return _toeplitz(corr(0, n), i), []
+    edges = np.linspace(0, n, nb + 1).astype(int)
+    Rb = [corr(a, b) for a, b in itertools.pairwise(edges)]
+    T = _toeplitz(_whole_record(Ys, None if all_ref else ref, Rb, edges, n_lags), i)
+    return T, [_toeplitz(R, i) for R in Rb]
