@@ -134,7 +134,6 @@ def eigen_derivatives(
     dlam = np.zeros((m, p))
     dPhi = np.zeros((sel.size, m, p))
     MPhi = np.asarray(M @ Phi, dtype=float)
-    sparse = sp.issparse(K)
     for j in range(m):
         phi = Phi[:, j]
         kphi = np.stack([_mul(A, phi) for A in dK], axis=1)  # (n, p)
@@ -150,28 +149,7 @@ def eigen_derivatives(
             dPhi[:, j, :] = d[sel]
             continue
         F = F0 + np.outer(MPhi[:, j], dlam[j])  # Nelson's right-hand side
-        k = int(np.argmax(np.abs(phi)))
-        F[k] = 0.0
-        keep = np.ones(n)
-        keep[k] = 0.0
-        if sparse:
-            A = sp.csc_array(K - lam[j] * M)
-            D = sp.diags_array(keep)
-            Ak = sp.csc_array(D @ A @ D + sp.csc_array(([1.0], ([k], [k])), shape=(n, n)))
-            try:
-                V = spla.splu(Ak).solve(F)
-            except RuntimeError as err:
-                msg = f"mode {j} (lambda {lam[j]:.6g}): Nelson matrix singular ({err})"
-                raise ModelError(msg) from err
-        else:
-            A = np.asarray(K, dtype=float) - lam[j] * np.asarray(M, dtype=float)
-            A = A * keep[:, None] * keep[None, :]
-            A[k, k] = 1.0
-            try:
-                V = sla.solve(A, F, assume_a="sym")
-            except (np.linalg.LinAlgError, sla.LinAlgWarning) as err:
-                msg = f"mode {j} (lambda {lam[j]:.6g}): Nelson matrix singular ({err})"
-                raise ModelError(msg) from err
+        V = _nelson_solve(K, M, lam[j], phi, F, j)
         V = np.asarray(V).reshape(n, p)
         if not np.all(np.isfinite(V)):
             msg = f"mode {j} (lambda {lam[j]:.6g}): Nelson solve not finite (repeated mode?)"
@@ -182,3 +160,41 @@ def eigen_derivatives(
     with np.errstate(divide="ignore", invalid="ignore"):
         df = np.where(f[:, None] > 0, dlam / (8.0 * np.pi**2 * f[:, None]), 0.0)
     return EigenDerivatives(dlam=dlam, df_hz=df, dPhi=dPhi, method=method)
+
+
+def _nelson_solve(K: Matrix, M: Matrix, lam_j: float, phi: FloatArray, F: FloatArray,
+                  j: int) -> FloatArray:
+    """Solve Nelson's system ``(K - lam M) V = F`` for one mode.
+
+    The row and column of the largest entry of ``phi`` are replaced by the identity (the
+    particular solution; the homogeneous part is added by the caller).
+
+    Raises
+    ------
+    ModelError
+        A singular Nelson matrix (a repeated mode).
+    """
+    n = K.shape[0]
+    F = F.copy()
+    k = int(np.argmax(np.abs(phi)))
+    F[k] = 0.0
+    keep = np.ones(n)
+    keep[k] = 0.0
+    msg = f"mode {j} (lambda {lam_j:.6g}): Nelson matrix singular"
+    if sp.issparse(K):
+        A = sp.csc_array(K - lam_j * M)
+        D = sp.diags_array(keep)
+        Ak = sp.csc_array(D @ A @ D + sp.csc_array(([1.0], ([k], [k])), shape=(n, n)))
+        try:
+            return np.asarray(spla.splu(Ak).solve(F))
+        except RuntimeError as err:
+            msg = f"{msg} ({err})"
+            raise ModelError(msg) from err
+    Ad = np.asarray(K, dtype=float) - lam_j * np.asarray(M, dtype=float)
+    Ad = Ad * keep[:, None] * keep[None, :]
+    Ad[k, k] = 1.0
+    try:
+        return np.asarray(sla.solve(Ad, F, assume_a="sym"))
+    except (np.linalg.LinAlgError, sla.LinAlgWarning) as err:
+        msg = f"{msg} ({err})"
+        raise ModelError(msg) from err
