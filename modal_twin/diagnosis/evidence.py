@@ -46,7 +46,7 @@ residual sum of squares must exceed ``p ln N`` noise variances (BIC, ``p`` colum
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -285,6 +285,29 @@ def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[fl
                            for i in range(n_dir)])
 
     b = r.ravel()
+    alone, unique, gains, sse_lin, coef_lin = _family_shares(design, b, r_var)
+    sig = _significant_families(gains, alone, groups_x, n_dir, b.size,
+                                max(sse_noise / max(nt, 1), 1e-300), max(r_var, 1e-300),
+                                sse_lin)
+    elastic_kind = _elastic_kind(design, groups_x, b, n_dir)
+    # linear changes (relative to nominal) from the linear fit, direction-averaged
+    per = 3  # [1, u, v] per direction
+    dk = float(np.mean([coef_lin[per * i + 1] / k_arr[i] for i in range(n_dir)]))
+    dc = float(np.mean([coef_lin[per * i + 2] / c_arr[i] if c_arr[i] else 0.0
+                        for i in range(n_dir)]))
+    e_slope, k_slope, ratio, n_cycles = _cycle_summary(uf, f, v, k_arr, c_arr, fs_hz)
+    return DeviceEvidence(component, float(share), float(noise_share), alone, unique, tuple(sig),
+                          elastic_kind, dk, dc, e_slope, k_slope, ratio, n_cycles)
+
+
+def _family_shares(design: Callable[[Sequence[str]], FloatArray], b: FloatArray, r_var: float
+                   ) -> tuple[dict[str, float], dict[str, float], dict[str, float], float,
+                              FloatArray]:
+    """Each family's share of the residual alone and uniquely, its gain, the linear fit.
+
+    Linear families are judged on the whole residual, nonlinear ones on what the linear
+    terms leave.
+    """
     sse_lin, coef_lin = _sse(design(["stiffness", "damping"]), b)
     nonlin = ("friction", "hysteresis", "elastic")
     sse_all, _ = _sse(design(["stiffness", "damping", *nonlin]), b)
@@ -306,23 +329,31 @@ def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[fl
         s_wo, _ = _sse(design(["stiffness", "damping", *[x for x in nonlin if x != g]]), b)
         unique[g] = float(np.clip((s_wo - sse_all) / max(sse_lin, 1e-300), 0, 1))
         gains[g] = sse_lin - s_g
-    n_obs = b.size
+    return alone, unique, gains, sse_lin, coef_lin
+
+
+def _significant_families(gains: dict[str, float], alone: dict[str, float],
+                          groups_x: Sequence[dict], n_dir: int, n_obs: int,
+                          noise_level: float, base: float, sse_lin: float) -> list[str]:
+    """Families whose gain beats ``p ln N`` noise variances and 10 % of what it is judged on.
+
+    Largest share alone first.
+    """
     sig = []
     for g, gain in gains.items():
         p = sum(len(groups_x[i][g]) for i in range(n_dir))
-        noise_level = max(sse_noise / max(nt, 1), 1e-300)
         ref = base if g in ("stiffness", "damping") else sse_lin
         if gain > p * np.log(n_obs) * noise_level and gain > 0.1 * ref:
             sig.append(g)
     sig.sort(key=lambda g: -alone[g])
-    elastic_kind = _elastic_kind(design, groups_x, b, n_dir)
-    # linear changes (relative to nominal) from the linear fit, direction-averaged
-    per = 3  # [1, u, v] per direction
-    dk = float(np.mean([coef_lin[per * i + 1] / k_arr[i] for i in range(n_dir)]))
-    dc = float(np.mean([coef_lin[per * i + 2] / c_arr[i] if c_arr[i] else 0.0
-                        for i in range(n_dir)]))
-    feats = [cycle_features(uf[i], f[i], v[i], float(k_arr[i]), float(c_arr[i]), fs_hz)
-             for i in range(n_dir)]
+    return sig
+
+
+def _cycle_summary(uf: FloatArray, f: FloatArray, v: FloatArray, k: FloatArray,
+                   c: FloatArray, fs_hz: float) -> tuple[float, float, float, int]:
+    """Slopes of excess energy and secant stiffness over amplitude, energy ratio, cycles."""
+    feats = [cycle_features(uf[i], f[i], v[i], float(k[i]), float(c[i]), fs_hz)
+             for i in range(uf.shape[0])]
     amp = np.concatenate([x.amplitude for x in feats])
     cf = CycleFeatures(amp, np.concatenate([x.energy_excess for x in feats]),
                        np.concatenate([x.energy_nominal for x in feats]),
@@ -331,8 +362,7 @@ def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[fl
     e_slope, k_slope = cf.slopes()
     e_nom = float(np.sum(cf.energy_nominal))
     ratio = float(np.sum(cf.energy_excess) / e_nom) if e_nom > 0 else float("nan")
-    return DeviceEvidence(component, float(share), float(noise_share), alone, unique, tuple(sig),
-                          elastic_kind, dk, dc, e_slope, k_slope, ratio, int(amp.size))
+    return e_slope, k_slope, ratio, int(amp.size)
 
 
 def _elastic_kind(design, groups_x, b: FloatArray, n_dir: int) -> str:

@@ -54,6 +54,7 @@ from modal_twin.diagnosis.sensors import SensorCandidate, fit_sensor, screen_sen
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.loading import ModelFactory, with_effects
+from modal_twin.models.plant import Plant
 
 __all__ = ["Diagnosis", "diagnose", "diagnose_round"]
 
@@ -203,6 +204,46 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     noises = [record_noise_floor(nominal, r) for r in records]
     say("simulating the model on every record")
     before = figures_on(nominal, records, noises)
+    where, modal = _where_and_modal(nominal, test, skipped)
+    sig = _significant(before)
+    if not sig:
+        worst = max(before, key=lambda f: f.median_over_noise)
+        summary = (f"nothing significant is missing: every channel is within "
+                   f"{SIGNIFICANT_RATIO}x its noise floor on every record (worst median "
+                   f"x{worst.median_over_noise:.2f} on {worst.record or 'a record'})")
+        return Diagnosis(False, summary, where, (), (), (), tuple(skipped), modal,
+                         before=before, after=before)
+    say("gathering evidence at the devices (force-state maps, cycles)")
+    evidence, drifts, forces = _evidence(factory, train, noises[0], skipped)
+    # fits use every record but the held-out one: a low-level record pins what a law does
+    # where it barely engages (a break-away force, an initial stiffness)
+    fit_on = (train, *records[2:])
+    screened, jobs = _device_jobs(factory, fit_on, evidence, drifts, forces, test, n_families)
+    say("screening parameters (mass, stiffness, damping) by simulated sensitivities")
+    params = screen_parameters(factory, train)
+    attachments: list[AttachmentCandidate] = []
+    if tuple(factory.attachments()):
+        say("screening elastic mounts of the rigidly attached masses")
+        attachments = screen_attachments(factory, train)
+    sensors = screen_sensors(train.channel_names, train.scored,
+                             simulate_record(nominal, train)[:, train.skip:], sig)
+    jobs += _global_jobs(factory, fit_on, test, params, attachments, sensors, n_fit,
+                         gain_threshold)
+    fitted = [f for f in _run_jobs(jobs, mapper, skipped, say)
+              if (f.effect.component, f.effect.law) not in set(exclude)]
+    ev_family = {e.component: _top_family(e) for e in evidence}
+    # a later round must earn its effect: 5 % lower, not 1 %
+    lower_by = 0.05 if factory.base_effects or set(exclude) else 0.01
+    ranked = rank([_judge(factory, f, before, records, noises, ev_family, lower_by)
+                   for f in fitted], ev_family)
+    return Diagnosis(True, _round_summary(ranked, sig), where, tuple(screened), tuple(params),
+                     tuple(ranked), tuple(skipped), modal, tuple(attachments),
+                     tuple(evidence), tuple(sensors), before, before)
+
+
+def _where_and_modal(nominal: Plant, test: Record, skipped: list[str]
+                     ) -> tuple[WhereReport, ModalView | None]:
+    """Return where the model fails on the held-out record, and its modal view."""
     pred_test = simulate_record(nominal, test)
     specs = {c.name: c for c in nominal.channels}
     where = where_it_fails(test.scored, pred_test[:, test.skip:],
@@ -213,22 +254,21 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
         modal = modal_view(nominal, test)
     except (ModalTwinError, ValueError, np.linalg.LinAlgError) as err:
         skipped.append(f"modal view: {err}")
-    sig = _significant(before)
-    if not sig:
-        worst = max(before, key=lambda f: f.median_over_noise)
-        summary = (f"nothing significant is missing: every channel is within "
-                   f"{SIGNIFICANT_RATIO}x its noise floor on every record (worst median "
-                   f"x{worst.median_over_noise:.2f} on {worst.record or 'a record'})")
-        return Diagnosis(False, summary, where, (), (), (), tuple(skipped), modal,
-                         before=before, after=before)
-    say("gathering evidence at the devices (force-state maps, cycles)")
-    # a component that already carries an effect is refined by the joint refit, not
-    # screened again
+    return where, modal
+
+
+def _evidence(factory: ModelFactory, train: Record, noise: np.ndarray, skipped: list[str]
+              ) -> tuple[list[DeviceEvidence], dict, dict]:
+    """Evidence at every component with measured drift and force (not one with an effect).
+
+    A component that already carries an effect is refined by the joint refit, not screened
+    again.
+    """
     carried = {e.component for e in factory.base_effects}
     drifts, forces = _device_data(train, [s for s in factory.sites if s not in carried])
     if not drifts and factory.sites:
         skipped.append("evidence: no component has measured drift and force")
-    tr_noise = dict(zip(train.channel_names, noises[0], strict=True))
+    tr_noise = dict(zip(train.channel_names, noise, strict=True))
     evidence = []
     for comp in drifts:
         fv = [(tr_noise[f"{comp}_f{a}"] * float(np.std(forces[comp][i]))) ** 2
@@ -236,49 +276,39 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
         spec = factory.sites[comp]
         evidence.append(device_evidence(comp, drifts[comp], forces[comp], spec.k, spec.c,
                                         train.fs_hz, noise_var=fv))
-    # fits use every record but the held-out one: a low-level record pins what a law does
-    # where it barely engages (a break-away force, an initial stiffness)
-    fit_on = (train, *records[2:])
-    screened, jobs = _device_jobs(factory, fit_on, evidence, drifts, forces, test, n_families)
-    say("screening parameters (mass, stiffness, damping) by simulated sensitivities")
-    params = screen_parameters(factory, train)
+    return evidence, drifts, forces
+
+
+def _global_jobs(factory: ModelFactory, fit_on: tuple[Record, ...], test: Record,
+                 params: Sequence[ParameterCandidate],
+                 attachments: Sequence[AttachmentCandidate],
+                 sensors: Sequence[SensorCandidate], n_fit: int, gain_threshold: float
+                 ) -> list[tuple[str, Callable[[], FittedEffect]]]:
+    """Fit jobs of the parameter, mount and sensor candidates worth a simulation."""
+    jobs: list[tuple[str, Callable[[], FittedEffect]]] = []
     for pc in params[:n_fit + 2]:  # parameters are many and cheap to fit
         if pc.gain >= gain_threshold:
             jobs.append((f"{pc.kind} {pc.name}",
                          partial(fit_parameter, factory, pc, fit_on, test)))
-    attachments: list[AttachmentCandidate] = []
-    if tuple(factory.attachments()):
-        say("screening elastic mounts of the rigidly attached masses")
-        attachments = screen_attachments(factory, train)
     for ac in attachments[:n_fit]:
         if ac.gain >= gain_threshold:
             jobs.append((f"elastic_mount at {ac.component}", partial(
                 fit_attachment, factory, ac.component, {"f_hz": ac.f_hz}, fit_on, test)))
-    sensors = screen_sensors(train.channel_names, train.scored,
-                             simulate_record(nominal, train)[:, train.skip:], sig)
     for sc in sensors[:n_fit]:
-        jobs.append((f"{sc.law} at {sc.channel}", partial(fit_sensor, factory, sc, train, test)))
-    excluded = set(exclude)
-    fitted = _run_jobs(jobs, mapper, skipped, say)
-    fitted = [f for f in fitted if (f.effect.component, f.effect.law) not in excluded]
-    ev_family = {e.component: _top_family(e) for e in evidence}
-    # a later round must earn its effect: 5 % lower, not 1 %
-    lower_by = 0.05 if factory.base_effects or excluded else 0.01
-    judged = [_judge(factory, f, before, records, noises, ev_family, lower_by)
-              for f in fitted]
-    ranked = rank(judged, ev_family)
+        jobs.append((f"{sc.law} at {sc.channel}",
+                     partial(fit_sensor, factory, sc, fit_on[0], test)))
+    return jobs
+
+
+def _round_summary(ranked: Sequence[FittedEffect], sig: Sequence[str]) -> str:
     usable = [f for f in ranked if not f.rejected and not f.flags]
-    if usable:
-        b = usable[0]
-        summary = (f"missing: {b.family} at {b.place} ({b.effect.law}) -- held-out NRMSE "
-                   f"{100 * b.records[1][1]:.2f} % -> {100 * b.records[1][2]:.2f} % "
-                   f"(x{b.records[1][3]:.2f} the noise floor)")
-    else:
-        summary = (f"the model fails ({len(sig)} channels above {SIGNIFICANT_RATIO}x their "
-                   "noise floor) but no candidate lowers the error on every record")
-    return Diagnosis(True, summary, where, tuple(screened), tuple(params), tuple(ranked),
-                     tuple(skipped), modal, tuple(attachments), tuple(evidence),
-                     tuple(sensors), before, before)
+    if not usable:
+        return (f"the model fails ({len(sig)} channels above {SIGNIFICANT_RATIO}x their "
+                "noise floor) but no candidate lowers the error on every record")
+    b = usable[0]
+    return (f"missing: {b.family} at {b.place} ({b.effect.law}) -- held-out NRMSE "
+            f"{100 * b.records[1][1]:.2f} % -> {100 * b.records[1][2]:.2f} % "
+            f"(x{b.records[1][3]:.2f} the noise floor)")
 
 
 def _top_family(e: DeviceEvidence) -> str:

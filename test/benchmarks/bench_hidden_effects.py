@@ -136,7 +136,7 @@ def score(case: Case, named: dict) -> dict[str, Any]:
     effects = named["effects"]
     if not case.hidden:
         return {"family": not effects, "place": not effects, "both": not effects,
-                "false_claims": len(effects)}
+                "false_claims": len(effects), "extra_claims": 0}
     fam = all(any(h.family_ok(e["family"]) for e in effects) for h in case.hidden)
     plc = all(any(h.place_ok(e["place"]) for e in effects) for h in case.hidden)
     both = all(any(h.family_ok(e["family"]) and h.place_ok(e["place"]) for e in effects)

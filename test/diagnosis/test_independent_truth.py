@@ -215,14 +215,20 @@ def test_bench_scores_families_places_and_false_claims() -> None:
 
     two = cases["two_bw1_RB2_stribeck_ESB1"]
     got = score(two, {"effects": [eff("hysteresis", "RB2"), eff("friction", "esb1")]})
-    assert got == {"family": True, "place": True, "both": True, "false_claims": 0}
+    assert got == {"family": True, "place": True, "both": True, "false_claims": 0,
+                   "extra_claims": 0}
     got = score(two, {"effects": [eff("friction", "RB2"), eff("hysteresis", "ESB1")]})
-    assert got == {"family": True, "place": True, "both": False, "false_claims": 0}
+    assert got == {"family": True, "place": True, "both": False, "false_claims": 0,
+                   "extra_claims": 2}
+    # an effect named beside the hidden ones is an extra claim
+    got = score(two, {"effects": [eff("hysteresis", "RB2"), eff("friction", "ESB1"),
+                                  eff("damping", "SDP1")]})
+    assert got["both"] and got["extra_claims"] == 1
     got = score(two, {"effects": [eff("hysteresis", "RB2")]})
     assert got["family"] is False and got["place"] is False
     assert score(cases["mass_roof_eccentric"], {"effects": [eff("mass", "m_R")]})["both"]
     assert score(cases["control_nothing_1pct"], {"effects": [eff("mass", "R")]}) == {
-        "family": False, "place": False, "both": False, "false_claims": 1}
+        "family": False, "place": False, "both": False, "false_claims": 1, "extra_claims": 0}
     gain = cases["control_sensor_gain_F2_C2_x"]
     got = score(gain, {"effects": [eff("sensor", "F2_C2_x"), eff("damping", "SDP1")]})
     assert got["both"] and got["false_claims"] == 1
