@@ -133,12 +133,13 @@ def _vehicle_info(a: argparse.Namespace) -> int:
 
 def _cmd_diagnose(a: argparse.Namespace) -> int:
     from modal_twin.diagnosis.workflow import diagnose_model
-    from modal_twin.io.records import record_from_bag
-
-    train, test = record_from_bag(a.train), record_from_bag(a.test)
-    levels = [record_from_bag(b) for b in a.level or []]
     from modal_twin.executors import make_executor
+    from modal_twin.io.records import record_from_bag
+    from modal_twin.models.loading import load_model
 
+    plant = load_model(a.model).plant()  # names an imported record's channels by role
+    train, test = (record_from_bag(a.train, plant=plant), record_from_bag(a.test, plant=plant))
+    levels = [record_from_bag(b, plant=plant) for b in a.level or []]
     t0 = time.perf_counter()
     with make_executor(a.jobs) as ex:
         d = diagnose_model(a.model, train, test, levels=levels, n_fit=a.n_fit, mapper=ex.map,
@@ -172,8 +173,9 @@ def _cmd_effects(a: argparse.Namespace) -> int:
         if a.png:
             print(f"plot: {plot_error_history(a.folder, a.png)}")
         return ExitCode.OK
-    train, test = record_from_bag(a.train), record_from_bag(a.test)
-    levels = [record_from_bag(b) for b in a.level or []]
+    plant = load_model(a.model).plant()  # names an imported record's channels by role
+    train, test = (record_from_bag(a.train, plant=plant), record_from_bag(a.test, plant=plant))
+    levels = [record_from_bag(b, plant=plant) for b in a.level or []]
     if a.auto:
         from modal_twin.executors import make_executor
 

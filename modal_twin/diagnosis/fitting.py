@@ -82,16 +82,31 @@ class FittedEffect:
 
 def simulate_record(plant: Plant, rec: Record) -> FloatArray:
     """Plant channels (rows of ``rec.channel_names`` it has) driven by ``rec.inputs``."""
-    idx = {n: i for i, n in enumerate(plant.input_names)}
-    missing = [n for n in plant.input_names if n not in rec.input_names]
-    if missing:
-        msg = f"record {rec.source!r} lacks the inputs {missing}"
+    have = [n for n in plant.input_names if n in rec.input_names]
+    if not have:
+        msg = (f"record {rec.source!r}: none of the model's inputs {list(plant.input_names)} "
+               f"is measured (its inputs: {list(rec.input_names)})")
         raise OptionError(msg)
-    ag = rec.inputs[[rec.input_names.index(n) for n in idx]]
+    ag = np.zeros((len(plant.input_names), rec.n_samples))  # unmeasured inputs: zero
+    for i, n in enumerate(plant.input_names):
+        if n in rec.input_names:
+            ag[i] = rec.inputs[rec.input_names.index(n)]
+    _say_missing(rec.source, [n for n in plant.input_names if n not in have])
     sim = Simulator(plant.system, 1.0 / rec.fs_hz, modal_histories=False)
     y = plant.measure(sim.step_block(ag))
     names = plant.channel_names
     return y[[names.index(n) for n in rec.channel_names]]
+
+
+_SAID: set[tuple[str, tuple[str, ...]]] = set()
+
+
+def _say_missing(source: str, missing: list[str]) -> None:
+    """Log once per record that some model inputs are not measured (taken as zero)."""
+    key = (source, tuple(missing))
+    if missing and key not in _SAID:
+        _SAID.add(key)
+        log.info("record %s: model inputs %s not measured, taken as zero", source, missing)
 
 
 def record_nmse(pred: FloatArray, rec: Record) -> FloatArray:

@@ -1,18 +1,22 @@
-"""The channel map of a rig file.
+"""The channel map of a rig file, and how measured channels meet a model (by their roles).
 
 Measured table inputs, then the structure's sensors, each with the rig's sensitivity for its
-quantity (what the acquisition calibrates with).
+quantity (what the acquisition calibrates with). For a user's own record,
+:func:`model_input_of` says which model input an ``input`` channel drives and
+:func:`match_outputs` which model channel a measured response is.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 from modal_twin.channels import ChannelSpec
 from modal_twin.models.plant import Plant
 from modal_twin.models.rig_file import RigFile
 
-__all__ = ["rig_channels", "table_channels", "with_sensitivity"]
+__all__ = ["match_outputs", "model_input_of", "rig_channels", "table_channels",
+           "with_sensitivity"]
 
 
 def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
@@ -40,3 +44,42 @@ def with_sensitivity(channels: tuple[ChannelSpec, ...],
                      sensitivity: dict[str, float]) -> tuple[ChannelSpec, ...]:
     """Channels with the sensitivity of their quantity (1.0 where none is given)."""
     return tuple(replace(c, sensitivity=sensitivity.get(c.quantity, 1.0)) for c in channels)
+
+
+_ANGULAR = ("angular_acceleration",)
+
+
+def model_input_of(ch: ChannelSpec, model_inputs: Sequence[str]) -> str | None:
+    """Return the model input an input-role channel drives, or None.
+
+    Its own name, its name without ``table_``, or from its quantity and direction: an
+    acceleration along x drives ``ax``, an angular acceleration about x ``arx`` (the
+    building's table inputs); any other model names its inputs and the channel must too.
+    """
+    for name in (ch.name, ch.name.removeprefix("table_")):
+        if name in model_inputs:
+            return name
+    d = ch.direction.lower().removeprefix("r")
+    if d in ("x", "y", "z"):
+        guess = ("ar" if ch.quantity in _ANGULAR or ch.direction.startswith("r") else "a") + d
+        if guess in model_inputs and ch.quantity in ("acceleration", *_ANGULAR):
+            return guess
+    return None
+
+
+def match_outputs(channels: Sequence[ChannelSpec], model: Sequence[ChannelSpec]
+                  ) -> dict[str, str]:
+    """Model channel name of each measured channel that has one.
+
+    By name, else by the same place (``location``), direction and quantity: an imported
+    ``roof_x`` at location ``R_P1`` along x is the model's ``R_P1_x``.
+    """
+    by_name = {c.name for c in model}
+    by_place = {(c.location, c.direction, c.quantity): c.name for c in model if c.location}
+    out: dict[str, str] = {}
+    for c in channels:
+        if c.name in by_name:
+            out[c.name] = c.name
+        elif (key := (c.location, c.direction, c.quantity)) in by_place:
+            out[c.name] = by_place[key]
+    return out

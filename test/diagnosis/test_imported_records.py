@@ -1,0 +1,114 @@
+"""A user's own record: channels named as the user likes, two of six inputs measured, a
+channel map with roles; imported with ``modal-twin import``, read by role, diagnosed.
+
+Known answer: the shipped S1 truth (stick-slip friction at ESB1, mu_s 0.06, mu_k 0.04 of
+the carried weight) with only the two horizontal ground accelerations (az = 0 and no
+rotations): the diagnosis of the imported record names friction at ESB1 with the kinetic
+force of the truth (within the accuracy a 12 s record gives).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from modal_twin.cli import main
+from modal_twin.errors import ConfigError
+from modal_twin.excitation import signals
+from modal_twin.models.building_factory import INPUTS_6DOF
+from modal_twin.models.loading import load_model
+from modal_twin.models.rig_file import load_rig
+from modal_twin.rig.truth import TruthRig
+from modal_twin.signal_block import SignalBlock
+
+ROOT = Path(__file__).resolve().parents[2]
+BUILDING = ROOT / "config" / "structures" / "building.yaml"
+FS = 1000.0
+RENAMED = {"table_ax": "ground_x", "table_ay": "ground_y", "R_P1_x": "roof_corner_x"}
+
+
+def _own_npz(path: Path, kind: str, seed: int, level: float) -> Path:
+    """The S1 truth driven in x and y only, saved with the user's names (NPZ with units)."""
+    rig_file = load_rig(ROOT / "config" / "rigs" / "s1_stick_slip.yaml")
+    plant = load_model(BUILDING).plant(rig_file.effects)
+    truth = TruthRig(plant, 1 / FS, noise_rms=rig_file.noise_rms, seed=seed)
+    rng = np.random.default_rng(seed)
+    if kind == "random":
+        ag = signals.band_limited_random(6, 12.0, FS, f_min_hz=0.2, f_max_hz=20.0, rms=1.0,
+                                         rng=rng)
+    else:
+        ag = np.vstack([signals.earthquake_like(12.0, FS, pga=1.0, rng=rng)[0]
+                        for _ in range(6)])
+    ag *= level * np.array([1.0, 1.0, 0.0, 0.0, 0.0, 0.0])[:, None]
+    raw = truth.process(SignalBlock(INPUTS_6DOF, FS, 0, ag))
+    keep = [n for n in raw.channel_names if n not in
+            ("table_az", "table_arx", "table_ary", "table_arz")]
+    specs = {c.name: c for c in plant.channels}
+    units = ["m/s^2" if n.startswith("table_") else specs[n].unit for n in keep]
+    np.savez(path, data=raw.select(keep).data, fs_hz=FS,
+             names=np.array([RENAMED.get(n, n) for n in keep]), units=np.array(units))
+    return path
+
+
+@pytest.fixture(scope="module")
+def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("own")
+    roles = d / "map.yaml"
+    roles.write_text(
+        "channels:\n"
+        "  - {name: ground_x, role: input, quantity: acceleration, direction: x}\n"
+        "  - {name: ground_y, role: input, quantity: acceleration, direction: y}\n"
+        "  - {name: roof_corner_x, role: output, quantity: acceleration, location: R_P1,"
+        " direction: x}\n")
+    out = {}
+    for key, kind, seed, level in (("train", "random", 1, 1.0), ("test", "quake", 2, 3.5)):
+        npz = _own_npz(d / f"{key}.npz", kind, seed, level)
+        assert main(["import", str(npz), "--map", str(roles), "--out", str(d / key)]) == 0
+        out[key] = d / key
+    return out
+
+
+def test_roles_name_the_inputs_and_the_renamed_response(bags: dict[str, Path]) -> None:
+    from modal_twin.io.records import record_from_bag
+
+    plant = load_model(BUILDING).plant()
+    rec = record_from_bag(bags["train"], plant=plant)
+    assert rec.input_names == ("ax", "ay")  # two of the six table inputs, by role
+    assert "R_P1_x" in rec.channel_names and "roof_corner_x" not in rec.channel_names
+    assert "ground_x" not in rec.channel_names
+    # the unmeasured inputs are zero: the model's response to this record is finite
+    from modal_twin.diagnosis.fitting import simulate_record
+
+    assert np.all(np.isfinite(simulate_record(plant, rec)))
+
+
+def test_an_input_the_model_lacks_is_one_clear_error(tmp_path: Path) -> None:
+    from modal_twin.channels import ChannelSpec
+    from modal_twin.diagnosis.record import record_from_blocks
+
+    blk = SignalBlock(("temp", "R_P1_x"), FS, 0, np.ones((2, 10)))
+    spec = [ChannelSpec("temp", "pressure", role="input", direction="x")]
+    with pytest.raises(ConfigError, match="'temp' .role input.*drives none of the model"):
+        record_from_blocks([blk], source="t", channels=spec,
+                           plant=load_model(BUILDING).plant())
+
+
+def test_diagnosis_of_the_imported_record_finds_the_friction(bags: dict[str, Path]) -> None:
+    from modal_twin.diagnosis.pipeline import diagnose
+    from modal_twin.io.records import record_from_bag
+
+    factory = load_model(BUILDING)
+    plant = factory.plant()
+    train = record_from_bag(bags["train"], plant=plant)
+    test = record_from_bag(bags["test"], plant=plant)
+    d = diagnose(factory, train, test, n_fit=1)
+    assert d.found and d.found[0].family == "friction" and d.found[0].place == "ESB1"
+    p = d.found[0].effect.params
+    weight = factory.weight("ESB1")
+    fk = p["Fk"] if "Fk" in p else p.get("mu_k", 0.0) * weight
+    # 12 s records: the stick-slip fit lands within ~10 % (the demo's longer records pin it
+    # to 0.2 %); what this test checks is that the user's record reaches the diagnosis
+    assert fk == pytest.approx(0.04 * weight, rel=0.15)
+    assert d.after[1].median_nrmse < d.before[1].median_nrmse / 5.0
