@@ -26,7 +26,16 @@ import sys
 import time
 from pathlib import Path
 
-from modal_twin.commands import campaign, export, identify, import_, report, update, view
+from modal_twin.commands import (
+    campaign,
+    export,
+    identify,
+    import_,
+    report,
+    residual,
+    update,
+    view,
+)
 from modal_twin.commands.model_matrix import check_model_kind, matrix_info
 from modal_twin.errors import ModalTwinError
 from modal_twin.exit_codes import ExitCode
@@ -282,7 +291,7 @@ def _parser() -> argparse.ArgumentParser:
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)
-    for mod in (import_, identify, export, update, campaign):
+    for mod in (import_, identify, export, update, campaign, residual):
         mod.register(sub)
     _flags_on_commands(sub)  # also after the command: modal-twin demo --quiet
     return p

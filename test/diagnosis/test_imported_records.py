@@ -29,10 +29,11 @@ FS = 1000.0
 RENAMED = {"table_ax": "ground_x", "table_ay": "ground_y", "R_P1_x": "roof_corner_x"}
 
 
-def _own_npz(path: Path, kind: str, seed: int, level: float) -> Path:
-    """The S1 truth driven in x and y only, saved with the user's names (NPZ with units)."""
+def _own_npz(path: Path, kind: str, seed: int, level: float, *, hidden: bool = True) -> Path:
+    """The S1 truth (or the nominal model) driven in x and y only, saved with the user's
+    names (NPZ with units)."""
     rig_file = load_rig(ROOT / "config" / "rigs" / "s1_stick_slip.yaml")
-    plant = load_model(BUILDING).plant(rig_file.effects)
+    plant = load_model(BUILDING).plant(rig_file.effects if hidden else ())
     truth = TruthRig(plant, 1 / FS, noise_rms=rig_file.noise_rms, seed=seed)
     rng = np.random.default_rng(seed)
     if kind == "random":
@@ -63,8 +64,9 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         "  - {name: roof_corner_x, role: output, quantity: acceleration, location: R_P1,"
         " direction: x}\n")
     out = {}
-    for key, kind, seed, level in (("train", "random", 1, 1.0), ("test", "quake", 2, 3.5)):
-        npz = _own_npz(d / f"{key}.npz", kind, seed, level)
+    for key, kind, seed, level in (("train", "random", 1, 1.0), ("test", "quake", 2, 3.5),
+                                   ("nominal", "random", 3, 1.0)):
+        npz = _own_npz(d / f"{key}.npz", kind, seed, level, hidden=key != "nominal")
         assert main(["import", str(npz), "--map", str(roles), "--out", str(d / key)]) == 0
         out[key] = d / key
     return out
@@ -112,3 +114,22 @@ def test_diagnosis_of_the_imported_record_finds_the_friction(bags: dict[str, Pat
     # to 0.2 %); what this test checks is that the user's record reaches the diagnosis
     assert fk == pytest.approx(0.04 * weight, rel=0.15)
     assert d.after[1].median_nrmse < d.before[1].median_nrmse / 5.0
+
+
+def _median_over_noise(out: str) -> float:
+    line = next(ln for ln in out.splitlines() if ln.startswith("median: NRMSE"))
+    return float(line.split("(x")[1].split(")")[0])
+
+
+def test_the_twin_residual_of_an_imported_record(bags: dict[str, Path],
+                                                 capsys: pytest.CaptureFixture) -> None:
+    # the nominal model beside its own response: at the noise floor
+    assert main(["residual", str(BUILDING), str(bags["nominal"])]) == 0
+    out = capsys.readouterr().out
+    assert "inputs ax, ay; 66 channels compared" in out
+    assert _median_over_noise(out) < 1.3
+    # beside the S1 truth it lacks the friction: far above it, worst at ESB1
+    assert main(["residual", str(BUILDING), str(bags["test"]), "--top", "3"]) == 0
+    out = capsys.readouterr().out
+    assert _median_over_noise(out) > 20.0
+    assert "ESB1_f" in out.splitlines()[2]  # the worst channel is ESB1's force
