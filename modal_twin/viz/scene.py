@@ -87,12 +87,16 @@ class SceneModes:
         Node translations of each mode (any scale).
     source : str
         ``"model"`` or ``"identified"``.
+    labels, colors : tuple
+        Per mode, the caption line and the RGB colour of the moving copy (optional).
     """
 
     f_hz: FloatArray
     zeta: FloatArray
     shapes: FloatArray
     source: str = "model"
+    labels: tuple[str, ...] = ()  # per mode, for the caption (default "mode k: f, zeta")
+    colors: tuple[int, ...] = ()  # per mode, RGB (default orange)
 
 
 def _edges_from_stiffness(K_full: Any) -> IntArray:
@@ -179,7 +183,7 @@ def _dots(points: Mapping[str, FloatArray], radius: float, color: int, base: Any
 
 
 def _mode_copy(geom: StructureGeometry, shape: FloatArray, base: Any, anim: Any,
-               amplitude: float, n_frames: int) -> list[Any]:
+               amplitude: float, n_frames: int, color: int = 0xE4572E) -> list[Any]:
     import meshcat.commands as mc
     import meshcat.geometry as mg
     from meshcat.animation import AnimationFrameVisualizer
@@ -190,7 +194,7 @@ def _mode_copy(geom: StructureGeometry, shape: FloatArray, base: Any, anim: Any,
     unit = mg.PointsGeometry(np.array([[0.0, 1.0], [0.0, 0.0], [0.0, 0.0]], np.float32))
     for e, (i, j) in enumerate(geom.edges):
         path = base.append("edges").append(f"e{e}")
-        cmds.append(mc.SetObject(mg.LineSegments(unit, mg.LineBasicMaterial(color=0xE4572E)),
+        cmds.append(mc.SetObject(mg.LineSegments(unit, mg.LineBasicMaterial(color=color)),
                                  path=path))
         clip = AnimationFrameVisualizer(anim, path, 0).get_clip()
         for k in range(n_frames + 1):
@@ -274,8 +278,9 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
         shift = np.eye(4)
         shift[1, 3] = -step * (m + 1)
         cmds.append(mc.SetTransform(shift, path=mbase))
+        color = modes.colors[m] if m < len(modes.colors) else 0xE4572E
         cmds += _mode_copy(geom, modes.shapes[m], mbase, anim, amplitude_fraction * size,
-                           n_frames)
+                           n_frames, color)
     cmds.append(mc.SetAnimation(anim, play=True, repetitions=100000))
     return cmds
 
@@ -301,7 +306,9 @@ def overlay_html(geom: StructureGeometry, modes: SceneModes | None,
     """Return the caption of the scene: modes with f and zeta, blamed places with their family."""
     items = [f"<b>{html.escape(geom.name)}</b>: structure at the right (sensors blue, "
              "devices green), modes from right to left"]
-    if modes is not None:
+    if modes is not None and modes.labels:
+        items += [html.escape(x) for x in modes.labels]
+    elif modes is not None:
         items += [f"mode {k + 1}: {f:.3f} Hz, &zeta; {100 * z:.2f} %"
                   for k, (f, z) in enumerate(zip(modes.f_hz, modes.zeta, strict=True))]
     for place, family in (blamed or {}).items():
