@@ -21,6 +21,7 @@ from modal_twin.io.convert import block_from_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.report_convert import diagnosis_to_msg, version_to_parameters_msg
 from modal_twin.io.ros import guarded, guarded_service, qos_for, report, run_node
+from modal_twin.io.status import status_of
 from modal_twin.paths import resolve_config
 
 __all__ = ["DiagnosisConfig", "DiagnosisNode", "main"]
@@ -81,7 +82,9 @@ class DiagnosisNode(Node):
         self.report_pub.publish(self._report(self.service.live()))
 
     def _on_run(self, req: RunDiagnosis.Request, res: RunDiagnosis.Response):
-        d = self.service.diagnose(req.window_s)
+        status = status_of(self)
+        d = self.service.diagnose(req.window_s,
+                                  progress=lambda step: status.set("busy", f"~/run: {step}"))
         res.report = self._report(d)
         self.report_pub.publish(res.report)
         self.get_logger().info(d.summary)

@@ -6,7 +6,7 @@ messages; every decision lives here and is tested without a ROS graph.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from modal_twin.acquisition.continuity import BlockVerdict, StreamMonitor
@@ -73,10 +73,15 @@ class DiagnosisService:
         cut = round(self.train_fraction * rec.n_samples)
         return rec.segment(0, cut), rec.segment(cut, rec.n_samples, warmup=True)
 
-    def diagnose(self, window_s: float) -> Diagnosis:
-        """Diagnose the model on the last ``window_s`` of frames (remembered for adding)."""
+    def diagnose(self, window_s: float,
+                 progress: Callable[[str], None] | None = None) -> Diagnosis:
+        """Diagnose the model on the last ``window_s`` of frames (remembered for adding).
+
+        ``progress`` is told each step (the node shows it on its status).
+        """
         train, test = self.records(window_s)
-        self.last = diagnose_model(self.model_file, train, test, n_fit=self.n_fit)
+        self.last = diagnose_model(self.model_file, train, test, n_fit=self.n_fit,
+                                   progress=progress)
         return self.last
 
     def live(self) -> Diagnosis:

@@ -138,9 +138,19 @@ def guarded(node: Node, what: str, fn: Callable[..., Any]) -> Callable[..., Any]
         except Exception as err:  # every error: the node must survive any input
             node.get_logger().error(f"{what} refused: {one_line(err)}",
                                     throttle_duration_sec=1.0)
+            _count_refused(node)
             return None
 
     return call
+
+
+def _count_refused(node: Node) -> None:
+    from modal_twin.io.status import status_of
+
+    try:
+        status_of(node).count("refused")
+    except Exception as err:  # status is a report: it never takes the node down
+        node.get_logger().debug(f"status not updated: {one_line(err)}")
 
 
 def guarded_service(node: Node, what: str, fn: Callable[[Any, Any], Any],
@@ -152,13 +162,21 @@ def guarded_service(node: Node, what: str, fn: Callable[[Any, Any], Any],
     """
 
     def call(req: Any, res: Any) -> Any:
+        from modal_twin.io.status import status_of
+
+        status = status_of(node)
+        status.set("busy", what)
         try:
-            return fn(req, res)
+            out = fn(req, res)
+            status.set("ready")
+            return out
         except Exception as err:  # every error: the node must survive any request
             text = one_line(err)
             node.get_logger().error(f"{what} refused: {text}")
             setattr(res, ok_field, False)
             res.message = text
+            status.count("refused")
+            status.set("ready", f"last request refused: {text}")
             return res
 
     return call
@@ -196,6 +214,9 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
     try:
         rclpy.init(args=args if args is not None else sys.argv)
         node = factory()
+        from modal_twin.io.status import status_of
+
+        status_of(node)  # ready, on /diagnostics
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

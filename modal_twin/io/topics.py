@@ -43,6 +43,8 @@ TOPICS: dict[str, TopicSpec] = {
     "/twin/residual": _t("SignalBlock", QosKind.STREAM),
     "/twin/metrics": _t("ComparisonMetrics", QosKind.EVENT),
     "/diagnosis/report": _t("DiagnosisReport", QosKind.LATCHED),
+    # every node's state, counters and progress (modal_twin.io.status), the ROS convention
+    "/diagnostics": TopicSpec("diagnostic_msgs/msg/DiagnosticArray", QosKind.EVENT),
 }
 
 
