@@ -50,7 +50,7 @@ class AcquisitionNode(Node):
     def _on_raw(self, msg: SignalBlockMsg) -> None:
         v = self.monitor.check(block_from_msg(msg))
         if v.verdict is not Verdict.OK:
-            report(self.get_logger(), v)
+            report(self.get_logger(), v, node=self)
         if v.block is None:
             return
         frame, unknown = frame_from_raw(v.block, self.channels)

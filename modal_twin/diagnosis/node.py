@@ -69,7 +69,7 @@ class DiagnosisNode(Node):
     def _on_frame(self, msg: SignalBlockMsg) -> None:
         v = self.service.add_frame(block_from_msg(msg))
         if v.verdict is not Verdict.OK:
-            report(self.get_logger(), v)
+            report(self.get_logger(), v, node=self)
 
     def _on_residual(self, msg: SignalBlockMsg) -> None:
         self.service.add_residual(block_from_msg(msg))

@@ -185,13 +185,20 @@ def guarded_service(node: Node, what: str, fn: Callable[[Any, Any], Any],
 _last_report: dict[tuple[str, str], float] = {}
 
 
-def report(logger: Any, verdict: Any, *, every_s: float = 1.0) -> None:
+def report(logger: Any, verdict: Any, *, every_s: float = 1.0, node: Node | None = None
+           ) -> None:
     """Log a stream-continuity verdict: an error when the block was dropped, else a warning.
 
     Throttled per kind of fault (a burst of one fault does not hide another kind).
-    rclpy forbids one call site from logging at two severities, hence two sites.
+    rclpy forbids one call site from logging at two severities, hence two sites. A dropped
+    block is counted on ``node``'s status (every one, not only the logged ones).
     """
     import time
+
+    if node is not None and verdict.block is None:
+        from modal_twin.io.status import status_of
+
+        status_of(node).count("dropped")
 
     key = (logger.name, verdict.verdict.value)
     now = time.monotonic()

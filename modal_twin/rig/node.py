@@ -51,7 +51,7 @@ class RigNode(Node):
         try:
             v = self.monitor.check(block_from_msg(msg))
             if v.verdict is not Verdict.OK:
-                report(self.get_logger(), v)
+                report(self.get_logger(), v, node=self)
             if v.block is None:
                 return
             if v.block.fs_hz != self.cfg.fs_hz:

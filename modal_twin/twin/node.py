@@ -64,7 +64,7 @@ class TwinNode(Node):
     def _on_frame(self, msg: SignalBlockMsg) -> None:
         v, step = self.twin.frame(block_from_msg(msg))
         if v.verdict is not Verdict.OK:
-            report(self.get_logger(), v)
+            report(self.get_logger(), v, node=self)
         if step is not None:
             self.pred_pub.publish(block_to_msg(step.prediction, SignalBlockMsg))
             self.res_pub.publish(block_to_msg(step.residual, SignalBlockMsg))

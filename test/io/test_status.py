@@ -49,6 +49,13 @@ def test_status_follows_requests_and_counts_refusals(domain_id: int) -> None:
         assert res.success is False and "window_s" in res.message
         guarded(node, "frame", lambda msg: 1 / 0)(None)  # a refused message
         assert status.counters["refused"] == 2
+        from modal_twin.acquisition.continuity import Verdict
+        from modal_twin.io.ros import report
+
+        for _ in range(3):  # every dropped block counts, though the log is throttled
+            report(node.get_logger(), SimpleNamespace(verdict=Verdict.GAP, block=None,
+                                                      message="gap"), node=node)
+        assert status.counters["dropped"] == 3
         for _ in range(40):
             ex.spin_once(timeout_sec=0.05)
         states = [a.status[0].message for a in got]
