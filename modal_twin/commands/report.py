@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +21,7 @@ from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.progress import track
 
-__all__ = ["load_run", "make_report", "register", "run"]
+__all__ = ["load_run", "make_report", "model_loops", "register", "run"]
 
 _DEVICE_SUFFIX = ("_dx", "_dy")
 
@@ -50,8 +51,12 @@ def _metrics(bag: Path) -> tuple[Any, dict[str, tuple[str, str, str]]]:
     return last, meta
 
 
-def _device_data(bag: Path, blamed: set[str]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Measured loops of every device, force-state samples of the blamed ones."""
+def _device_data(bag: Path, blamed: set[str], devices: Mapping[str, Any] | None = None
+                 ) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """Measured loops of every device, force-state samples of the blamed ones.
+
+    And the loops of the model's ``devices`` (name -> Device) driven by the same drift.
+    """
     from modal_twin.diagnosis.screening import drift_velocity
     from modal_twin.io.records import record_from_bag
 
@@ -69,7 +74,38 @@ def _device_data(bag: Path, blamed: set[str]) -> tuple[dict[str, Any], dict[str,
         loops[f"{dev} {d}"] = (u, f)
         if dev in blamed:
             states[f"{dev} {d}"] = (u, drift_velocity(u, rec.fs_hz, 25.0)[0], f)
-    return loops, states
+    return loops, states, model_loops(rec, devices or {})
+
+
+def model_loops(rec: Any, devices: Mapping[str, Any]) -> dict[str, Any]:
+    """Each model device driven by its measured drift (and velocity): name -> (u, f)."""
+    from modal_twin.diagnosis.screening import drift_velocity
+
+    out = {}
+    for dev, device in devices.items():
+        cols = [f"{dev}_d{a}" for a in "xy"[: device.n_dir]]
+        if not all(c in rec.channel_names for c in cols):
+            continue
+        U = rec.channels(cols)
+        V = np.vstack([drift_velocity(x, rec.fs_hz, 25.0)[0] for x in U])
+        F = device.respond(U, V).f
+        for i, a in enumerate("xy"[: device.n_dir]):
+            out[f"{dev} {a}"] = (U[i], F[i])
+    return out
+
+
+def _model_devices(version: Any) -> dict[str, Any]:
+    """Devices of a model version's plant by name (none for a model without devices)."""
+    from modal_twin.models.loading import load_model
+
+    if version is None or version.path is None:
+        return {}
+    try:
+        system = load_model(version.path).plant().system
+    except ModalTwinError as err:  # the report shows what it can: the measured loops
+        print(f"report: no model loops ({err})", file=sys.stderr)
+        return {}
+    return {att.device.name: att.device for att in system.devices}
 
 
 def _model_frf(structure: Path, names: list[str], f_hz: np.ndarray) -> np.ndarray:
@@ -141,16 +177,17 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
     versions = history(run_dir / "models") if (run_dir / "models").is_dir() else []
     blamed = {e.component: e.law for e in versions[-1].effects} if versions else {}
     records = []
+    devices = _model_devices(versions[-1] if versions else None)
     bags = sorted(p for p in run_dir.glob("*/bag") if p.is_dir())
     for bag in track(bags, "report: records", unit="bag"):
         m, meta = _metrics(bag)
-        loops, states = ({}, {}) if "replay" in bag.parent.name else _device_data(bag,
-                                                                                set(blamed))
+        loops, states, model = (({}, {}, {}) if "replay" in bag.parent.name else
+                                _device_data(bag, set(blamed), devices))
         records.append(RecordData(
             bag.parent.name,
             tuple(m.channel_names) if m is not None else (),
             np.asarray(m.rms_error, dtype=float) if m is not None else np.zeros(0),
-            str(m.model_version) if m is not None else "", meta, loops, states))
+            str(m.model_version) if m is not None else "", meta, loops, states, model))
     images = [(p.stem.replace("_", " "), p.read_bytes())
               for p in sorted(run_dir.glob("*.png")) if p.name != "error_history.png"]
     scene = None

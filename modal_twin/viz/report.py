@@ -49,6 +49,8 @@ class RecordData:
         Measured device loops (``"ESB1 x"``).
     force_state : mapping name -> (drift m, velocity m/s, force N)
         Samples for force-state maps.
+    model_loops : mapping name -> (drift m, force N)
+        The model's device force for the same measured drift (the last model version).
     """
 
     name: str
@@ -59,6 +61,7 @@ class RecordData:
     loops: Mapping[str, tuple[FloatArray, FloatArray]] = field(default_factory=dict)
     force_state: Mapping[str, tuple[FloatArray, FloatArray, FloatArray]] = field(
         default_factory=dict)
+    model_loops: Mapping[str, tuple[FloatArray, FloatArray]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,8 +162,10 @@ def _evidence(d: RunData) -> str:
 def _hysteresis(d: RunData) -> str:
     from modal_twin.viz.hysteresis import plot_hysteresis
 
-    return "".join(_img(plot_hysteresis(r.loops, title=f"device loops: {r.name}"),
-                        f"measured device hysteresis loops, {r.name}")
+    return "".join(_img(plot_hysteresis(r.loops, r.model_loops or None,
+                                        title=f"device loops: {r.name}"),
+                        f"device hysteresis loops, {r.name}: measured (solid) and the last "
+                        "model version's device on the same drift (dashed red)")
                    for r in d.records if r.loops)
 
 

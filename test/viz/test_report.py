@@ -108,3 +108,23 @@ def test_view_html(tmp_path: Path) -> None:
     assert main(["--quiet", "view", str(BUILDING), "--n-modes", "1", "--html", str(out)]) == 0
     page = out.read_text()
     assert "MeshCat.Viewer" in page and "mode 1:" in page
+
+
+def test_model_loops_drive_the_model_device_with_the_measured_drift() -> None:
+    from modal_twin.commands.report import model_loops
+    from modal_twin.diagnosis.record import Record
+    from modal_twin.models.devices import BilinearHysteretic, CubicSpring
+
+    fs = 200.0
+    t = np.arange(0.0, 10.0, 1.0 / fs)
+    u = np.vstack([0.02 * np.sin(2 * np.pi * 0.5 * t), 0.01 * np.sin(2 * np.pi * 0.8 * t)])
+    rec = Record(fs, ("ax",), np.zeros((1, t.size)), ("ESB1_dx", "ESB1_dy", "F0_C1_x"),
+                 np.vstack([u, np.zeros(t.size)]), "t")
+    # a cubic spring without damping: the closed form of its force on the drift
+    got = model_loops(rec, {"ESB1": CubicSpring(1e6, 5e8, [0.0, 0.0]),
+                            "RB9": BilinearHysteretic(1e6, 2e5, 0.01, [0.0, 0.0])})
+    assert set(got) == {"ESB1 x", "ESB1 y"}  # RB9 has no measured drift here
+    for i, a in enumerate("xy"):
+        np.testing.assert_array_equal(got[f"ESB1 {a}"][0], u[i])
+        np.testing.assert_allclose(got[f"ESB1 {a}"][1], 1e6 * u[i] + 5e8 * u[i] ** 3,
+                                   rtol=1e-12)

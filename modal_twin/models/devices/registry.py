@@ -225,9 +225,13 @@ def _rel_linear(p: dict[str, Any], site: Site) -> Device:
 
 
 def _friction_limits(p: dict[str, Any], site: Site, law: str) -> tuple[float, float]:
-    """(Fs, Fk) given, or mu_s, mu_k (default 0.09, 0.06) times the carried weight."""
+    """(Fs, Fk) given (one of them: both equal), or mu_s, mu_k times the carried weight.
+
+    The defaults are mu_s 0.09, mu_k 0.06.
+    """
     if "Fs" in p or "Fk" in p:
-        return _take(p, "Fs", 0.0), _take(p, "Fk", 0.0)
+        fs, fk = p.pop("Fs", None), p.pop("Fk", None)
+        return float(fk if fs is None else fs), float(fs if fk is None else fk)
     W = site.weight or 0.0
     if W <= 0:
         msg = f"{law} at {site.name}: mu_s / mu_k need the carried weight; give Fs, Fk"
