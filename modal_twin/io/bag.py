@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from modal_twin.errors import BagError
+from modal_twin.io.topics import bag_qos
 from modal_twin.io.typestore import known_types, typestore
 from modal_twin.signal_block import SignalBlock
 
@@ -172,7 +173,8 @@ class BagWriter:
         self._writer.open()
         _checksum_chunks(self._writer)
         self._conns = {
-            topic: self._writer.add_connection(topic, mt, typestore=store)
+            topic: self._writer.add_connection(topic, mt, typestore=store,
+                                               offered_qos_profiles=bag_qos(topic))
             for topic, mt in self.topics.items()
         }
         self._opened = time.monotonic()

@@ -15,7 +15,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from modal_twin.errors import ConfigError
-from modal_twin.io.topics import TOPICS, QosKind
+from modal_twin.io.topics import BURST_LIMIT_BLOCKS, DEPTH, TOPICS, QosKind
 
 __all__ = [
     "BURST_LIMIT_BLOCKS",
@@ -38,9 +38,6 @@ FASTDDS_PROFILES = Path(__file__).with_name("fastdds_profiles.xml")
 # read when a participant is created (rclpy.init / the first node), so set on import
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
 
-BURST_LIMIT_BLOCKS = 20_000
-"""Blocks a signal topic holds for a slow reader (20 s of 1 kHz data in 1 ms blocks, 400 s
-in the usual 50-sample blocks)."""
 
 
 def qos_profile(kind: QosKind) -> QoSProfile:
@@ -53,18 +50,18 @@ def qos_profile(kind: QosKind) -> QoSProfile:
     the last one.
     """
     if kind is QosKind.STREAM:
-        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=BURST_LIMIT_BLOCKS,
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH[kind],
                           reliability=ReliabilityPolicy.RELIABLE)
     if kind is QosKind.LATCHED:
         return QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
-            depth=1,
+            depth=DEPTH[kind],
             reliability=ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.TRANSIENT_LOCAL,
         )
     return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.RELIABLE
-    )
+        history=HistoryPolicy.KEEP_LAST, depth=DEPTH[kind],
+        reliability=ReliabilityPolicy.RELIABLE)
 
 
 def qos_for(topic: str) -> QoSProfile:

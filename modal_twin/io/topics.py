@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from enum import Enum
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
-__all__ = ["NODE_ENDPOINTS", "TOPICS", "QosKind", "TopicSpec"]
+__all__ = ["BURST_LIMIT_BLOCKS", "DEPTH", "NODE_ENDPOINTS", "TOPICS", "QosKind", "TopicSpec",
+           "bag_qos"]
 
 PKG = "modal_twin_msgs"
 
@@ -16,6 +17,14 @@ class QosKind(Enum):
     STREAM = "stream"  # reliable, keep-last deep: signal blocks
     LATCHED = "latched"  # reliable, transient-local, keep-last 1: maps, models
     EVENT = "event"  # reliable, volatile, keep-last 50: reports
+
+
+BURST_LIMIT_BLOCKS = 20_000
+"""Blocks a signal topic holds for a slow reader (20 s of 1 kHz data in 1 ms blocks, 400 s
+in the usual 50-sample blocks)."""
+
+DEPTH = {QosKind.STREAM: BURST_LIMIT_BLOCKS, QosKind.LATCHED: 1, QosKind.EVENT: 50}
+"""History depth (keep-last) of each kind; all reliable, LATCHED also transient local."""
 
 
 class TopicSpec(NamedTuple):
@@ -62,3 +71,28 @@ NODE_ENDPOINTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
 }
 """(subscriptions, publishers) each node executable creates once it is fully constructed:
 the launcher waits for them before it calls the graph ready."""
+
+
+def bag_qos(topic: str) -> list[Any]:
+    """Return the QoS a topic is offered with, as rosbag2 stores it (``offered_qos_profiles``).
+
+    Written with each topic of a bag so that ``ros2 bag play`` (and our replay) offer the
+    same QoS again: a latched topic stays latched (transient local) for late joiners.
+    """
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
+
+    kind = TOPICS[topic].qos if topic in TOPICS else QosKind.STREAM
+    never = QosTime(sec=2147483647, nsec=4294967295)  # rosbag2's "infinite"
+    return [Qos(history=QosHistory.KEEP_LAST, depth=DEPTH[kind],
+                reliability=QosReliability.RELIABLE,
+                durability=(QosDurability.TRANSIENT_LOCAL if kind is QosKind.LATCHED
+                            else QosDurability.VOLATILE),
+                deadline=never, lifespan=never, liveliness=QosLiveliness.AUTOMATIC,
+                liveliness_lease_duration=never, avoid_ros_namespace_conventions=False)]
