@@ -40,6 +40,7 @@ setup(
             *[f"{n}_node = modal_twin.{n}.node:main" for n in NODES],
             "recorder_node = modal_twin.io.recorder:main",
             "replay_node = modal_twin.io.replay:main",
+            "display_node = modal_twin.viz.node:main",
         ],
     },
 )

@@ -94,6 +94,7 @@ def _params(path: Path, doc: dict[str, Any], key: str) -> dict[str, Any]:
 PACKAGE_EXECUTABLES = (
     "excitation_node", "rig_node", "acquisition_node", "identification_node",
     "updating_node", "twin_node", "diagnosis_node", "recorder_node", "replay_node",
+    "display_node",
 )
 """The executables a scenario may start unless ``allow_external`` is given."""
 

@@ -54,6 +54,9 @@ TOPICS: dict[str, TopicSpec] = {
     "/diagnosis/report": _t("DiagnosisReport", QosKind.LATCHED),
     # every node's state, counters and progress (modal_twin.io.status), the ROS convention
     "/diagnostics": TopicSpec("diagnostic_msgs/msg/DiagnosticArray", QosKind.EVENT),
+    # plottable display samples (modal_twin.viz.node, off by default)
+    "/display/measurement": TopicSpec("sensor_msgs/msg/JointState", QosKind.EVENT),
+    "/display/twin": TopicSpec("sensor_msgs/msg/JointState", QosKind.EVENT),
 }
 
 
@@ -68,6 +71,8 @@ NODE_ENDPOINTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
                   ("/twin/prediction", "/twin/residual", "/twin/metrics")),
     "diagnosis_node": (("/measurement/frames", "/twin/residual"),
                        ("/diagnosis/report", "/model/parameters")),
+    "display_node": (("/measurement/frames", "/twin/prediction"),
+                     ("/display/measurement", "/display/twin")),
 }
 """(subscriptions, publishers) each node executable creates once it is fully constructed:
 the launcher waits for them before it calls the graph ready."""
