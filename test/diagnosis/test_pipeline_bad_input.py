@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modal_twin.diagnosis.fitting import fit_effect
+from modal_twin.diagnosis.fitting import fit_effect, simulate_record
 from modal_twin.diagnosis.pipeline import diagnose
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import OptionError, ShapeError, SignalError
@@ -62,6 +62,10 @@ def test_candidate_errors(factory: BuildingFactory) -> None:
         fit_effect(factory, "ESB7", "cubic", {"k3": 1.0}, rec, rec)
     with pytest.raises(OptionError, match="no fit transform for law 'magic'"):
         fit_effect(factory, "ESB1", "magic", {}, rec, rec)
-    no_inputs = Record(1000.0, ("ax",), np.zeros((1, 2000)), ch, rec.data)
-    with pytest.raises(OptionError, match="lacks the inputs"):
+    # none of the model's inputs measured: refused, naming both lists (a subset is fine:
+    # the unmeasured inputs are zero)
+    no_inputs = Record(1000.0, ("wind",), np.zeros((1, 2000)), ch, rec.data)
+    with pytest.raises(OptionError, match=r"none of the model's inputs .* is measured"):
         fit_effect(factory, "ESB1", "cubic", {"k3": 1e6}, no_inputs, no_inputs)
+    one_input = Record(1000.0, ("ax",), np.zeros((1, 2000)), ch, rec.data)
+    assert np.all(simulate_record(factory.plant(), one_input) == 0.0)  # at rest
