@@ -174,6 +174,11 @@ def project_inputs(ag, k_begin, k_end, PinT, Ain):  # pragma: no cover - jitted
         gemv_t(row, PinT, ak)
 
 
+# run_block stays one function on purpose: split along its steps (device laws, Newton
+# correction, modal commit) into numba helpers, its results were bitwise the same but the
+# per-sample loop took 1.51-1.56 us instead of 1.27-1.32 us with inline="always" helpers
+# and 1.84 us with separately compiled ones (bench_twin.py --repeat 9, 2026-11-24): the
+# twin's speed is a goal of its own (issue 14), so the steps are marked by comments below.
 @njit(cache=True, fastmath={"reassoc", "contract"})
 def run_block(
     ag, k_begin, k_end, PinT, Ain, coef, GfT, Q, HfT, HT,
