@@ -1,0 +1,135 @@
+"""Live view: the structure with each sensor coloured by the twin's residual there.
+
+From the display samples (:mod:`modal_twin.viz.display`) of the measurement and of the twin,
+each sensor's colour says how far the twin is from the measurement at it: the RMS of
+(measured - twin) over the last ``window`` display samples against the RMS of the measured
+signal, per sensor the worst of its axes (green: agrees, yellow: 10 %, red: 30 % or more).
+The colours are meshcat commands (:class:`LiveResidual`); the node sends them to a server
+it started on 127.0.0.1.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections import deque
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from modal_twin._types import FloatArray
+from modal_twin.viz.display import DisplaySamples
+
+__all__ = ["LiveResidual", "LiveView", "residual_colour"]
+
+_STOPS = ((0.0, (0x2C, 0xA0, 0x2C)), (0.1, (0xF0, 0xC0, 0x20)), (0.3, (0xD6, 0x27, 0x28)))
+
+
+def residual_colour(relative: float) -> int:
+    """RGB colour of a relative residual: green at 0, yellow at 0.1, red from 0.3 on."""
+    r = float(relative) if np.isfinite(relative) else _STOPS[-1][0]
+    for (x0, c0), (x1, c1) in itertools.pairwise(_STOPS):
+        if r <= x1:
+            w = max(0.0, (r - x0) / (x1 - x0))
+            rgb = [round(a + w * (b - a)) for a, b in zip(c0, c1, strict=True)]
+            return (rgb[0] << 16) | (rgb[1] << 8) | rgb[2]
+    c = _STOPS[-1][1]
+    return (c[0] << 16) | (c[1] << 8) | c[2]
+
+
+class LiveResidual:
+    """Relative residual per sensor over the last ``window`` display samples.
+
+    Parameters
+    ----------
+    sensors : mapping name -> (3,) position, m
+        The structure's sensors (:class:`~modal_twin.viz.scene.StructureGeometry`).
+    window : int
+        Display samples the RMS values are taken over.
+    """
+
+    def __init__(self, sensors: Mapping[str, FloatArray], window: int = 40) -> None:
+        self.sensors = dict(sensors)
+        self._meas: deque[dict[str, float]] = deque(maxlen=window)
+        self._twin: deque[dict[str, float]] = deque(maxlen=window)
+
+    def push(self, measured: DisplaySamples | None, twin: DisplaySamples | None) -> None:
+        """Add the display samples of either stream (the latest of each is paired)."""
+        for samples, buf in ((measured, self._meas), (twin, self._twin)):
+            if samples is None or samples.values.shape[1] == 0:
+                continue
+            for k in range(samples.values.shape[1]):
+                buf.append(dict(zip(samples.channel_names, samples.values[:, k],
+                                    strict=True)))
+
+    def relative(self) -> dict[str, float]:
+        """Sensor -> RMS(measured - twin) / RMS(measured), worst axis (paired samples)."""
+        n = min(len(self._meas), len(self._twin))
+        if n == 0:
+            return {}
+        meas, twin = list(self._meas)[-n:], list(self._twin)[-n:]
+        out: dict[str, float] = {}
+        for ch in meas[0]:
+            sensor, _, axis = ch.rpartition("_")
+            if sensor not in self.sensors or axis not in ("x", "y", "z") or ch not in twin[0]:
+                continue
+            m = np.array([s[ch] for s in meas])
+            d = m - np.array([s[ch] for s in twin])
+            ref = float(np.sqrt(np.mean(m * m)))
+            rel = float(np.sqrt(np.mean(d * d))) / ref if ref > 0 else 0.0
+            out[sensor] = max(out.get(sensor, 0.0), rel)
+        return out
+
+    def commands(self, radius: float) -> Sequence[Any]:
+        """meshcat commands colouring each compared sensor (spheres at its position)."""
+        import meshcat.commands as mc
+        import meshcat.geometry as mg
+        from meshcat.path import Path as MPath
+
+        cmds: list[Any] = []
+        for sensor, rel in self.relative().items():
+            path = MPath(("modal_twin", "live", sensor))  # under the scene's root
+            cmds.append(mc.SetObject(mg.Sphere(radius), mg.MeshLambertMaterial(
+                color=residual_colour(rel)), path=path))
+            T = np.eye(4)
+            T[:3, 3] = self.sensors[sensor]
+            cmds.append(mc.SetTransform(T, path=path))
+        return cmds
+
+
+class LiveView:
+    """A meshcat server (127.0.0.1, by PID) showing the structure and :class:`LiveResidual`.
+
+    Raises
+    ------
+    ModalTwinError
+        The port is in use, or the structure does not load.
+    """
+
+    def __init__(self, model_file: str, web_port: int = 7000) -> None:
+        from modal_twin.models.versions import read_version
+        from modal_twin.paths import resolve_config
+        from modal_twin.viz.meshcat_server import MeshcatServer, send_commands
+        from modal_twin.viz.scene import building_geometry, scene_commands
+
+        geom = building_geometry(read_version(resolve_config(model_file)).structure)
+        self.residual = LiveResidual(geom.sensors)
+        self._radius = 0.02 * geom.size_m
+        self._server = MeshcatServer(zmq_port=web_port - 1000, web_port=web_port).start()
+        self._send = send_commands
+        self.url = self._server.web_url
+        send_commands(self._server.zmq_url, scene_commands(geom))
+
+    def push(self, samples: DisplaySamples, *, twin: bool) -> None:
+        """Add display samples of the measurement or of the twin."""
+        self.residual.push(None if twin else samples, samples if twin else None)
+
+    def refresh(self) -> None:
+        """Send the current colours."""
+        cmds = self.residual.commands(self._radius)
+        if cmds:
+            self._send(self._server.zmq_url, cmds)
+
+    def close(self) -> None:
+        """Stop the server."""
+        self._server.stop()
