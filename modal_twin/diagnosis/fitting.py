@@ -206,6 +206,121 @@ def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_par
         time.perf_counter() - t0, str(sol.message), std, at_bound)
 
 
+def _t_stick_slip(start: dict[str, float], k: float) -> Transform:
+    """With a spring beside it and a speed-dependent limit."""
+    lf = np.log(start["Fk"])
+    return (["Fk", "Fs", "kt_factor", "kp", "v_s"],
+            lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1]),
+                       "kt_factor": float(np.exp(x[2])), "kp": float(x[3]),
+                       "v_s": float(10.0 ** x[4])},
+            lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"],
+                                np.log(p.get("kt_factor", 1.0)), p.get("kp", 0.0),
+                                np.log10(p.get("v_s", 0.0) or 1e-4)]),
+            np.array([lf - 3, 1.0, np.log(0.5), 0.0, -4.0]),
+            np.array([lf + 3, 3.0, np.log(50.0), 1.5, 0.0]))
+
+
+def _t_regularised_friction(start: dict[str, float], k: float) -> Transform:
+    """Limit at rest and sliding, speeds, spring beside."""
+    lf = np.log(start["Fk"])
+    return (["Fk", "Fs", "kp", "v_s", "v_reg"],
+            lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1]),
+                       "kp": float(x[2]), "v_s": float(10.0 ** x[3]),
+                       "v_reg": float(10.0 ** x[4])},
+            lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"], p.get("kp", 0.0),
+                                np.log10(p.get("v_s", 0.05)),
+                                np.log10(p.get("v_reg", 0.005))]),
+            np.array([lf - 3, 1.0, 0.0, -3.0, -4.0]),
+            np.array([lf + 3, 3.0, 1.5, 0.0, -1.0]))
+
+
+def _t_bilinear(start: dict[str, float], k: float) -> Transform:
+    """Fitted parameters of ``bilinear``."""
+    lu = np.log(start["ub"])
+    return (["ub", "ratio", "k"],
+            lambda x: {"ub": float(np.exp(x[0])), "ratio": float(x[1]), "k": k * float(x[2])},
+            lambda p: np.array([np.log(p["ub"]), p["ratio"], p.get("k", k) / k]),
+            np.array([lu - 3, 0.02, 0.7]), np.array([lu + 3, 3.0, 1.3]))
+
+
+def _t_bilinear_hysteretic(start: dict[str, float], k: float) -> Transform:
+    """Also a stiff slider beside a soft spring (friction)."""
+    lu, lk = np.log(start["ub"]), np.log(start.get("k", k) / k)
+    return (["ub", "ratio", "k"],
+            lambda x: {"ub": float(np.exp(x[0])), "ratio": float(np.exp(x[1])),
+                       "k": k * float(np.exp(x[2]))},
+            lambda p: np.array([np.log(p["ub"]), np.log(p["ratio"]),
+                                np.log(p.get("k", k) / k)]),
+            np.array([lu - 4, np.log(0.005), min(lk, 0.0) + np.log(0.5)]),
+            np.array([lu + 4, np.log(3.0), max(lk, 0.0) + np.log(30.0)]))
+
+
+def _t_bouc_wen(start: dict[str, float], k: float) -> Transform:
+    """With its dashpot free (a device whose viscous part changed)."""
+    lu = np.log(start["uy"])
+    return (["uy", "alpha", "k", "c_factor"],
+            lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2]),
+                       "c_factor": float(x[3])},
+            lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k,
+                                p.get("c_factor", 1.0)]),
+            np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 1.3, 3.0]))
+
+
+def _t_cubic(start: dict[str, float], k: float) -> Transform:
+    """Power spring ``k3 u |u|^(m-1) = sign k (|u| / u_h)^(m-1) u``: u_h, k, m free."""
+    sign = 1.0 if start["k3"] >= 0 else -1.0
+    m0 = float(start.get("m", 3.0))
+    lu = np.log((k / max(abs(start["k3"]), 1e-300)) ** (1.0 / (m0 - 1.0)))
+
+    def power(x: FloatArray) -> dict[str, float]:
+        kk, m = k * float(x[1]), float(x[2])
+        return {"k3": sign * kk / float(np.exp(x[0])) ** (m - 1.0), "k": kk, "m": m}
+
+    def back(p: dict[str, float]) -> FloatArray:
+        kk, m = p.get("k", k), p.get("m", 3.0)
+        return np.array([np.log((kk / max(abs(p["k3"]), 1e-300)) ** (1.0 / (m - 1.0))),
+                         kk / k, m])
+
+    return (["k3", "k", "m"], power, back, np.array([lu - 4.0, 0.7, 2.0]),
+            np.array([lu + 4.0, 1.3, 9.0]))
+
+
+def _t_gap(start: dict[str, float], k: float) -> Transform:
+    """Clearances on both sides and contact stiffness; kp as started."""
+    lg, kp = np.log(start["g"]), float(start.get("kp", 0.0))
+    lgn = np.log(start.get("g_neg", start["g"]))
+    return (["g", "k", "g_neg", "n", "kp"],
+            lambda x: {"g": float(np.exp(x[0])), "k": k * float(np.exp(x[1])),
+                       "g_neg": float(np.exp(x[2])), "n": float(x[3]), "kp": kp},
+            lambda p: np.array([np.log(p["g"]), np.log(p.get("k", k) / k),
+                                np.log(p.get("g_neg", p["g"])), p.get("n", 1.0)]),
+            np.array([lg - 3, np.log(0.02), lgn - 3, 1.0]),
+            np.array([lg + 3, np.log(50.0), lgn + 3, 3.0]))
+
+
+def _t_linear(start: dict[str, float], k: float) -> Transform:
+    """Fitted parameters of ``linear``."""
+    return (["k", "ky", "c", "cy"],
+            lambda x: {"k": k * float(x[0]), "ky": k * float(x[1]),
+                       "c": float(x[2]) * start["c0"], "cy": float(x[3]) * start["c0"]},
+            lambda p: np.array([p.get("k", k) / k, p.get("ky", k) / k,
+                                p.get("c", start["c0"]) / start["c0"],
+                                p.get("cy", start["c0"]) / start["c0"]]),
+            np.array([0.2, 0.2, 0.0, 0.0]), np.array([5.0, 5.0, 20.0, 20.0]))
+
+
+_TRANSFORMS: dict[str, Callable[[dict[str, float], float], Transform]] = {
+    "stick_slip": _t_stick_slip,
+    "regularised_friction": _t_regularised_friction,
+    "bilinear": _t_bilinear,
+    "bilinear_hysteretic": _t_bilinear_hysteretic,
+    "bouc_wen": _t_bouc_wen,
+    "cubic": _t_cubic,
+    "gap": _t_gap,
+    "linear": _t_linear,
+}
+
+
 def _transform(law: str, start: dict[str, float], k: float) -> Transform:
     """Fitted parameters of a law in a bounded space.
 
@@ -213,87 +328,11 @@ def _transform(law: str, start: dict[str, float], k: float) -> Transform:
     interacts with it (``kt_factor`` of friction, ``k`` of the others): adding friction or
     softening at a bearing changes what its linear stiffness should be.
     """
-    if law == "stick_slip":  # with a spring beside it and a speed-dependent limit
-        lf = np.log(start["Fk"])
-        return (["Fk", "Fs", "kt_factor", "kp", "v_s"],
-                lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1]),
-                           "kt_factor": float(np.exp(x[2])), "kp": float(x[3]),
-                           "v_s": float(10.0 ** x[4])},
-                lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"],
-                                    np.log(p.get("kt_factor", 1.0)), p.get("kp", 0.0),
-                                    np.log10(p.get("v_s", 0.0) or 1e-4)]),
-                np.array([lf - 3, 1.0, np.log(0.5), 0.0, -4.0]),
-                np.array([lf + 3, 3.0, np.log(50.0), 1.5, 0.0]))
-    if law == "regularised_friction":  # limit at rest and sliding, speeds, spring beside
-        lf = np.log(start["Fk"])
-        return (["Fk", "Fs", "kp", "v_s", "v_reg"],
-                lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1]),
-                           "kp": float(x[2]), "v_s": float(10.0 ** x[3]),
-                           "v_reg": float(10.0 ** x[4])},
-                lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"], p.get("kp", 0.0),
-                                    np.log10(p.get("v_s", 0.05)),
-                                    np.log10(p.get("v_reg", 0.005))]),
-                np.array([lf - 3, 1.0, 0.0, -3.0, -4.0]),
-                np.array([lf + 3, 3.0, 1.5, 0.0, -1.0]))
-    if law == "bilinear":
-        lu = np.log(start["ub"])
-        return (["ub", "ratio", "k"],
-                lambda x: {"ub": float(np.exp(x[0])), "ratio": float(x[1]), "k": k * float(x[2])},
-                lambda p: np.array([np.log(p["ub"]), p["ratio"], p.get("k", k) / k]),
-                np.array([lu - 3, 0.02, 0.7]), np.array([lu + 3, 3.0, 1.3]))
-    if law == "bilinear_hysteretic":  # also a stiff slider beside a soft spring (friction)
-        lu, lk = np.log(start["ub"]), np.log(start.get("k", k) / k)
-        return (["ub", "ratio", "k"],
-                lambda x: {"ub": float(np.exp(x[0])), "ratio": float(np.exp(x[1])),
-                           "k": k * float(np.exp(x[2]))},
-                lambda p: np.array([np.log(p["ub"]), np.log(p["ratio"]),
-                                    np.log(p.get("k", k) / k)]),
-                np.array([lu - 4, np.log(0.005), min(lk, 0.0) + np.log(0.5)]),
-                np.array([lu + 4, np.log(3.0), max(lk, 0.0) + np.log(30.0)]))
-    if law == "bouc_wen":  # with its dashpot free (a device whose viscous part changed)
-        lu = np.log(start["uy"])
-        return (["uy", "alpha", "k", "c_factor"],
-                lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2]),
-                           "c_factor": float(x[3])},
-                lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k,
-                                    p.get("c_factor", 1.0)]),
-                np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 1.3, 3.0]))
-    if law == "cubic":  # k3 u |u|^(m-1) = sign k (|u| / u_h)^(m-1) u: u_h, k, m free
-        sign = 1.0 if start["k3"] >= 0 else -1.0
-        m0 = float(start.get("m", 3.0))
-        lu = np.log((k / max(abs(start["k3"]), 1e-300)) ** (1.0 / (m0 - 1.0)))
-
-        def power(x: FloatArray) -> dict[str, float]:
-            kk, m = k * float(x[1]), float(x[2])
-            return {"k3": sign * kk / float(np.exp(x[0])) ** (m - 1.0), "k": kk, "m": m}
-
-        def back(p: dict[str, float]) -> FloatArray:
-            kk, m = p.get("k", k), p.get("m", 3.0)
-            return np.array([np.log((kk / max(abs(p["k3"]), 1e-300)) ** (1.0 / (m - 1.0))),
-                             kk / k, m])
-
-        return (["k3", "k", "m"], power, back, np.array([lu - 4.0, 0.7, 2.0]),
-                np.array([lu + 4.0, 1.3, 9.0]))
-    if law == "gap":  # clearances on both sides and contact stiffness; kp as started
-        lg, kp = np.log(start["g"]), float(start.get("kp", 0.0))
-        lgn = np.log(start.get("g_neg", start["g"]))
-        return (["g", "k", "g_neg", "n", "kp"],
-                lambda x: {"g": float(np.exp(x[0])), "k": k * float(np.exp(x[1])),
-                           "g_neg": float(np.exp(x[2])), "n": float(x[3]), "kp": kp},
-                lambda p: np.array([np.log(p["g"]), np.log(p.get("k", k) / k),
-                                    np.log(p.get("g_neg", p["g"])), p.get("n", 1.0)]),
-                np.array([lg - 3, np.log(0.02), lgn - 3, 1.0]),
-                np.array([lg + 3, np.log(50.0), lgn + 3, 3.0]))
-    if law == "linear":
-        return (["k", "ky", "c", "cy"],
-                lambda x: {"k": k * float(x[0]), "ky": k * float(x[1]),
-                           "c": float(x[2]) * start["c0"], "cy": float(x[3]) * start["c0"]},
-                lambda p: np.array([p.get("k", k) / k, p.get("ky", k) / k,
-                                    p.get("c", start["c0"]) / start["c0"],
-                                    p.get("cy", start["c0"]) / start["c0"]]),
-                np.array([0.2, 0.2, 0.0, 0.0]), np.array([5.0, 5.0, 20.0, 20.0]))
-    msg = f"no fit transform for law {law!r}"
-    raise OptionError(msg)
+    make = _TRANSFORMS.get(law)
+    if make is None:
+        msg = f"no fit transform for law {law!r}"
+        raise OptionError(msg)
+    return make(start, k)
 
 
 def fit_effect(
