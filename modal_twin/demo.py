@@ -20,38 +20,14 @@ from typing import Any
 
 import numpy as np
 
+from modal_twin.commands.residual import error_report, last_metrics
 from modal_twin.errors import LaunchError
-from modal_twin.io.bag import read_messages
 
 __all__ = ["error_report", "run_demo"]
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "config" / "scenarios" / "s1_building_stick_slip.yaml"
 BASE = [f"F0_C{i}_{d}" for i in (1, 2, 3) for d in "xy"]
-
-
-def last_metrics(bag: Path) -> Any:
-    """Return the last /twin/metrics message of a bag (None if there is none)."""
-    last = None
-    for _, _, msg in read_messages(bag, ["/twin/metrics"]):
-        last = msg
-    return last
-
-
-def error_report(bag: Path, top: int = 12) -> str:
-    """Worst channels of the last /twin/metrics of a bag, and the errors by place."""
-    m = last_metrics(bag)
-    if m is None:
-        return "no /twin/metrics in the bag"
-    names = list(m.channel_names)
-    err, res = np.asarray(m.rms_error), np.asarray(m.residual_rms)
-    lines = [f"model {m.model_version}, window {m.window_s:.0f} s, {m.samples} samples",
-             f"{'channel':<12}{'RMS meas':>12}{'RMS model':>12}{'Eq.8 err %':>12}"
-             f"{'resid %':>10}"]
-    for i in np.argsort(-np.nan_to_num(res, nan=-1.0))[:top]:
-        lines.append(f"{names[i]:<12}{m.rms_measured[i]:12.4g}{m.rms_predicted[i]:12.4g}"
-                     f"{err[i]:12.2f}{res[i]:10.2f}")
-    return "\n".join(lines)
 
 
 def base_error(bag: Path) -> tuple[float, float]:

@@ -5,6 +5,11 @@ The model (any structure, vehicle or version file) is run on the record's measur
 zero) and compared with every response it has: per channel the NRMSE, RMS(measured -
 model) / RMS(measured), against the noise floor estimated from the record itself, and
 Eq. (8) of [004] (a difference of RMS values) beside it, labelled.
+
+With ``--live`` the bag is instead replayed (``replay_node``, every topic: the latched
+channel map tells the twin the channels' roles) into a twin node (``twin_node``) running the
+model, as it would run beside a structure in service; the run is recorded in ``--run-dir``
+and the twin's last ``/twin/metrics`` (over the whole record) is printed per channel.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -27,11 +33,77 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("bag", type=Path, help="bag of /measurement/frames (e.g. an imported one)")
     p.add_argument("--top", type=int, default=0, help="print only the N worst channels")
     p.add_argument("--json", type=Path, default=None, help="also write the table as JSON")
+    p.add_argument("--live", action="store_true",
+                   help="replay the bag into a twin node (ROS) instead of simulating offline")
+    p.add_argument("--rate", type=float, default=4.0, help="--live: replay rate (x real time)")
+    p.add_argument("--run-dir", type=Path, default=None,
+                   help="--live: folder of the run (default runs/<time>_twin_<bag>)")
     p.set_defaults(func=run)
+
+
+def last_metrics(bag: Path) -> Any:
+    """Return the last /twin/metrics message of a bag (None if there is none)."""
+    from modal_twin.io.bag import read_messages
+
+    last = None
+    for _, _, msg in read_messages(bag, ["/twin/metrics"]):
+        last = msg
+    return last
+
+
+def error_report(bag: Path, top: int = 12) -> str:
+    """Worst channels of the last /twin/metrics of a bag, and the errors by place."""
+    m = last_metrics(bag)
+    if m is None:
+        return "no /twin/metrics in the bag"
+    names = list(m.channel_names)
+    err, res = np.asarray(m.rms_error), np.asarray(m.residual_rms)
+    lines = [f"model {m.model_version}, window {m.window_s:.0f} s, {m.samples} samples",
+             f"{'channel':<12}{'RMS meas':>12}{'RMS model':>12}{'Eq.8 err %':>12}"
+             f"{'resid %':>10}"]
+    for i in np.argsort(-np.nan_to_num(res, nan=-1.0))[:top]:
+        lines.append(f"{names[i]:<12}{m.rms_measured[i]:12.4g}{m.rms_predicted[i]:12.4g}"
+                     f"{err[i]:12.2f}{res[i]:10.2f}")
+    return "\n".join(lines)
+
+
+def live(a: argparse.Namespace) -> int:
+    """Replay the bag into a twin node running the model; print its per-channel error."""
+    import sys
+
+    from modal_twin.io.bag import bag_info, read_messages
+    from modal_twin.launch import Launcher
+    from modal_twin.scenario import NodeSpec, Scenario
+
+    if not 0.05 <= a.rate <= 100.0:
+        print(f"modal-twin residual: --rate {a.rate} outside [0.05, 100]", file=sys.stderr)
+        return ExitCode.USAGE
+    first = next((m for _, _, m in read_messages(a.bag, ["/measurement/frames"])), None)
+    if first is None or not first.sample_rate_hz > 0:
+        print(f"modal-twin residual: {a.bag} holds no /measurement/frames", file=sys.stderr)
+        return ExitCode.USAGE
+    fs = float(first.sample_rate_hz)
+    seconds = bag_info(a.bag).duration_s + int(first.n_samples) / fs
+    nodes = (NodeSpec("replay", "replay_node", {}, (str(a.bag), "--rate", str(a.rate)),
+                      one_shot=True),
+             NodeSpec("twin", "twin_node", {"model_file": str(a.model.resolve()),
+                                            "fs_hz": fs,
+                                            "window_s": min(86_400.0, seconds)}))
+    sc = Scenario(a.bag, f"twin_{a.bag.name}", f"{a.model.name} on {a.bag}", nodes,
+                  seconds / a.rate + 15.0, 60.0, ("/twin/metrics",), {}, {})
+    res = Launcher(sc, run_dir=a.run_dir).run()
+    if res.exit_code != 0 or res.bag is None:
+        print(f"modal-twin residual: the twin run failed: {res.message} (logs in "
+              f"{res.run_dir / 'logs'})", file=sys.stderr)
+        return ExitCode.FAILED
+    print(error_report(res.bag, top=a.top or 10_000))
+    return ExitCode.OK
 
 
 def run(a: argparse.Namespace) -> int:
     """Run the model on the record and print its error per channel."""
+    if a.live:
+        return live(a)
     from modal_twin.diagnosis.fitting import simulate_record
     from modal_twin.diagnosis.judge import record_noise_floor
     from modal_twin.diagnosis.noise import error_figures

@@ -9,14 +9,12 @@ import numpy as np
 
 from modal_twin._types import FloatArray
 from modal_twin.channels import ChannelSpec
-from modal_twin.errors import ConfigError, ShapeError, SignalError
+from modal_twin.errors import ShapeError, SignalError
 from modal_twin.models.plant import Plant
-from modal_twin.models.sensors import match_outputs, model_input_of
+from modal_twin.models.sensors import route_channels
 from modal_twin.signal_block import SignalBlock, concatenate_blocks
 
 __all__ = ["Record", "record_from_blocks"]
-
-INPUT_PREFIX = "table_"
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,7 +89,6 @@ class Record:
 
 
 def record_from_blocks(blocks: list[SignalBlock], *, source: str = "",
-                       input_prefix: str = INPUT_PREFIX,
                        channels: Sequence[ChannelSpec] | None = None,
                        plant: Plant | None = None) -> Record:
     """Join measurement frames into a record.
@@ -101,7 +98,8 @@ def record_from_blocks(blocks: list[SignalBlock], *, source: str = "",
     decide: ``input`` channels drive the model input :func:`model_input_of` names (any
     subset of the model's inputs; the others are zero), ``output`` / ``device_*`` channels
     are the measured ones, named as the ``plant``'s channel at the same place, direction and
-    quantity when there is one; ``reference`` channels are left out.
+    quantity when there is one; ``reference`` channels are left out
+    (:func:`~modal_twin.models.sensors.route_channels`).
 
     Raises
     ------
@@ -111,40 +109,17 @@ def record_from_blocks(blocks: list[SignalBlock], *, source: str = "",
         An input channel that drives none of the ``plant``'s inputs.
     """
     blk = concatenate_blocks(blocks)
-    if channels is not None:
-        return _by_roles(blk, channels, plant, source)
-    ins = [i for i, n in enumerate(blk.channel_names) if n.startswith(input_prefix)]
-    outs = [i for i, n in enumerate(blk.channel_names) if not n.startswith(input_prefix)]
-    if not ins:
-        msg = f"record {source!r}: no input channel ({input_prefix}*) among the frames"
+    with_map = channels is not None and plant is not None
+    route = route_channels(blk.channel_names, channels,
+                           plant.input_names if with_map and plant is not None else None,
+                           plant.channels if with_map and plant is not None else (),
+                           source=f"record {source!r}")
+    if not route.inputs:
+        what = "with role input" if channels is not None else "table_*"
+        msg = f"record {source!r}: no input channel ({what}) among the frames"
         raise SignalError(msg)
-    return Record(blk.fs_hz, tuple(blk.channel_names[i].removeprefix(input_prefix) for i in ins),
-                  blk.data[ins], tuple(blk.channel_names[i] for i in outs), blk.data[outs],
-                  source)
-
-
-def _by_roles(blk: SignalBlock, channels: Sequence[ChannelSpec], plant: Plant | None,
-              source: str) -> Record:
-    specs = {c.name: c for c in channels}
-    ins: list[tuple[int, str]] = []
-    outs: list[tuple[int, str]] = []
-    rename = match_outputs(list(specs.values()), plant.channels) if plant is not None else {}
-    for i, name in enumerate(blk.channel_names):
-        spec = specs.get(name) or ChannelSpec(name, "")
-        role = spec.effective_role
-        if role == "input":
-            target = (model_input_of(spec, plant.input_names) if plant is not None
-                      else name.removeprefix(INPUT_PREFIX))
-            if target is None:
-                msg = (f"record {source!r}: channel {name!r} (role input, {spec.quantity} "
-                       f"{spec.direction}) drives none of the model's inputs "
-                       f"{list(plant.input_names) if plant is not None else []}")
-                raise ConfigError(msg)
-            ins.append((i, target))
-        elif role != "reference":
-            outs.append((i, rename.get(name, name)))
-    if not ins:
-        msg = f"record {source!r}: no channel with role input among the frames"
-        raise SignalError(msg)
-    return Record(blk.fs_hz, tuple(n for _, n in ins), blk.data[[i for i, _ in ins]],
-                  tuple(n for _, n in outs), blk.data[[i for i, _ in outs]], source)
+    row = {n: i for i, n in enumerate(blk.channel_names)}
+    return Record(blk.fs_hz, tuple(t for _, t in route.inputs),
+                  blk.data[[row[n] for n, _ in route.inputs]],
+                  tuple(t for _, t in route.outputs),
+                  blk.data[[row[n] for n, _ in route.outputs]], source)

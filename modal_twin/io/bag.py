@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from modal_twin.errors import BagError
+from modal_twin.io.bag_migrate import migrator
 from modal_twin.io.topics import bag_qos
 from modal_twin.io.typestore import known_types, typestore
 from modal_twin.signal_block import SignalBlock
@@ -298,8 +299,11 @@ def read_raw(
                 missing = [t for t in topics if t not in have]
                 if missing and part == bag_parts(path)[0]:
                     log.warning("topics %s not in bag %s (it has %s)", missing, part, sorted(have))
+            fix = {c.id: migrator(c.msgtype, getattr(c.msgdef, "data", ""), typestore())
+                   for c in conns}
             for conn, t_ns, raw in reader.messages(connections=conns):
-                yield conn.topic, conn.msgtype, int(t_ns), bytes(raw)
+                f = fix[conn.id]
+                yield conn.topic, conn.msgtype, int(t_ns), f(bytes(raw)) if f else bytes(raw)
         except BagError:
             raise
         except Exception as err:

@@ -124,16 +124,25 @@ def channel_map_to_msg(channels: Any, source: str, msg_cls: Any, info_cls: Any) 
         info.location, info.direction = c.location, c.direction
         info.sensitivity = float(c.sensitivity)
         info.position_m = [float(v) for v in c.position_m]
+        info.role, info.node = c.role, c.node
         msg.channels.append(info)
     return msg
 
 
 def channel_map_from_msg(msg: Any) -> list[Any]:
-    """``ChannelMap`` message -> list of :class:`~modal_twin.channels.ChannelSpec`."""
-    from modal_twin.channels import ChannelSpec
+    """``ChannelMap`` message -> list of :class:`~modal_twin.channels.ChannelSpec`.
+
+    Raises
+    ------
+    ConfigError
+        A channel with a role that is not one of :data:`~modal_twin.channels.ROLES`.
+    """
+    from modal_twin.channels import QUANTITY_UNITS, ChannelSpec
 
     return [ChannelSpec(c.name, c.quantity, c.location, c.direction, float(c.sensitivity),
-                        cast("tuple[float, float, float]", tuple(float(v) for v in c.position_m)))
+                        cast("tuple[float, float, float]", tuple(float(v) for v in c.position_m)),
+                        role=c.role, node=c.node,
+                        unit_si="" if QUANTITY_UNITS.get(c.quantity) == c.unit else c.unit)
             for c in msg.channels]
 
 

@@ -1,10 +1,11 @@
 """Write an imported record as a bag the pipeline replays, with its channel map.
 
 The bag holds the samples on ``/measurement/frames`` (SignalBlock, blocks of about one
-second) and the channel map on the latched ``/measurement/channels`` (ChannelMap; the
-message has no role field, so the roles travel in ``channel_map.json`` inside the bag
-folder). Everything is written to a temporary folder beside the target and renamed at the
-end: an interrupted or failed import leaves nothing half-written.
+second) and the channel map on the latched ``/measurement/channels`` (ChannelMap, with each
+channel's role and node, so a replayed bag tells the twin node what is an input), and the
+same map with the record's metadata as ``channel_map.json`` inside the bag folder.
+Everything is written to a temporary folder beside the target and renamed at the end: an
+interrupted or failed import leaves nothing half-written.
 """
 
 from __future__ import annotations
@@ -77,7 +78,8 @@ def _map_msg(channels: list[ChannelSpec], source: str, store: Any) -> Any:
     infos = [T["modal_twin_msgs/msg/ChannelInfo"](
         name=c.name, quantity=c.quantity, unit=c.unit, location=c.location,
         direction=c.direction, sensitivity=float(c.sensitivity),
-        position_m=np.asarray(c.position_m, dtype=np.float64)) for c in channels]
+        position_m=np.asarray(c.position_m, dtype=np.float64), role=c.role, node=c.node)
+        for c in channels]
     header = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0),
                                       frame_id=source)
     return T["modal_twin_msgs/msg/ChannelMap"](header=header, source=source, channels=infos)

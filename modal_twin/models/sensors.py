@@ -9,14 +9,18 @@ quantity (what the acquisition calibrates with). For a user's own record,
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 from modal_twin.channels import ChannelSpec
+from modal_twin.errors import ConfigError
 from modal_twin.models.plant import Plant
 from modal_twin.models.rig_file import RigFile
 
-__all__ = ["match_outputs", "model_input_of", "rig_channels", "table_channels",
-           "with_sensitivity"]
+__all__ = ["ChannelRoute", "match_outputs", "model_input_of", "rig_channels", "route_channels",
+           "table_channels", "with_sensitivity"]
+
+INPUT_PREFIX = "table_"
+"""Name prefix of the measured inputs of the shipped scenarios (``table_ax`` drives ``ax``)."""
 
 
 def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
@@ -83,3 +87,68 @@ def match_outputs(channels: Sequence[ChannelSpec], model: Sequence[ChannelSpec]
         elif (key := (c.location, c.direction, c.quantity)) in by_place:
             out[c.name] = by_place[key]
     return out
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelRoute:
+    """What each measured channel is to a model.
+
+    Attributes
+    ----------
+    inputs : tuple of (channel, model input)
+        Measured channels that drive a model input (any subset of the model's inputs).
+    outputs : tuple of (channel, name)
+        Measured responses, named as the model's channel at the same place, direction and
+        quantity when it has one (else under their own name).
+    """
+
+    inputs: tuple[tuple[str, str], ...]
+    outputs: tuple[tuple[str, str], ...]
+
+
+def route_channels(names: Sequence[str], channels: Sequence[ChannelSpec] | None = None,
+                   model_inputs: Sequence[str] | None = None,
+                   model_channels: Sequence[ChannelSpec] = (), *,
+                   source: str = "") -> ChannelRoute:
+    """Say which of the channels ``names`` drive the model and which it is compared with.
+
+    With a channel map (``channels``) the roles decide (a channel the map does not list
+    gets the role its name implies): ``input`` channels drive the model input
+    :func:`model_input_of` names; ``output`` / ``device_*`` channels are responses, renamed
+    by :func:`match_outputs`; ``reference`` channels are left out. Without a map,
+    ``table_<x>`` drives input ``<x>`` and every other channel is a response. Without
+    ``model_inputs`` an input channel drives the input its name says.
+
+    Raises
+    ------
+    ConfigError
+        An input channel that drives none of ``model_inputs``, or two that drive one.
+    """
+    specs = {c.name: c for c in channels or ()}
+    rename = match_outputs([specs.get(n) or ChannelSpec(n, "") for n in names],
+                           model_channels) if model_channels else {}
+    ins: list[tuple[str, str]] = []
+    outs: list[tuple[str, str]] = []
+    for name in names:
+        spec = specs.get(name) or ChannelSpec(name, "")
+        role = spec.effective_role if channels is not None else (
+            "input" if name.startswith(INPUT_PREFIX) else "output")
+        if role == "reference":
+            continue
+        if role != "input":
+            outs.append((name, rename.get(name, name)))
+            continue
+        target = (name.removeprefix(INPUT_PREFIX) if model_inputs is None
+                  else model_input_of(spec, model_inputs))
+        if target is None:
+            msg = (f"{source or 'record'}: channel {name!r} (role input, {spec.quantity or '?'} "
+                   f"{spec.direction or '?'}) drives none of the model's inputs "
+                   f"{list(model_inputs or ())}")
+            raise ConfigError(msg)
+        if any(t == target for _, t in ins):
+            other = next(n for n, t in ins if t == target)
+            msg = (f"{source or 'record'}: channels {other!r} and {name!r} both drive the "
+                   f"model input {target!r}")
+            raise ConfigError(msg)
+        ins.append((name, target))
+    return ChannelRoute(tuple(ins), tuple(outs))

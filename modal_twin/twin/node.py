@@ -9,12 +9,19 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import rclpy.logging
-from modal_twin_msgs.msg import ComparisonMetrics, ModelParameters
+from modal_twin_msgs.msg import ChannelMap, ComparisonMetrics, ModelParameters
 from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
 from rclpy.node import Node
 
 from modal_twin.acquisition.continuity import Verdict
-from modal_twin.io.convert import block_from_msg, block_to_msg, metrics_to_msg, theta_from_msg
+from modal_twin.io.channel_map import read_channel_map
+from modal_twin.io.convert import (
+    block_from_msg,
+    block_to_msg,
+    channel_map_from_msg,
+    metrics_to_msg,
+    theta_from_msg,
+)
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import guarded, qos_for, report, run_node
 from modal_twin.twin.session import TwinSession
@@ -34,6 +41,9 @@ class TwinConfig:
     versions_dir: str = field(default="runs/models",
                               metadata={"doc": "folder of the model versions /model/parameters "
                                                "may name (besides the working folder)"})
+    channel_map: str = field(default="", metadata={
+        "doc": "channel map JSON (roles) of the stream; '' = take /measurement/channels, "
+               "else table_<input> names"})
 
 
 class TwinNode(Node):
@@ -42,8 +52,9 @@ class TwinNode(Node):
     def __init__(self) -> None:
         super().__init__("twin")
         self.cfg = declare_config(self, TwinConfig)
+        fixed = read_channel_map(self.cfg.channel_map) if self.cfg.channel_map else None
         self.twin = TwinSession(self.cfg.model_file, self.cfg.fs_hz, self.cfg.window_s,
-                                self.cfg.versions_dir)
+                                self.cfg.versions_dir, fixed)
         self.pred_pub, self.res_pub = (
             self.create_publisher(SignalBlockMsg, t, qos_for(t))
             for t in ("/twin/prediction", "/twin/residual"))
@@ -55,6 +66,10 @@ class TwinNode(Node):
         self.create_subscription(ModelParameters, "/model/parameters",
                                  guarded(self, "/model/parameters", self._on_parameters),
                                  qos_for("/model/parameters"))
+        if fixed is None:
+            self.create_subscription(ChannelMap, "/measurement/channels",
+                                     guarded(self, "/measurement/channels", self._on_channels),
+                                     qos_for("/measurement/channels"))
         self.create_timer(self.cfg.metrics_period_s,
                           guarded(self, "metrics", self._publish_metrics))
         plant = self.twin.plant
@@ -65,9 +80,17 @@ class TwinNode(Node):
         v, step = self.twin.frame(block_from_msg(msg))
         if v.verdict is not Verdict.OK:
             report(self.get_logger(), v, node=self)
+        if step is not None and step.first:
+            self.get_logger().info(self.twin.runner.describe_route())
         if step is not None:
             self.pred_pub.publish(block_to_msg(step.prediction, SignalBlockMsg))
             self.res_pub.publish(block_to_msg(step.residual, SignalBlockMsg))
+
+    def _on_channels(self, msg: ChannelMap) -> None:
+        """Route the stream by the roles of its channel map (a refused map changes nothing)."""
+        if self.twin.set_channels(channel_map_from_msg(msg)):
+            self.get_logger().info(f"channel map of {msg.source or 'the stream'}: "
+                                   f"{len(msg.channels)} channels, routed by their roles")
 
     def _on_parameters(self, msg: ModelParameters) -> None:
         """Load the model version of a parameter message; a refused one changes nothing."""

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from modal_twin.channels import ChannelSpec
 from modal_twin.errors import SignalError
 from modal_twin.models.plant import Plant
+from modal_twin.models.sensors import ChannelRoute, route_channels
 from modal_twin.signal_block import SignalBlock
 from modal_twin.twin.metrics import ChannelMetrics, SlidingMetrics
 from modal_twin.twin.simulator import Simulator
@@ -21,13 +24,18 @@ class TwinStep:
 
     prediction: SignalBlock
     residual: SignalBlock
+    first: bool = False  # the first frame of a stream (the routing was set up on it)
 
 
 class TwinRunner:
     """Feed measured frames to the nominal plant; keep per-channel Eq. (8) metrics.
 
-    Frames hold the table inputs ``table_<input>`` and the response channels; the metrics
-    are over a sliding window.
+    Which frame channels drive which model input and which are compared with which model
+    channel comes from the channels' roles (:func:`~modal_twin.models.sensors.route_channels`):
+    with a channel map (an imported record's, or the ``/measurement/channels`` of the
+    acquisition) by the roles, else ``table_<input>`` drives ``<input>``. Any subset of the
+    model's inputs may be measured; the others are zero (:attr:`zero_inputs`). The metrics
+    are over a sliding window; prediction and residual carry the model's channel names.
 
     Parameters
     ----------
@@ -37,29 +45,45 @@ class TwinRunner:
         Frame sample rate.
     window_s : float
         Metrics window.
+    channels : sequence of ChannelSpec, optional
+        The channel map of the measured stream.
     """
 
-    def __init__(self, plant: Plant, fs_hz: float, *, window_s: float = 10.0) -> None:
+    def __init__(self, plant: Plant, fs_hz: float, *, window_s: float = 10.0,
+                 channels: Sequence[ChannelSpec] | None = None) -> None:
         self.plant = plant
         self.fs_hz = fs_hz
+        self.channels = None if channels is None else tuple(channels)
         self.sim = Simulator(plant.system, 1.0 / fs_hz, modal_histories=False)
-        self.inputs = [f"table_{n}" for n in plant.input_names]
         self.compare: list[str] | None = None
+        self.route = ChannelRoute((), ())
+        self.zero_inputs: tuple[str, ...] = ()
         self.metrics_window = SlidingMetrics(0, 1)
         self.window_s = window_s
 
     def _setup(self, frame: SignalBlock) -> None:
-        missing = [c for c in self.inputs if c not in frame.channel_names]
-        if missing:
-            msg = (f"frame lacks the input channels {missing}; it has "
-                   f"{list(frame.channel_names)}")
+        p = self.plant
+        route = route_channels(frame.channel_names, self.channels, p.input_names, p.channels,
+                               source=f"frames of {frame.source or 'the stream'}")
+        if not route.inputs:
+            msg = (f"frame has no channel that drives the model's inputs {list(p.input_names)} "
+                   f"(table_<input> or role input in the channel map); it has "
+                   f"{list(frame.channel_names)[:8]}")
             raise SignalError(msg)
-        self.compare = [c for c in self.plant.channel_names if c in frame.channel_names]
-        if not self.compare:
-            msg = (f"frame shares no channel with the model {self.plant.name!r}; model "
-                   f"channels start {list(self.plant.channel_names[:5])}")
+        model = {c: i for i, c in enumerate(p.channel_names)}
+        outs = [(n, m) for n, m in route.outputs if m in model]
+        if not outs:
+            msg = (f"frame shares no channel with the model {p.name!r}; model "
+                   f"channels start {list(p.channel_names[:5])}")
             raise SignalError(msg)
-        self._rows = [self.plant.channel_names.index(c) for c in self.compare]
+        self.route = ChannelRoute(route.inputs, tuple(outs))
+        driven = {m for _, m in route.inputs}
+        self.zero_inputs = tuple(n for n in p.input_names if n not in driven)
+        self._in_frame = [n for n, _ in route.inputs]
+        self._in_rows = [p.input_names.index(m) for _, m in route.inputs]
+        self._out_frame = [n for n, _ in outs]
+        self.compare = [m for _, m in outs]
+        self._rows = [model[m] for m in self.compare]
         self.metrics_window = SlidingMetrics(len(self.compare),
                                              max(1, round(self.window_s * self.fs_hz)))
 
@@ -68,20 +92,32 @@ class TwinRunner:
         if frame.fs_hz != self.fs_hz:
             msg = f"frame rate {frame.fs_hz} Hz differs from the twin's {self.fs_hz} Hz"
             raise SignalError(msg)
-        if self.compare is None:
+        first = self.compare is None
+        if first:
             self._setup(frame)
         assert self.compare is not None
-        ag = frame.select(self.inputs).data
+        ag = np.zeros((len(self.plant.input_names), frame.n_samples))
+        ag[self._in_rows] = frame.select(self._in_frame).data
         res = self.sim.step_block(ag)
         pred = self.plant.measure(res)[self._rows]
-        meas = frame.select(self.compare).data
+        meas = frame.select(self._out_frame).data
         self.metrics_window.push(pred, meas)
         names = tuple(self.compare)
         return TwinStep(
             SignalBlock(names, frame.fs_hz, frame.first_index, pred, frame.stamp_ns, "twin"),
             SignalBlock(names, frame.fs_hz, frame.first_index, pred - meas, frame.stamp_ns,
                         "twin"),
+            first,
         )
+
+    def describe_route(self) -> str:
+        """One line: which channels drive which inputs, how many are compared, which are zero."""
+        if self.compare is None:
+            return "no frames yet"
+        ins = ", ".join(f"{n} -> {m}" for n, m in self.route.inputs)
+        zero = f"; not measured, held at zero: {', '.join(self.zero_inputs)}"
+        return (f"inputs {ins}; {len(self.compare)} channels compared"
+                + (zero if self.zero_inputs else ""))
 
     def metrics(self) -> ChannelMetrics | None:
         """Eq. (8) metrics over the window (None before the first frame)."""

@@ -10,7 +10,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from modal_twin.acquisition.continuity import BlockVerdict, StreamMonitor, Verdict
+from modal_twin.channels import ChannelSpec
 from modal_twin.models.loading import load_model
+from modal_twin.models.plant import Plant
 from modal_twin.paths import config_roots, resolve_config
 from modal_twin.signal_block import SignalBlock
 from modal_twin.twin.runner import TwinRunner, TwinStep
@@ -33,19 +35,38 @@ class TwinSession:
     versions_dir : path
         Folder of the model versions a parameter message may name (besides the working
         folder, the model's folder and the configuration roots).
+    channels : sequence of ChannelSpec, optional
+        Channel map of the measured stream (roles: which channels drive the model).
     """
 
     def __init__(self, model_file: str, fs_hz: float, window_s: float,
-                 versions_dir: str | Path) -> None:
+                 versions_dir: str | Path, channels: Sequence[ChannelSpec] | None = None
+                 ) -> None:
         self.model_file = model_file
+        self.channels = None if channels is None else tuple(channels)
         self.fs_hz, self.window_s = float(fs_hz), float(window_s)
         self.plant = load_model(resolve_config(model_file)).plant()
         self.version = self.plant.name
         self.roots: Sequence[Path] = [Path.cwd(), Path(versions_dir),
                                       resolve_config(model_file).resolve().parent,
                                       *config_roots()]
-        self.runner = TwinRunner(self.plant, self.fs_hz, window_s=self.window_s)
+        self.runner = self._runner(self.plant)
         self.monitor = StreamMonitor()
+
+    def _runner(self, plant: Plant) -> TwinRunner:
+        return TwinRunner(plant, self.fs_hz, window_s=self.window_s, channels=self.channels)
+
+    def set_channels(self, channels: Sequence[ChannelSpec]) -> bool:
+        """Take the stream's channel map (roles); return True when it changed the routing.
+
+        A new map restarts the twin from rest (a map arrives with a new stream).
+        """
+        new = tuple(channels)
+        if new == self.channels:
+            return False
+        self.channels = new
+        self.runner = self._runner(self.plant)
+        return True
 
     def frame(self, block: SignalBlock) -> tuple[BlockVerdict, TwinStep | None]:
         """Check a measured block and run the twin on it (None when the block is dropped).
@@ -56,7 +77,7 @@ class TwinSession:
         if v.block is None:
             return v, None
         if v.verdict is Verdict.RESTART:
-            self.runner = TwinRunner(self.plant, self.fs_hz, window_s=self.window_s)
+            self.runner = self._runner(self.plant)
         return v, self.runner.step(v.block)
 
     def load_version(self, model_file: str, theta: Mapping[str, float], label: str) -> str:
@@ -74,5 +95,5 @@ class TwinSession:
                                           self.roots))
         plant = load_model(resolve_config(path), theta=dict(theta)).plant()
         self.plant, self.version = plant, label or plant.name
-        self.runner = TwinRunner(plant, self.fs_hz, window_s=self.window_s)
+        self.runner = self._runner(plant)
         return self.version

@@ -133,3 +133,31 @@ def test_the_twin_residual_of_an_imported_record(bags: dict[str, Path],
     out = capsys.readouterr().out
     assert _median_over_noise(out) > 20.0
     assert "ESB1_f" in out.splitlines()[2]  # the worst channel is ESB1's force
+
+
+def test_a_twin_node_on_the_replayed_imported_record(bags: dict[str, Path], tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture) -> None:
+    """Live: the bag replayed (its latched channel map carries the roles) into a twin node.
+
+    Known answer: the node runs the same model on the same two measured inputs as the
+    offline simulation, so its per-channel NRMSE over the whole record is the offline one.
+    """
+    import json
+
+    from modal_twin.commands.residual import last_metrics
+
+    table = tmp_path / "offline.json"
+    assert main(["residual", str(BUILDING), str(bags["test"]), "--json", str(table)]) == 0
+    offline = json.loads(table.read_text())
+    capsys.readouterr()
+    assert main(["residual", str(BUILDING), str(bags["test"]), "--live", "--rate", "4",
+                 "--run-dir", str(tmp_path / "live"), "--top", "3"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[-3].startswith("ESB1_f")  # the worst channel printed first
+    m = last_metrics(tmp_path / "live" / "bag")
+    live = dict(zip(m.channel_names, np.asarray(m.residual_rms), strict=True))
+    assert set(live) == set(offline) and "R_P1_x" in live  # roof_corner_x by its place
+    np.testing.assert_allclose([live[c] for c in offline],
+                               [100 * offline[c]["nrmse"] for c in offline], rtol=5e-3)
+    log = (tmp_path / "live" / "logs" / "twin.log").read_text()
+    assert "ground_x -> ax, ground_y -> ay" in log and "held at zero: az, arx, ary, arz" in log
