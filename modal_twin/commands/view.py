@@ -1,8 +1,14 @@
-"""``modal-twin view MODEL [--modes FILE] [--n-modes N] [--html OUT]``: the 3D scene of a model.
+"""``modal-twin view MODEL [--modes FILE | --bag BAG] [--html OUT]``: the 3D scene of a model.
 
 With ``--modes`` (the JSON ``modal-twin identify`` writes) every identified mode is drawn
 on the structure (expanded from its channels with the model's modes, SEREP) in blue,
 beside the model mode it pairs with by MAC in orange; the caption gives f, zeta and MAC.
+
+With ``--bag`` (a recorded or imported bag) the record's strongest stretch is drawn on the
+structure twice: measured (blue) and the twin's prediction for the same measured inputs
+(orange; the model file's effects included), both expanded from the sensors with the
+model's modes and scaled alike, the sensors coloured by the twin's NRMSE there (green
+below 10 %, yellow, red from 30 %).
 
 With ``--html`` the scene (structure, sensors, devices, animated model modes, the places a
 model version added effects at in red) is written as one static HTML page and no server
@@ -17,6 +23,7 @@ import signal
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from modal_twin.exit_codes import ExitCode
 
@@ -30,6 +37,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--n-modes", type=int, default=6, help="model modes to animate")
     p.add_argument("--modes", type=Path, default=None,
                    help="identified modes (identify JSON): drawn beside their model pairs")
+    p.add_argument("--bag", type=Path, default=None,
+                   help="recorded or imported bag: its motion, measured beside the twin")
+    p.add_argument("--window", type=float, default=0.0,
+                   help="--bag: seconds shown (default three periods of the first mode)")
     p.add_argument("--html", type=Path, default=None,
                    help="write a static HTML page instead of starting a server")
     p.add_argument("--web-port", type=int, default=7000)
@@ -55,6 +66,15 @@ def model_scene(model: Path, n_modes: int) -> tuple[list[object], str]:
             overlay_html(geom, modes, blamed))
 
 
+def _structure(model: Path, n_basis: int) -> tuple[Any, Any, Any]:
+    """Model version, wireframe and lowest ``n_basis`` modes (on every node) of a file."""
+    from modal_twin.models.versions import read_version
+    from modal_twin.viz.scene import building_geometry, building_modes
+
+    mv = read_version(model)
+    return mv, building_geometry(mv.structure), building_modes(mv.structure, n_basis)
+
+
 def identified_scene(model: Path, modes_file: Path, n_basis: int = 12
                      ) -> tuple[list[object], str]:
     """meshcat commands and caption of identified modes beside their model pairs.
@@ -69,7 +89,6 @@ def identified_scene(model: Path, modes_file: Path, n_basis: int = 12
 
     from modal_twin.errors import ConfigError
     from modal_twin.io.modes_file import read_modes
-    from modal_twin.models.versions import read_version
     from modal_twin.viz.mode_pairs import (
         channel_nodes,
         expand_shapes,
@@ -79,15 +98,11 @@ def identified_scene(model: Path, modes_file: Path, n_basis: int = 12
     )
     from modal_twin.viz.scene import (
         SceneModes,
-        building_geometry,
-        building_modes,
         overlay_html,
         scene_commands,
     )
 
-    mv = read_version(model)
-    geom = building_geometry(mv.structure)
-    basis = building_modes(mv.structure, n_basis)
+    _, geom, basis = _structure(model, n_basis)
     mf = read_modes(modes_file)
     channels = [str(d.get("channel", "")) for d in mf.dofs]
     if len(channels) != mf.shapes.shape[0] or not all(channels):
@@ -112,6 +127,62 @@ def identified_scene(model: Path, modes_file: Path, n_basis: int = 12
     return scene_commands(geom, modes), overlay_html(geom, caption_modes)
 
 
+def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12
+              ) -> tuple[list[object], str]:
+    """meshcat commands and caption of a record's motion, measured beside the twin.
+
+    Raises
+    ------
+    ModalTwinError
+        A bag the model shares no acceleration sensor with, or that does not read.
+    """
+    import html
+
+    import numpy as np
+
+    from modal_twin.diagnosis.fitting import simulate_record
+    from modal_twin.errors import ConfigError
+    from modal_twin.io.records import record_from_bag
+    from modal_twin.models.loading import load_model
+    from modal_twin.viz.live import residual_colour
+    from modal_twin.viz.mode_pairs import channel_nodes, sampled_shapes
+    from modal_twin.viz.motion import displacement_from_acceleration, record_motion
+    from modal_twin.viz.scene import (
+        SceneMotion,
+        caption_html,
+        scene_commands,
+    )
+
+    mv, geom, basis = _structure(model, n_basis)
+    plant = load_model(model).plant()
+    rec = record_from_bag(bag, plant=plant)
+    quantity = {c.name: c.quantity for c in plant.channels}
+    chs = [c for c in rec.channel_names if quantity.get(c) == "acceleration"
+           and c.rpartition("_")[0] in geom.sensors and c.rpartition("_")[2] in "xyz"]
+    if not chs:
+        msg = f"{bag}: no acceleration channel at a sensor of {mv.structure.name}"
+        raise ConfigError(msg)
+    rec = rec.with_channels(chs)
+    f_low = 0.5 * float(basis.f_hz[0])
+    meas = displacement_from_acceleration(rec.data, rec.fs_hz, f_low)
+    twin = displacement_from_acceleration(simulate_record(plant, rec), rec.fs_hz, f_low)
+    at_ch = sampled_shapes(basis.shapes, channel_nodes(chs, geom.node_xyz, geom.sensors))
+    span = window_s if window_s > 0 else 3.0 / float(basis.f_hz[0])
+    mo = record_motion(chs, meas, twin, rec.fs_hz, at_ch, basis.shapes, window_s=span)
+    colours = {s: residual_colour(r) for s, r in mo.sensor_nrmse.items()}
+    motion = SceneMotion(np.stack([mo.measured, mo.twin]), 1.0 / mo.dt_s,
+                         (0x1F77B4, 0xE4572E), colours)
+    worst = sorted(mo.sensor_nrmse.items(), key=lambda kv: -kv[1])[:3]
+    t1 = mo.t0_s + mo.dt_s * mo.measured.shape[0]
+    items = [f"<b>{html.escape(bag.name)}</b> on {html.escape(mv.label)}: measured (blue, "
+             f"right) and twin (orange, left), {mo.t0_s:.1f}-{t1:.1f} s in real time",
+             f"displacements from {len(chs)} accelerations above {f_low:.2f} Hz, expanded "
+             f"with {n_basis} model modes (fit {100 * mo.fit:.1f} %)",
+             "sensors by the twin's NRMSE there: green &lt; 10 %, yellow, red &ge; 30 %",
+             "worst: " + ", ".join(f"{html.escape(s)} {100 * r:.1f} %" for s, r in worst)]
+    return scene_commands(geom, motion=motion), caption_html(items)
+
+
 def run(args: argparse.Namespace) -> int:
     """Write the scene's HTML, or serve it until Ctrl-C."""
     from modal_twin.viz.meshcat_server import MeshcatServer, send_commands
@@ -120,11 +191,19 @@ def run(args: argparse.Namespace) -> int:
     if not args.model.is_file():
         print(f"modal-twin view: model file {args.model} not found", file=sys.stderr)
         return ExitCode.USAGE
-    if args.modes is not None and not args.modes.is_file():
-        print(f"modal-twin view: modes file {args.modes} not found", file=sys.stderr)
+    for what, p in (("modes file", args.modes), ("bag", args.bag)):
+        if p is not None and not p.exists():
+            print(f"modal-twin view: {what} {p} not found", file=sys.stderr)
+            return ExitCode.USAGE
+    if args.modes is not None and args.bag is not None:
+        print("modal-twin view: give --modes or --bag, not both", file=sys.stderr)
         return ExitCode.USAGE
-    cmds, caption = (model_scene(args.model, args.n_modes) if args.modes is None
-                     else identified_scene(args.model, args.modes))
+    if args.bag is not None:
+        cmds, caption = bag_scene(args.model, args.bag, args.window)
+    elif args.modes is not None:
+        cmds, caption = identified_scene(args.model, args.modes)
+    else:
+        cmds, caption = model_scene(args.model, args.n_modes)
     if args.html is not None:
         args.html.parent.mkdir(parents=True, exist_ok=True)
         args.html.write_text(static_html(cmds, caption=caption, title=args.model.name))

@@ -5,7 +5,12 @@ each sensor's colour says how far the twin is from the measurement at it: the RM
 (measured - twin) over the last ``window`` display samples against the RMS of the measured
 signal, per sensor the worst of its axes (green: agrees, yellow: 10 %, red: 30 % or more).
 The colours are meshcat commands (:class:`LiveResidual`); the node sends them to a server
-it started on 127.0.0.1.
+it started on 127.0.0.1. Over the structure at rest, the latest measured (blue) and twin
+(orange) deflected shapes are drawn overlaid (:meth:`LiveResidual.deflections`): each
+display sample of the sensors expanded onto every node with the model's modes (SEREP), the
+two scaled alike so that the largest measured deflection of the window is 8 % of the
+structure's size. The display samples are window means of the sensors' accelerations, so
+the shapes are acceleration-weighted (higher modes show more than in displacements).
 """
 
 from __future__ import annotations
@@ -21,6 +26,8 @@ from modal_twin._types import FloatArray
 from modal_twin.viz.display import DisplaySamples
 
 __all__ = ["LiveResidual", "LiveView", "residual_colour"]
+
+_SHAPE_COLOURS = {"measured": 0x1F77B4, "twin": 0xE4572E}
 
 _STOPS = ((0.0, (0x2C, 0xA0, 0x2C)), (0.1, (0xF0, 0xC0, 0x20)), (0.3, (0xD6, 0x27, 0x28)))
 
@@ -80,6 +87,51 @@ class LiveResidual:
             out[sensor] = max(out.get(sensor, 0.0), rel)
         return out
 
+    def deflections(self, node_xyz: FloatArray, basis_shapes: FloatArray
+                    ) -> tuple[FloatArray, FloatArray] | None:
+        """Latest measured and twin node deflections (n_nodes, 3), scaled alike.
+
+        The paired display samples of every sensor channel both streams carry are expanded
+        with the model's modes ``basis_shapes`` (k, n_nodes, 3) (SEREP); the scale makes
+        the largest measured deflection of the window 1. None before both streams have a
+        sample at a sensor.
+        """
+        from modal_twin.viz.mode_pairs import channel_nodes, expand_shapes, sampled_shapes
+
+        n = min(len(self._meas), len(self._twin))
+        if n == 0:
+            return None
+        meas, twin = list(self._meas)[-n:], list(self._twin)[-n:]
+        chans = [c for c in meas[0] if c in twin[0] and c.rpartition("_")[0] in self.sensors
+                 and c.rpartition("_")[2] in ("x", "y", "z")]
+        if not chans:
+            return None
+        at_ch = sampled_shapes(basis_shapes, channel_nodes(chans, node_xyz, self.sensors))
+        m = np.array([[s[c] for c in chans] for s in meas]).T  # (n_ch, n)
+        t = np.array([[s[c] for c in chans] for s in twin]).T
+        um = expand_shapes(m, at_ch, basis_shapes)  # (n, n_nodes, 3)
+        ut = expand_shapes(t[:, -1:], at_ch, basis_shapes)[0]
+        peak = float(np.abs(um).max()) or 1.0
+        return um[-1] / peak, ut / peak
+
+    def shape_commands(self, node_xyz: FloatArray, edges: Any, basis_shapes: FloatArray,
+                       amplitude: float) -> Sequence[Any]:
+        """meshcat commands drawing the latest measured and twin deflections overlaid."""
+        import meshcat.commands as mc
+        import meshcat.geometry as mg
+        from meshcat.path import Path as MPath
+
+        shapes = self.deflections(node_xyz, basis_shapes)
+        if shapes is None:
+            return []
+        cmds = []
+        for (name, colour), u in zip(_SHAPE_COLOURS.items(), shapes, strict=True):
+            pts = (node_xyz + amplitude * u)[np.asarray(edges).reshape(-1)].T.astype(np.float32)
+            cmds.append(mc.SetObject(mg.LineSegments(mg.PointsGeometry(pts),
+                                                     mg.LineBasicMaterial(color=colour)),
+                                     path=MPath(("modal_twin", "live", f"{name}_shape"))))
+        return cmds
+
     def commands(self, radius: float) -> Sequence[Any]:
         """meshcat commands colouring each compared sensor (spheres at its position)."""
         import meshcat.commands as mc
@@ -110,10 +162,12 @@ class LiveView:
         from modal_twin.models.versions import read_version
         from modal_twin.paths import resolve_config
         from modal_twin.viz.meshcat_server import MeshcatServer, send_commands
-        from modal_twin.viz.scene import building_geometry, scene_commands
+        from modal_twin.viz.scene import building_geometry, building_modes, scene_commands
 
-        geom = building_geometry(read_version(resolve_config(model_file)).structure)
+        structure = read_version(resolve_config(model_file)).structure
+        geom = building_geometry(structure)
         self.residual = LiveResidual(geom.sensors)
+        self._geom, self._basis = geom, building_modes(structure, 12).shapes
         self._radius = 0.02 * geom.size_m
         self._server = MeshcatServer(zmq_port=web_port - 1000, web_port=web_port).start()
         self._send = send_commands
@@ -126,7 +180,9 @@ class LiveView:
 
     def refresh(self) -> None:
         """Send the current colours."""
-        cmds = self.residual.commands(self._radius)
+        g = self._geom
+        cmds = [*self.residual.commands(self._radius),
+                *self.residual.shape_commands(g.node_xyz, g.edges, self._basis, 0.08 * g.size_m)]
         if cmds:
             self._send(self._server.zmq_url, cmds)
 

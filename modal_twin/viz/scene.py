@@ -13,7 +13,9 @@ red); copies 1..n to its right (towards -y) are the model's lowest modes, each a
 ``x(t) = x0 + a phi sin(2 pi t / T)`` with ``a`` a fraction of the structure's size. meshcat
 animates transforms, not vertices, so every element is a unit segment whose position,
 rotation and length follow its two end nodes. Frequency and damping of each mode (and the
-blamed places with their family) are listed in an overlay of the HTML page.
+blamed places with their family) are listed in an overlay of the HTML page. Instead of
+modes, the copies can move through given node displacements (:class:`SceneMotion`: a
+record's measured motion beside the twin's, with the sensors coloured by the residual).
 
 Only ``meshcat.commands`` / ``meshcat.geometry`` / ``meshcat.animation`` are used (no
 ``meshcat.Visualizer``: it imports IPython and PIL), and never meshcat's ngrok tunnel.
@@ -99,6 +101,29 @@ class SceneModes:
     colors: tuple[int, ...] = ()  # per mode, RGB (default orange)
 
 
+@dataclass(frozen=True, slots=True)
+class SceneMotion:
+    """Copies of the structure moving through measured (or simulated) node displacements.
+
+    Attributes
+    ----------
+    frames : (n_copies, n_frames, n_nodes, 3) float array
+        Node displacements of each copy, m (drawn with one scale for all copies, so that
+        their amplitudes compare).
+    fps : float
+        Frames per second of the animation.
+    colors : tuple of int
+        RGB colour of each moving copy.
+    sensor_colors : mapping sensor -> RGB, optional
+        Colour of each sensor of the structure at rest (e.g. by the residual there).
+    """
+
+    frames: FloatArray
+    fps: float
+    colors: tuple[int, ...] = ()
+    sensor_colors: Mapping[str, int] = field(default_factory=dict)
+
+
 def _edges_from_stiffness(K_full: Any) -> IntArray:
     """Node pairs coupled by the stiffness matrix (6 DOFs per node): the elements."""
     coo = K_full.tocoo()
@@ -182,34 +207,39 @@ def _dots(points: Mapping[str, FloatArray], radius: float, color: int, base: Any
     return out
 
 
-def _mode_copy(geom: StructureGeometry, shape: FloatArray, base: Any, anim: Any,
-               amplitude: float, n_frames: int, color: int = 0xE4572E) -> list[Any]:
+def _moving_copy(geom: StructureGeometry, frames: FloatArray, base: Any, anim: Any,
+                 color: int = 0xE4572E) -> list[Any]:
+    """Draw a grey copy at rest and a coloured one moving through ``frames`` (k, nodes, 3)."""
     import meshcat.commands as mc
     import meshcat.geometry as mg
     from meshcat.animation import AnimationFrameVisualizer
 
     cmds: list[Any] = [_lines(geom.node_xyz, geom.edges, 0xBBBBBB, base.append("rest"))]
-    peak = float(np.abs(shape).max()) or 1.0
-    u = shape * (amplitude / peak)
     unit = mg.PointsGeometry(np.array([[0.0, 1.0], [0.0, 0.0], [0.0, 0.0]], np.float32))
     for e, (i, j) in enumerate(geom.edges):
         path = base.append("edges").append(f"e{e}")
         cmds.append(mc.SetObject(mg.LineSegments(unit, mg.LineBasicMaterial(color=color)),
                                  path=path))
         clip = AnimationFrameVisualizer(anim, path, 0).get_clip()
-        for k in range(n_frames + 1):
-            sn = np.sin(2.0 * np.pi * k / n_frames)
-            pos, quat, scale = _segment_pose(geom.node_xyz[i] + sn * u[i],
-                                             geom.node_xyz[j] + sn * u[j])
+        for k, u in enumerate(frames):
+            pos, quat, scale = _segment_pose(geom.node_xyz[i] + u[i], geom.node_xyz[j] + u[j])
             clip.set_property(k, "position", "vector3", pos)
             clip.set_property(k, "quaternion", "quaternion", quat)
             clip.set_property(k, "scale", "vector3", scale)
     return cmds
 
 
+def mode_frames(shape: FloatArray, amplitude: float, n_frames: int) -> FloatArray:
+    """One period of ``a phi sin(2 pi k / n)``, k = 0..n, with ``max |a phi| = amplitude``."""
+    peak = float(np.abs(shape).max()) or 1.0
+    s = np.sin(2.0 * np.pi * np.arange(n_frames + 1) / n_frames)
+    return s[:, None, None] * (shape * (amplitude / peak))[None]
+
+
 def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
                    blamed: Mapping[str, str] | None = None, n_frames: int = 24,
-                   amplitude_fraction: float = 0.08, fps: int = 24) -> list[Any]:
+                   amplitude_fraction: float = 0.08, fps: int = 24,
+                   motion: SceneMotion | None = None) -> list[Any]:
     """meshcat commands drawing the structure and (optionally) its animated modes.
 
     Parameters
@@ -225,6 +255,9 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
         Largest displacement drawn, as a fraction of the structure's size.
     fps : int
         Frame rate of the animation.
+    motion : SceneMotion, optional
+        Instead of modes: copies moving through given displacements (scaled together so
+        that the largest is ``amplitude_fraction`` of the size), sensors coloured.
 
     Returns
     -------
@@ -243,11 +276,8 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
     blamed = dict(blamed or {})
     root = MPath(tuple(p for p in ROOT_PATH.split("/") if p))
     size = geom.size_m
-    n_modes = 0 if modes is None else int(modes.f_hz.size)
-    if modes is not None and modes.shapes.shape != (n_modes, geom.node_xyz.shape[0], 3):
-        msg = (f"modes.shapes: expected ({n_modes}, {geom.node_xyz.shape[0]}, 3) "
-               f"(mode, node, xyz), got {modes.shapes.shape}")
-        raise ShapeError(msg)
+    copies = _copies(geom, modes, motion, amplitude_fraction * size, n_frames)
+    n_modes = len(copies)
     lo, hi = geom.node_xyz.min(axis=0), geom.node_xyz.max(axis=0)
     step = 1.4 * float(hi[1] - lo[1]) + 0.3 * size  # copies side by side along -y
     # scale the whole scene into a few metres around the origin (the default camera looks
@@ -263,26 +293,52 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
     base = root.append("structure")
     cmds.append(_lines(geom.node_xyz, geom.edges, 0x333333, base.append("frame")))
     r = 0.012 * size
-    cmds += _dots({k: v for k, v in geom.sensors.items() if k not in blamed}, r, 0x1F77B4,
-                  base.append("sensors"))
+    tint = {} if motion is None else dict(motion.sensor_colors)
+    plain = {k: v for k, v in geom.sensors.items() if k not in blamed and k not in tint}
+    cmds += _dots(plain, r, 0x1F77B4, base.append("sensors"))
+    for k, c in tint.items():
+        if k in geom.sensors and k not in blamed:
+            cmds += _dots({k: geom.sensors[k]}, 1.5 * r, c, base.append("sensors"))
     cmds += _dots({k: v for k, v in geom.devices.items() if k not in blamed}, 1.5 * r,
-                  0x2CA02C, base.append("devices"))
+                  0x2CA02C if motion is None else 0x666666,  # green means "agrees" there
+                  base.append("devices"))
     places = {**geom.sensors, **geom.devices}
     cmds += _dots({k: places[k] for k in blamed if k in places}, 3.0 * r, 0xD62728,
                   base.append("blamed"))
-    if modes is None:
+    if not copies:
         return cmds
-    anim = ma.Animation(default_framerate=fps)
-    for m in range(n_modes):
+    anim = ma.Animation(default_framerate=round(motion.fps) if motion is not None else fps)
+    for m, (frames, color) in enumerate(copies):
         mbase = root.append(f"mode_{m + 1}")
         shift = np.eye(4)
         shift[1, 3] = -step * (m + 1)
         cmds.append(mc.SetTransform(shift, path=mbase))
-        color = modes.colors[m] if m < len(modes.colors) else 0xE4572E
-        cmds += _mode_copy(geom, modes.shapes[m], mbase, anim, amplitude_fraction * size,
-                           n_frames, color)
+        cmds += _moving_copy(geom, frames, mbase, anim, color)
     cmds.append(mc.SetAnimation(anim, play=True, repetitions=100000))
     return cmds
+
+
+def _copies(geom: StructureGeometry, modes: SceneModes | None, motion: SceneMotion | None,
+            amplitude: float, n_frames: int) -> list[tuple[FloatArray, int]]:
+    """(frames, colour) of every moving copy, scaled for drawing."""
+    n_nodes = geom.node_xyz.shape[0]
+    if motion is not None:
+        f = np.asarray(motion.frames, float)
+        if f.ndim != 4 or f.shape[2:] != (n_nodes, 3):
+            msg = (f"motion.frames: expected (copy, frame, {n_nodes}, 3), got {f.shape}")
+            raise ShapeError(msg)
+        f = f * (amplitude / (float(np.abs(f).max()) or 1.0))
+        return [(f[c], motion.colors[c] if c < len(motion.colors) else 0xE4572E)
+                for c in range(f.shape[0])]
+    if modes is None:
+        return []
+    n_modes = int(modes.f_hz.size)
+    if modes.shapes.shape != (n_modes, n_nodes, 3):
+        msg = (f"modes.shapes: expected ({n_modes}, {n_nodes}, 3) "
+               f"(mode, node, xyz), got {modes.shapes.shape}")
+        raise ShapeError(msg)
+    return [(mode_frames(modes.shapes[m], amplitude, n_frames),
+             modes.colors[m] if m < len(modes.colors) else 0xE4572E) for m in range(n_modes)]
 
 
 # -- static HTML --------------------------------------------------------------------------
@@ -314,6 +370,11 @@ def overlay_html(geom: StructureGeometry, modes: SceneModes | None,
     for place, family in (blamed or {}).items():
         items.append(f'<span style="color:#d62728">blamed: {html.escape(place)} '
                      f"({html.escape(family)})</span>")
+    return caption_html(items)
+
+
+def caption_html(items: Sequence[str]) -> str:
+    """Return the caption box of a scene: one line per item (HTML, escaped by the caller)."""
     return ('<div id="caption" style="position:absolute;top:8px;left:8px;font:13px sans-serif;'
             'background:rgba(255,255,255,0.85);padding:6px 8px;border-radius:4px">'
             + "<br>".join(items) + "</div>")

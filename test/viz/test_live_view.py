@@ -33,3 +33,31 @@ def test_relative_residual_per_sensor_is_the_worst_axis() -> None:
     assert rel["F1_C1"] == pytest.approx(0.0, abs=1e-15)
     cmds = live.commands(0.1)
     assert len(cmds) == 4  # a coloured sphere and its position per sensor
+
+
+def test_live_deflections_are_the_expanded_sensor_motion() -> None:
+    """Sensor samples made from two known mode shapes expand back onto every node."""
+    rng = np.random.default_rng(2)
+    xyz = rng.normal(size=(6, 3))
+    sensors = {"A": xyz[0], "B": xyz[3], "C": xyz[5]}
+    basis = rng.normal(size=(2, 6, 3))
+    names = ("A_x", "A_y", "B_z", "C_x", "C_y")
+    where = [(0, 0), (0, 1), (3, 2), (5, 0), (5, 1)]
+    at_ch = np.stack([basis[:, n, a] for n, a in where])
+    q = rng.normal(size=(2, 10))
+    live = LiveResidual(sensors, window=10)
+    stamps = np.arange(10, dtype=np.int64)
+    live.push(DisplaySamples(names, stamps, at_ch @ q), None)
+    live.push(None, DisplaySamples(names, stamps, 0.5 * at_ch @ q))  # twin: half
+    shapes = live.deflections(xyz, basis)
+    assert shapes is not None
+    um, ut = shapes
+    full = np.einsum("k,knd->nd", q[:, -1], basis)  # the latest sample on every node
+    peak = np.abs(np.einsum("kt,knd->tnd", q, basis)).max()  # largest of the window
+    np.testing.assert_allclose(um, full / peak, atol=1e-10)
+    np.testing.assert_allclose(ut, 0.5 * full / peak, atol=1e-10)
+    edges = np.array([[0, 1], [2, 5]])
+    cmds = [c.lower() for c in live.shape_commands(xyz, edges, basis, 2.0)]
+    assert [c["path"] for c in cmds] == ["/modal_twin/live/measured_shape",
+                                         "/modal_twin/live/twin_shape"]
+    assert LiveResidual(sensors).deflections(xyz, basis) is None
