@@ -233,7 +233,7 @@ def test_every_real_file_imports(shared_dir: Path, tmp_path: Path,
     text = capsys.readouterr().out
     assert "4 channels x 222400 samples at 3200 Hz" in text
     geo = json.loads((tmp_path / "geometry_artemis_export.uff" /
-                      "geometry_geometry_artemis_export.json").read_text())
+                      "geometry_artemis_export.json").read_text())
     assert len(geo["nodes"]) == 74
     assert len(geo["trace_lines"]) == 2
     cmap = json.loads((tmp_path / REAL[6][1] / "channel_map.json").read_text())
@@ -279,7 +279,7 @@ def test_uff58b_record_gives_modes(shared_dir: Path, tmp_path: Path,
     geo = _real(shared_dir, "uff", "geometry_testlab_15_18_82_161_164.uff")
     assert main(["import", str(u), str(geo), "--out", str(tmp_path / "b")]) == 0
     cmap = json.loads((tmp_path / "b" / "channel_map.json").read_text())
-    nodes = json.loads((tmp_path / "b" / f"geometry_{geo.stem}.json").read_text())["nodes"]
+    nodes = json.loads((tmp_path / "b" / f"{geo.stem}.json").read_text())["nodes"]
     c0 = cmap["channels"][0]
     assert (c0["node"], c0["direction"]) == ("1", "z")
     assert c0["position_m"] == nodes["1"]  # the sensor placed on the test geometry

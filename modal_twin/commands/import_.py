@@ -90,7 +90,8 @@ def _uff(path: Path, extra: dict[str, Any]) -> Part | None:
 
     u = read_uff(path)
     if u.geometry.get("nodes") or u.geometry.get("trace_lines"):
-        extra[f"geometry_{path.stem}.json"] = u.geometry
+        stem = path.stem if path.stem.startswith("geometry_") else f"geometry_{path.stem}"
+        extra[f"{stem}.json"] = u.geometry
     if u.spectra:
         extra[f"spectra_{path.stem}.npz"] = {
             "names": np.array([s["name"] for s in u.spectra]),

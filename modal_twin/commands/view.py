@@ -10,6 +10,11 @@ structure twice: measured (blue) and the twin's prediction for the same measured
 model's modes and scaled alike, the sensors coloured by the twin's NRMSE there (green
 below 10 %, yellow, red from 30 %).
 
+MODEL may also be a test geometry: a UFF file with nodes and trace lines, or a bag
+``modal-twin import`` wrote with one (its channels' nodes are the sensors); ``--modes`` (the
+identify JSON of that bag) then draws each identified mode at the nodes and directions its
+channels measure.
+
 With ``--html`` the scene (structure, sensors, devices, animated model modes, the places a
 model version added effects at in red) is written as one static HTML page and no server
 is started. Without it, meshcat's server is started on 127.0.0.1 (stopped by PID on
@@ -33,7 +38,9 @@ __all__ = ["register", "run"]
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``view`` parser."""
     p = sub.add_parser("view", help="3D scene of a model: structure, sensors, devices, modes")
-    p.add_argument("model", type=Path, help="structure file or model version file")
+    p.add_argument("model", type=Path,
+                   help="structure file, model version file, or a test geometry: a UFF file "
+                        "(15 / 82 / 2411) or a bag imported with one")
     p.add_argument("--n-modes", type=int, default=6, help="model modes to animate")
     p.add_argument("--modes", type=Path, default=None,
                    help="identified modes (identify JSON): drawn beside their model pairs")
@@ -183,12 +190,36 @@ def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12
     return scene_commands(geom, motion=motion), caption_html(items)
 
 
+def geometry_scene(path: Path, modes_file: Path | None) -> tuple[list[object], str]:
+    """meshcat commands and caption of a test geometry (and identified modes on it)."""
+    import html
+
+    from modal_twin.io.modes_file import read_modes
+    from modal_twin.viz.measured_geometry import load_measured_geometry, modes_on_nodes
+    from modal_twin.viz.scene import caption_html, overlay_html, scene_commands
+
+    mg = load_measured_geometry(path)
+    if modes_file is None:
+        g = mg.geom
+        return scene_commands(g), caption_html([
+            f"<b>{html.escape(path.name)}</b>: test geometry, {len(mg.ids)} nodes, "
+            f"{g.edges.shape[0]} trace-line segments, {len(g.sensors)} nodes with channels "
+            "(blue)"])
+    mf = read_modes(modes_file)
+    modes = modes_on_nodes(mg, mf.f_hz, mf.zeta, mf.shapes, mf.dofs)
+    return scene_commands(mg.geom, modes), overlay_html(mg.geom, modes)
+
+
+def _is_geometry(path: Path) -> bool:
+    return path.is_dir() or path.suffix.lower() in (".uff", ".unv")
+
+
 def run(args: argparse.Namespace) -> int:
     """Write the scene's HTML, or serve it until Ctrl-C."""
     from modal_twin.viz.meshcat_server import MeshcatServer, send_commands
     from modal_twin.viz.scene import static_html
 
-    if not args.model.is_file():
+    if not (args.model.is_file() or args.model.is_dir()):
         print(f"modal-twin view: model file {args.model} not found", file=sys.stderr)
         return ExitCode.USAGE
     for what, p in (("modes file", args.modes), ("bag", args.bag)):
@@ -198,7 +229,9 @@ def run(args: argparse.Namespace) -> int:
     if args.modes is not None and args.bag is not None:
         print("modal-twin view: give --modes or --bag, not both", file=sys.stderr)
         return ExitCode.USAGE
-    if args.bag is not None:
+    if _is_geometry(args.model) and args.bag is None:
+        cmds, caption = geometry_scene(args.model, args.modes)
+    elif args.bag is not None:
         cmds, caption = bag_scene(args.model, args.bag, args.window)
     elif args.modes is not None:
         cmds, caption = identified_scene(args.model, args.modes)

@@ -283,7 +283,7 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
     # scale the whole scene into a few metres around the origin (the default camera looks
     # along -x from +x, y to the left)
     width = step * n_modes + float(hi[1] - lo[1])
-    s = 5.5 / max(width, float(hi[2] - lo[2]))
+    s = min(5.5 / max(width, float(hi[2] - lo[2])), 2.5 / max(float(hi[0] - lo[0]), 1e-9))
     T = np.diag([s, s, s, 1.0])
     T[:3, 3] = -s * np.array([(lo[0] + hi[0]) / 2, lo[1] - width / 2 + (hi[1] - lo[1]),
                               (lo[2] + hi[2]) / 2])
