@@ -195,7 +195,7 @@ def geometry_scene(path: Path, modes_file: Path | None) -> tuple[list[object], s
     import html
 
     from modal_twin.io.modes_file import read_modes
-    from modal_twin.viz.measured_geometry import load_measured_geometry, modes_on_nodes
+    from modal_twin.viz.measured_geometry import modes_on_nodes
     from modal_twin.viz.scene import caption_html, overlay_html, scene_commands
 
     mg = load_measured_geometry(path)
@@ -208,6 +208,44 @@ def geometry_scene(path: Path, modes_file: Path | None) -> tuple[list[object], s
     mf = read_modes(modes_file)
     modes = modes_on_nodes(mg, mf.f_hz, mf.zeta, mf.shapes, mf.dofs)
     return scene_commands(mg.geom, modes), overlay_html(mg.geom, modes)
+
+
+def load_measured_geometry(path: Path) -> Any:
+    """Return the test geometry of a UFF file, or of a bag ``modal-twin import`` wrote with one.
+
+    (A :class:`~modal_twin.viz.measured_geometry.MeasuredGeometry`.)
+
+    Raises
+    ------
+    ConfigError
+        No geometry in the file or folder.
+    """
+    import json
+
+    from modal_twin.errors import ConfigError
+    from modal_twin.io.channel_map import MAP_FILE, read_channel_map
+    from modal_twin.viz.measured_geometry import MeasuredGeometry, geometry_from_uff
+
+    chans: dict[str, tuple[str, str]] = {}
+    if path.is_dir():
+        parts = sorted(path.glob("geometry_*.json"))
+        if not parts:
+            msg = f"{path}: no test geometry (import a UFF 15 / 82 file with the record)"
+            raise ConfigError(msg)
+        g: dict[str, Any] = {"nodes": {}, "trace_lines": []}
+        for p in parts:
+            d = json.loads(p.read_text())
+            g["nodes"].update(d.get("nodes", {}))
+            g["trace_lines"] += d.get("trace_lines", [])
+        if (path / MAP_FILE).is_file():
+            chans = {c.name: (c.node, c.direction.lower()) for c in
+                     read_channel_map(path / MAP_FILE) if c.node}
+    else:
+        from modal_twin.io.uff import read_uff
+
+        g = read_uff(path).geometry
+    geom, ids = geometry_from_uff(g, path.name, [n for n, _ in chans.values()])
+    return MeasuredGeometry(geom, ids, chans)
 
 
 def _is_geometry(path: Path) -> bool:

@@ -21,7 +21,11 @@ import scipy.sparse as sp
 
 from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import ConfigError
-from modal_twin.models.matrix_model import MatrixModel, matrix_model_from_arrays
+from modal_twin.models.matrix_model import (
+    MatrixModel,
+    matrix_model_from_arrays,
+    read_matrix_arrays,
+)
 
 __all__ = [
     "BRIDGE_DIR",
@@ -188,19 +192,7 @@ def load_matrix_model(path: str | Path) -> MatrixModel:
 
     """
     p = Path(path)
-    arrays: dict[str, object]
-    try:
-        if p.suffix.lower() == ".npz":
-            with np.load(p, allow_pickle=False) as z:
-                arrays = {k: z[k] for k in z.files}
-        elif p.suffix.lower() == ".mat":
-            arrays = {k: v for k, v in sio.loadmat(p).items() if not k.startswith("__")}
-        else:
-            msg = f"{p}: expected a .mat or .npz matrix file, got {p.suffix!r}"
-            raise ConfigError(msg)
-    except (OSError, ValueError, NotImplementedError) as err:
-        msg = f"{p}: not a readable {p.suffix} file ({type(err).__name__}: {err})"
-        raise ConfigError(msg) from err
+    arrays = read_matrix_arrays(p)
     subs = {f"K_{s.removeprefix('K_')}" for s in SUBSTRUCTURES}
     bridge = subs <= set(arrays) and "lower" not in arrays
     order = tuple(s.removeprefix("K_") for s in SUBSTRUCTURES) if bridge else None

@@ -1,10 +1,11 @@
 """One way to load a model: a file in, a :class:`ModelFactory` out.
 
 A model file is a building structure file (``config/structures/*.yaml``), a vehicle file
-(``config/vehicles/*.yaml``) or a model version file (:mod:`modal_twin.models.versions`:
-a structure with parameter values and the effects added so far). Every kind gives a
-factory with one protocol, so the twin, updating and the diagnosis never ask which kind
-they hold::
+(``config/vehicles/*.yaml``), a matrix model of the user's FE tool (``.mat`` / ``.npz``:
+:mod:`modal_twin.models.matrix_factory`) or a model version file
+(:mod:`modal_twin.models.versions`: a structure with parameter values and the effects
+added so far). Every kind gives a factory with one protocol, so the twin, updating and
+the diagnosis never ask which kind they hold::
 
     factory = load_model("config/structures/building.yaml")
     plant = factory.plant()                                  # nominal
@@ -101,8 +102,13 @@ def with_effects(factory: ModelFactory, effects: Iterable[EffectSpec]) -> ModelF
 
 def _factory_of(structure: str | Path, theta: Mapping[str, float] | None,
                 n_modes: int | None) -> ModelFactory:
+    from modal_twin.models.matrix_model import MATRIX_SUFFIXES
     from modal_twin.models.vehicle_spec import is_vehicle_file
 
+    if Path(structure).suffix.lower() in MATRIX_SUFFIXES:
+        from modal_twin.models.matrix_factory import MatrixFactory
+
+        return MatrixFactory(structure, theta=theta, n_modes=n_modes)
     if is_vehicle_file(structure):
         from modal_twin.models.vehicle_factory import VehicleFactory
 

@@ -21,15 +21,19 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
 from modal_twin._types import FloatArray, IntArray
-from modal_twin.errors import ModelError, ShapeError
+from modal_twin.errors import ConfigError, ModelError, ShapeError
 
-__all__ = ["MatrixModel", "matrix_model_from_arrays"]
+__all__ = ["MATRIX_SUFFIXES", "MatrixModel", "matrix_model_from_arrays", "read_matrix_arrays"]
+
+MATRIX_SUFFIXES = (".mat", ".npz")
+"""File kinds a matrix model is read from."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,3 +171,27 @@ def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
     lo = np.asarray(a["lower"], dtype=float).ravel() if "lower" in a else None
     hi = np.asarray(a["upper"], dtype=float).ravel() if "upper" in a else None
     return MatrixModel(M, K0, C, K_j, names, _dofs(a, n, source), meas, lo, hi, source)
+
+
+def read_matrix_arrays(path: str | Path) -> dict[str, Any]:
+    """Named arrays of a ``.mat`` (MATLAB 5 to 7.2) or ``.npz`` file.
+
+    Raises
+    ------
+    ConfigError
+        Another kind of file, or one that does not read.
+    """
+    import scipy.io as sio
+
+    p = Path(path)
+    try:
+        if p.suffix.lower() == ".npz":
+            with np.load(p, allow_pickle=False) as z:
+                return {k: z[k] for k in z.files}
+        if p.suffix.lower() == ".mat":
+            return {k: v for k, v in sio.loadmat(p).items() if not k.startswith("__")}
+    except (OSError, ValueError, NotImplementedError) as err:
+        msg = f"{p}: not a readable {p.suffix} file ({type(err).__name__}: {err})"
+        raise ConfigError(msg) from err
+    msg = f"{p}: expected a .mat or .npz matrix file, got {p.suffix!r}"
+    raise ConfigError(msg)

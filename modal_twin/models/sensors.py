@@ -75,16 +75,18 @@ def match_outputs(channels: Sequence[ChannelSpec], model: Sequence[ChannelSpec]
                   ) -> dict[str, str]:
     """Model channel name of each measured channel that has one.
 
-    By name, else by the same place (``location``), direction and quantity: an imported
-    ``roof_x`` at location ``R_P1`` along x is the model's ``R_P1_x``.
+    By name, else by the same place (``location``, or the ``node`` when a channel names no
+    location), direction and quantity: an imported ``roof_x`` at location ``R_P1`` along x
+    is the model's ``R_P1_x``; a channel at node ``12`` along z a matrix model's ``12_z``.
     """
     by_name = {c.name for c in model}
-    by_place = {(c.location, c.direction, c.quantity): c.name for c in model if c.location}
+    by_place = {(c.location or c.node, c.direction, c.quantity): c.name for c in model
+                if c.location or c.node}
     out: dict[str, str] = {}
     for c in channels:
         if c.name in by_name:
             out[c.name] = c.name
-        elif (key := (c.location, c.direction, c.quantity)) in by_place:
+        elif (key := (c.location or c.node, c.direction, c.quantity)) in by_place:
             out[c.name] = by_place[key]
     return out
 

@@ -84,14 +84,18 @@ def write_version(folder: str | Path, mv: ModelVersion) -> ModelVersion:
 
 
 def read_version(path: str | Path) -> ModelVersion:
-    """Read a version file, or wrap a plain structure file as version 0.
+    """Read a version file, or wrap a plain structure (or matrix) file as version 0.
 
     Raises
     ------
     ConfigError
         Naming the file and the key.
     """
+    from modal_twin.models.matrix_model import MATRIX_SUFFIXES
+
     p = Path(path)
+    if p.suffix.lower() in MATRIX_SUFFIXES:  # a matrix model of the user's FE tool
+        return ModelVersion(structure=p.resolve(), path=p)
     doc = read_yaml(p, "model file")
     if "structure" not in doc:  # a structure file itself
         return ModelVersion(structure=p.resolve(), path=p)

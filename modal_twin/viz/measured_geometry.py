@@ -13,9 +13,7 @@ systems other than the global one are not applied).
 from __future__ import annotations
 
 import itertools
-import json
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -24,7 +22,7 @@ from modal_twin.errors import ConfigError
 from modal_twin.viz.mode_pairs import real_shapes
 from modal_twin.viz.scene import SceneModes, StructureGeometry
 
-__all__ = ["MeasuredGeometry", "geometry_from_uff", "load_measured_geometry", "modes_on_nodes"]
+__all__ = ["MeasuredGeometry", "geometry_from_uff", "modes_on_nodes"]
 
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -71,38 +69,6 @@ def geometry_from_uff(g: Mapping[str, Any], name: str,
     sensors = {n: xyz[row[n]] for n in sensor_nodes if n in row}
     return (StructureGeometry(name, xyz, np.array(sorted(edges), dtype=np.int64).reshape(-1, 2),
                               sensors), ids)
-
-
-def load_measured_geometry(path: Path) -> MeasuredGeometry:
-    """Test geometry of a UFF file, or of a bag ``modal-twin import`` wrote with one.
-
-    Raises
-    ------
-    ConfigError
-        No geometry in the file or folder.
-    """
-    from modal_twin.io.channel_map import MAP_FILE, read_channel_map
-
-    chans: dict[str, tuple[str, str]] = {}
-    if path.is_dir():
-        parts = sorted(path.glob("geometry_*.json"))
-        if not parts:
-            msg = f"{path}: no test geometry (import a UFF 15 / 82 file with the record)"
-            raise ConfigError(msg)
-        g: dict[str, Any] = {"nodes": {}, "trace_lines": []}
-        for p in parts:
-            d = json.loads(p.read_text())
-            g["nodes"].update(d.get("nodes", {}))
-            g["trace_lines"] += d.get("trace_lines", [])
-        if (path / MAP_FILE).is_file():
-            chans = {c.name: (c.node, c.direction.lower()) for c in
-                     read_channel_map(path / MAP_FILE) if c.node}
-    else:
-        from modal_twin.io.uff import read_uff
-
-        g = read_uff(path).geometry
-    geom, ids = geometry_from_uff(g, path.name, [n for n, _ in chans.values()])
-    return MeasuredGeometry(geom, ids, chans)
 
 
 def modes_on_nodes(tg: MeasuredGeometry, f_hz: Any, zeta: Any, shapes: Any,

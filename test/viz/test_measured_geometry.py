@@ -9,13 +9,9 @@ import numpy as np
 import pytest
 
 from modal_twin.cli import main
+from modal_twin.commands.view import load_measured_geometry
 from modal_twin.errors import ConfigError
-from modal_twin.viz.measured_geometry import (
-    MeasuredGeometry,
-    geometry_from_uff,
-    load_measured_geometry,
-    modes_on_nodes,
-)
+from modal_twin.viz.measured_geometry import MeasuredGeometry, geometry_from_uff, modes_on_nodes
 
 UFF = Path(__file__).resolve().parents[3] / "shared" / "realdata" / "uff"
 SQUARE = {"nodes": {"1": [0, 0, 0], "2": [1, 0, 0], "3": [1, 1, 0], "4": [0, 1, 0],

@@ -1,0 +1,181 @@
+"""A model given as matrices by the user's FE tool, as a factory of plants for the twin.
+
+M, K, substructures K_j, C and a DOF map (:mod:`modal_twin.models.matrix_model`) become a
+:class:`~modal_twin.models.loading.ModelFactory`: the twin and the diagnosis then treat
+the file like a structure file.
+
+The plant is the modal reduction of ``M q'' + C q' + K(theta) q = -M P a_g``: the lowest
+``n_modes`` mass-normalised modes (shift-invert Lanczos, massless DOFs allowed), damping
+``Phi' C Phi`` when the file gives ``C`` and modal damping ``zeta`` otherwise, and the base
+acceleration ``a_g`` along x, y, z entering through the influence matrix ``P`` (1 where a
+DOF is a translation along that direction: uniform support motion of a structure held by
+its supports or ground springs). Its channels are the absolute accelerations
+``Phi_s q'' + P_s a_g`` of the measured DOFs (all translational DOFs when the file names
+none), each with its node and direction, so a measured channel at the same node and
+direction meets it (:func:`~modal_twin.models.sensors.match_outputs`). The DOF labels
+``"<node>:<direction>"`` give node and direction (:mod:`modal_twin.models.matrix_model`).
+A matrix model has no devices: effects that need one are refused by name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from modal_twin.channels import ChannelSpec
+from modal_twin.errors import ModelError, OptionError
+from modal_twin.models.effects import SENSOR_LAWS, EffectSpec
+from modal_twin.models.matrix_model import (
+    MatrixModel,
+    matrix_model_from_arrays,
+    read_matrix_arrays,
+)
+from modal_twin.models.parameter_info import ParameterInfo
+from modal_twin.models.plant import Plant, with_sensor_effects
+from modal_twin.models.reduced import ReducedSystem
+
+__all__ = ["MatrixFactory", "dof_place"]
+
+_AXES = ("x", "y", "z")
+MAX_CHANNELS = 4096  # the acquisition's channel limit
+
+
+def dof_place(label: str) -> tuple[str, str]:
+    """(node, direction) of a DOF label ``"<node>:<direction>"`` (direction '' otherwise)."""
+    node, sep, d = label.partition(":")
+    return (node.strip(), d.strip().lower()) if sep else (label.strip(), "")
+
+
+class MatrixFactory:
+    """Plants of a matrix model (module docstring).
+
+    Parameters
+    ----------
+    path : path
+        The ``.mat`` / ``.npz`` file.
+    theta : mapping, optional
+        Substructure factors (``K = K0 + sum theta_j K_j``), by name; 0 when not given.
+    n_modes : int, optional
+        Modes kept (default: every mode up to 30).
+    zeta : float
+        Modal damping ratio when the file has no ``C``.
+    """
+
+    sites: Mapping[str, object] = {}
+
+    def __init__(self, path: str | Path, *, theta: Mapping[str, float] | None = None,
+                 n_modes: int | None = None, zeta: float = 0.02,
+                 model: MatrixModel | None = None) -> None:
+        self.structure_file = Path(path)
+        self.mm = model or matrix_model_from_arrays(read_matrix_arrays(path), str(path))
+        unknown = sorted(set(theta or {}) - set(self.mm.names))
+        if unknown:
+            msg = (f"{path}: unknown parameters {unknown}; the file's substructures are "
+                   f"{list(self.mm.names)}")
+            raise OptionError(msg)
+        self.theta = {str(k): float(v) for k, v in (theta or {}).items()}
+        self.n_modes = n_modes
+        self.zeta = zeta
+        self.base_effects: tuple[EffectSpec, ...] = ()
+        self.label = f"{self.structure_file.stem}@matrices"
+
+    @property
+    def parameter_prefixes(self) -> tuple[str, ...]:
+        """The substructure names: every one may be screened."""
+        return tuple(self.mm.names)
+
+    def with_theta(self, changes: Mapping[str, float]) -> MatrixFactory:
+        """Return the same model with some substructure factors changed."""
+        return MatrixFactory(self.structure_file, theta={**self.theta, **changes},
+                             n_modes=self.n_modes, zeta=self.zeta, model=self.mm)
+
+    def parameters(self) -> dict[str, float]:
+        """Return every substructure factor (0: nominal)."""
+        return {n: self.theta.get(n, 0.0) for n in self.mm.names}
+
+    def attachments(self) -> tuple[str, ...]:
+        """Return no attachments: a matrix model has no rigid masses to mount elastically."""
+        return ()
+
+    def weight(self, component: str) -> float:
+        """Refuse: a matrix model has no devices that carry weight."""
+        msg = f"{self.structure_file}: a matrix model has no device {component!r}"
+        raise OptionError(msg)
+
+    @cached_property
+    def _plant(self) -> Plant:
+        from modal_twin.models.fe.eigen import solve_modes
+
+        mm = self.mm
+        th = np.array([self.parameters()[n] for n in mm.names])
+        K, M = mm.K(th), mm.M
+        places = [dof_place(d) for d in mm.dofs]
+        P = np.array([[1.0 if d == a else 0.0 for a in _AXES] for _, d in places])
+        keep = np.flatnonzero(P.any(axis=0))
+        if keep.size == 0:
+            msg = (f"{self.structure_file}: no DOF label names a direction x / y / z "
+                   "('<node>:<direction>'), so no base input can drive the model")
+            raise ModelError(msg)
+        P = P[:, keep]
+        r = self.n_modes or min(mm.n_dof, 30)
+        sol = solve_modes(K, M, r)
+        Phi, omega = sol.Phi, sol.omega
+        C = (Phi.T @ (mm.C @ Phi) if mm.C is not None
+             else np.diag(2.0 * self.zeta * omega))
+        rows = (mm.measured_dofs if mm.measured_dofs.size
+                else np.flatnonzero(P.any(axis=1)))[:MAX_CHANNELS]
+        n_out = rows.size
+        C_out = np.zeros((n_out, 3 * r))
+        C_out[:, 2 * r:] = Phi[rows]  # absolute acceleration: Phi_s q'' + P_s a_g
+        system = ReducedSystem(M=np.eye(r), C=C, K=np.diag(omega ** 2),
+                               Gamma=Phi.T @ (M @ P), devices=(), C_out=C_out, D_out=P[rows])
+        chans = []
+        for i in rows:
+            node, d = places[i]
+            name = f"{node}_{d}" if d else f"dof{i}"
+            chans.append(ChannelSpec(name, "acceleration", node, d, node=node))
+        return Plant(system, tuple(f"a{_AXES[k]}" for k in keep),
+                     ("acceleration",) * keep.size, tuple(chans),
+                     tuple(("y", k) for k in range(n_out)), self.label)
+
+    def parameter_info(self, name: str) -> ParameterInfo:
+        """Return what a substructure factor is: a stiffness of that substructure.
+
+        Bounds from the file (``lower`` / ``upper``), else -0.9 (the substructure nearly
+        gone) to +2 (three times as stiff).
+
+        Raises
+        ------
+        OptionError
+            Not a substructure of the file.
+        """
+        mm = self.mm
+        if name not in mm.names:
+            msg = f"{self.structure_file}: unknown parameter {name!r}; it has {list(mm.names)}"
+            raise OptionError(msg)
+        j = mm.names.index(name)
+        lo = float(mm.lower[j]) if mm.lower is not None else -0.9
+        hi = float(mm.upper[j]) if mm.upper is not None else 2.0
+        return ParameterInfo(name, "stiffness", f"substructure {name}", 0.0, lo, hi, "1",
+                             "group")
+
+    def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
+        """Return the reduced plant, seen through any sensor effects.
+
+        Raises
+        ------
+        OptionError
+            A device effect: a matrix model has no devices.
+        """
+        every = (*self.base_effects, *effects)
+        devices = [e for e in every if e.law not in SENSOR_LAWS]
+        sensors = [e for e in every if e.law in SENSOR_LAWS]
+        if devices:
+            msg = (f"{self.structure_file}: a matrix model has no devices, so "
+                   f"{[f'{e.law} at {e.component}' for e in devices]} cannot be added; give "
+                   "a structure file for device effects")
+            raise OptionError(msg)
+        return with_sensor_effects(self._plant, sensors) if sensors else self._plant
