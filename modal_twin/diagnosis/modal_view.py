@@ -7,6 +7,7 @@ frequency, damping or shape.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -99,7 +100,9 @@ def modal_view(plant: Plant, rec: Record, *, fs_target_hz: float | None = None,
     for channels in (acc, horizontal, ends):  # a short record: fewer outputs
         y = decimate(rec.channels(channels)[:, rec.skip:], rec.fs_hz, factor).x
         try:
-            sw = n4sid(u, y, fs, orders=np.arange(20, 62, 4), f_min_hz=0.5)
+            with warnings.catch_warnings():  # the modal view uses no standard deviations
+                warnings.filterwarnings("ignore", message="n_blocks_std", category=RuntimeWarning)
+                sw = n4sid(u, y, fs, orders=np.arange(20, 62, 4), f_min_hz=0.5)
             mm = select_modes(stabilization_diagram(sw), f_range_hz=(0.2, f_max_hz))
         except ModalTwinError as err:
             error = err
