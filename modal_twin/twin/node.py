@@ -14,14 +14,8 @@ from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
 from rclpy.node import Node
 
 from modal_twin.acquisition.continuity import Verdict
+from modal_twin.io import convert as cv
 from modal_twin.io.channel_map import read_channel_map
-from modal_twin.io.convert import (
-    block_from_msg,
-    block_to_msg,
-    channel_map_from_msg,
-    metrics_to_msg,
-    theta_from_msg,
-)
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import guarded, qos_for, report, run_node
 from modal_twin.twin.session import TwinSession
@@ -77,31 +71,31 @@ class TwinNode(Node):
                                f"{plant.system.n} coordinates")
 
     def _on_frame(self, msg: SignalBlockMsg) -> None:
-        v, step = self.twin.frame(block_from_msg(msg))
+        v, step = self.twin.frame(cv.block_from_msg(msg))
         if v.verdict is not Verdict.OK:
             report(self.get_logger(), v, node=self)
         if step is not None and step.first:
             self.get_logger().info(self.twin.runner.describe_route())
         if step is not None:
-            self.pred_pub.publish(block_to_msg(step.prediction, SignalBlockMsg))
-            self.res_pub.publish(block_to_msg(step.residual, SignalBlockMsg))
+            self.pred_pub.publish(cv.block_to_msg(step.prediction, SignalBlockMsg))
+            self.res_pub.publish(cv.block_to_msg(step.residual, SignalBlockMsg))
 
     def _on_channels(self, msg: ChannelMap) -> None:
         """Route the stream by the roles of its channel map (a refused map changes nothing)."""
-        if self.twin.set_channels(channel_map_from_msg(msg)):
+        if self.twin.set_channels(cv.channel_map_from_msg(msg)):
             self.get_logger().info(f"channel map of {msg.source or 'the stream'}: "
                                    f"{len(msg.channels)} channels, routed by their roles")
 
     def _on_parameters(self, msg: ModelParameters) -> None:
         """Load the model version of a parameter message; a refused one changes nothing."""
-        label = self.twin.load_version(msg.model_file, theta_from_msg(msg), msg.model_version)
+        label = self.twin.load_version(msg.model_file, cv.theta_from_msg(msg), msg.model_version)
         self.get_logger().info(f"twin now runs model version {label}")
 
     def _publish_metrics(self) -> None:
         runner = self.twin.runner
         m = runner.metrics()
         if m is not None and runner.compare is not None:
-            self.met_pub.publish(metrics_to_msg(runner.compare, m, self.cfg.window_s,
+            self.met_pub.publish(cv.metrics_to_msg(runner.compare, m, self.cfg.window_s,
                                                 self.twin.version, ComparisonMetrics))
 
     def close(self) -> None:
