@@ -10,10 +10,11 @@ modal-twin effects add MODEL --train BAG --test BAG --out DIR (--auto | --compon
 modal-twin effects history DIR [--png FILE]
 modal-twin import FILE... --out BAG [--map MAP.yaml]       (UFF, CSMIP / SMC, CSV, NPZ)
 modal-twin identify BAG [--method n4sid|ssi-cov|polymax] [--out DIR]
-modal-twin update MODEL.mat|.npz --modes FILE [--out DIR]
+modal-twin update MODEL --modes FILE [--out DIR]           (structure, version, .mat, .npz)
 modal-twin export modes|frf|model SRC --out FILE
-modal-twin view MODEL [--n-modes N] [--html OUT]
+modal-twin view MODEL [--modes FILE | --bag BAG] [--html OUT]   (or a UFF test geometry)
 modal-twin report RUN_DIR [--out FILE]
+modal-twin residual MODEL BAG [--top N] [--live]          (the twin on a record, per channel)
 modal-twin demo
 """
 

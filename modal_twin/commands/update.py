@@ -1,12 +1,12 @@
-"""``modal-twin update MODEL --modes FILE``: update a matrix model to identified modes.
+"""``modal-twin update MODEL --modes FILE``: update a model to identified modes.
 
-MODEL is a ``.mat`` / ``.npz`` matrix model with substructure stiffnesses ``K_<name>``
-(:mod:`modal_twin.models.matrix_model`); its parameters are the substructure factors
-``theta_j`` of ``K(theta) = K0 + sum_j theta_j K_j``. FILE holds the identified modes
-(:func:`modal_twin.io.modes_file.read_modes`). The measured DOFs come from
-``--measured-dofs``, else the modes file (``measDOFs``, or the channels' node and
-direction matched to the model's DOF labels ``"node:x"`` / ``"node:ux"``), else the model
-file (``measDOFs``).
+MODEL is a building structure or version file, or a ``.mat`` / ``.npz`` matrix model with
+substructure stiffnesses ``K_<name>`` (:mod:`modal_twin.models.matrix_model`); its
+parameters are the substructure factors ``theta_j`` of ``K(theta) = K0 + sum_j theta_j
+K_j``. FILE holds the identified modes (:func:`modal_twin.io.modes_file.read_modes`). The
+measured DOFs come from ``--measured-dofs``, else the modes file (``measDOFs``, or the
+channels' node and direction matched to the model's DOF labels ``"node:x"`` /
+``"node:ux"``), else the model file (``measDOFs``).
 
 The settings are those of the bridge benchmark (test/benchmarks/bench_updating.py):
 bounded Gauss-Newton from the nominal model with the analytic Jacobian (no global
@@ -15,6 +15,12 @@ where the file gives them, shapes by theirs, and a weak pull towards the nominal
 (``--prior-weight`` 0.3). Prints df / MAC before and after and which parameters the data
 determine; ``--out DIR`` receives the new model version ``model_vN.npz`` and its report
 ``update_vN.json``.
+
+A structure or version file is updated the way the updating node does it (the two stages
+of [004]: the superstructure's moduli on the modes above the isolation layer's, then the
+isolators on the modes below, :func:`modal_twin.updating.run.update_model`) on the modes of
+an identify JSON, whose channels meet the model's sensors by name or by node / location
+and direction; ``--out DIR`` (default ``runs/models``) receives the next model version.
 """
 
 from __future__ import annotations
@@ -35,7 +41,8 @@ __all__ = ["register", "run"]
 def register(sub: argparse._SubParsersAction) -> None:
     """Add ``update`` to the sub-commands."""
     p = sub.add_parser("update", help="update a matrix model (.mat / .npz) to identified modes")
-    p.add_argument("model", type=Path, help="matrix model with K_<name> substructures")
+    p.add_argument("model", type=Path, help="structure / version file, or a matrix model "
+                                            "with K_<name> substructures")
     p.add_argument("--modes", type=Path, required=True,
                    help="identified modes: identify JSON, UFF 55 or .mat")
     p.add_argument("--measured-dofs", default=None,
@@ -118,9 +125,7 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.updating.problem import ModeTargets, UpdatingProblem
 
     if check_model_kind(a.model) != "matrix":
-        msg = (f"{a.model}: update takes a matrix model (.mat / .npz with K_<name> "
-               f"substructures); export a structure with `modal-twin export model`")
-        raise ConfigError(msg)
+        return _update_structure(a)
     mm = load_matrix_model(a.model)
     if not mm.names:
         msg = f"{a.model}: no substructure stiffness K_<name> to update"
@@ -157,6 +162,44 @@ def run(a: argparse.Namespace) -> int:
         print(f"  {n:>10} {th:+.4f}")
     if a.out is not None:
         _write(a.out, mm, res)
+    return ExitCode.OK
+
+
+def _update_structure(a: argparse.Namespace) -> int:
+    """Two-stage update of a structure or version file (module docstring)."""
+    from modal_twin.channels import ChannelSpec
+    from modal_twin.identification.modal_model import ModalModel
+    from modal_twin.io.modes_file import read_modes
+    from modal_twin.models.loading import load_model
+    from modal_twin.models.sensors import match_outputs
+    from modal_twin.updating.run import pairs_table, update_model
+
+    md = read_modes(a.modes)
+    if not md.dofs or not all(d.get("channel") for d in md.dofs):
+        msg = (f"{a.modes}: a structure file is updated on an identify JSON (its shapes name "
+               "their channels)")
+        raise ConfigError(msg)
+    plant = load_model(a.model).plant()
+    specs = [ChannelSpec(str(d["channel"]), "acceleration", str(d.get("node_label") or ""),
+                         str(d.get("direction") or "")) for d in md.dofs]
+    rename = match_outputs(specs, plant.channels)
+    names = tuple(rename.get(c.name, c.name) for c in specs)
+    n = md.f_hz.size
+    modes = ModalModel(md.f_hz, md.zeta, md.shapes, md.std_f_hz, np.full(n, np.nan), "file",
+                       0, np.zeros(n, np.int64), np.zeros(n, np.int64))
+    out = a.out if a.out is not None else Path("runs") / "models"
+    print(f"update: {a.model.name}: two stages of [004] on {n} modes at {len(rename)} of "
+          f"{len(specs)} channels", file=sys.stderr, flush=True)
+    upd = update_model(a.model, modes, names, out)
+    print(f"{'mode':>4} {'f id [Hz]':>10} {'f before':>9} {'df %':>7} {'MAC':>6} "
+          f"{'f after':>9} {'df %':>7} {'MAC':>6}")
+    stages = iter(upd.result.stage_names)
+    for i, _, f, fb, fa, mb, ma in pairs_table(upd):
+        if i == 0:
+            print(f"stage {next(stages, '?')}:")
+        print(f"{i + 1:>4} {f:10.4f} {fb:9.4f} {100 * (fb / f - 1):7.2f} {mb:6.3f} "
+              f"{fa:9.4f} {100 * (fa / f - 1):7.2f} {ma:6.3f}")
+    print(f"update: wrote {upd.version.path} ({upd.version.note})")
     return ExitCode.OK
 
 
