@@ -279,14 +279,19 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
     copies = _copies(geom, modes, motion, amplitude_fraction * size, n_frames)
     n_modes = len(copies)
     lo, hi = geom.node_xyz.min(axis=0), geom.node_xyz.max(axis=0)
-    step = 1.4 * float(hi[1] - lo[1]) + 0.3 * size  # copies side by side along -y
-    # scale the whole scene into a few metres around the origin (the default camera looks
-    # along -x from +x, y to the left)
-    width = step * n_modes + float(hi[1] - lo[1])
-    s = min(5.5 / max(width, float(hi[2] - lo[2])), 2.5 / max(float(hi[0] - lo[0]), 1e-9))
+    # copies in rows of up to four, side by side along -y, rows downwards (-z); the default
+    # camera looks along -x from +x, y to the left: scale the whole scene into a few metres
+    cols = min(n_modes + 1, 4)
+    rows = -(-(n_modes + 1) // cols)
+    step = 1.4 * float(hi[1] - lo[1]) + 0.3 * size
+    zstep = 1.3 * float(hi[2] - lo[2]) + 0.3 * size
+    width = step * (cols - 1) + float(hi[1] - lo[1])
+    height = zstep * (rows - 1) + float(hi[2] - lo[2])
+    s = min(5.5 / max(width, 2.0 * height), 2.5 / max(float(hi[0] - lo[0]), 1e-9))
     T = np.diag([s, s, s, 1.0])
-    T[:3, 3] = -s * np.array([(lo[0] + hi[0]) / 2, lo[1] - width / 2 + (hi[1] - lo[1]),
-                              (lo[2] + hi[2]) / 2])
+    T[:3, 3] = -s * np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1] - step * (cols - 1)) / 2,
+                              (lo[2] + hi[2] - zstep * (rows - 1)) / 2])
+    T[2, 3] -= 0.35  # below the caption
     cam = mc.SetProperty("position", [3.2, 0.6, 0.0],
                          MPath(("Cameras", "default", "rotated", "<object>")))
     cmds: list[Any] = [mc.Delete(root), mc.SetTransform(T, path=root), cam]
@@ -311,7 +316,7 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
     for m, (frames, color) in enumerate(copies):
         mbase = root.append(f"mode_{m + 1}")
         shift = np.eye(4)
-        shift[1, 3] = -step * (m + 1)
+        shift[1, 3], shift[2, 3] = -step * ((m + 1) % cols), -zstep * ((m + 1) // cols)
         cmds.append(mc.SetTransform(shift, path=mbase))
         cmds += _moving_copy(geom, frames, mbase, anim, color)
     cmds.append(mc.SetAnimation(anim, play=True, repetitions=100000))
