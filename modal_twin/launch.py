@@ -50,10 +50,11 @@ log = logging.getLogger(__name__)
 
 _PR_SET_PDEATHSIG = 1
 SETTLE_S = 1.0
-"""Wait between the probe seeing every endpoint and the excitation start: the nodes' own
-matching of writers and readers on the later hops (rig -> acquisition -> recorder) happens
-within it on a loaded 2-core machine (measured: bench_reliability.py); the excitation
-itself waits until every launched reader of /excitation/signal has matched."""
+"""Least wait between the probe seeing every endpoint and the excitation start. Beyond it
+the launcher waits until every node reports (on /diagnostics, ``matched <topic>``) that
+each topic it publishes has matched all its launched readers: the later hops (rig ->
+acquisition -> recorder and twin) are matched before the first block, however loaded the
+machine; the excitation itself waits for the readers of /excitation/signal."""
 
 
 def _die_with_parent() -> None:
@@ -265,6 +266,40 @@ class Launcher:
             probe.destroy_node()
             rclpy.try_shutdown(context=ctx)
 
+    def _wait_matched(self, probe: Any, ex: Any, end: float) -> str:
+        """'' once every node's published topics matched their launched readers (SETTLE_S).
+
+        Else, at ``end``, which hop still lacks readers (``node:/topic m of n``).
+        """
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        from modal_twin.io.ros import qos_for
+        from modal_twin.io.status import MATCHED, STATUS_TOPIC
+
+        seen: dict[str, dict[str, int]] = {}
+
+        def on_status(msg: DiagnosticArray) -> None:
+            for st in msg.status:
+                seen[st.name.lstrip("/")] = {kv.key[len(MATCHED):]: int(kv.value)
+                                             for kv in st.values if kv.key.startswith(MATCHED)}
+
+        sub = probe.create_subscription(DiagnosticArray, STATUS_TOPIC, on_status,
+                                        qos_for(STATUS_TOPIC))
+        need = {(n, t): self._readers(t) for n in self.procs for t in self._endpoints(n)[1]}
+        need = {k: r for k, r in need.items() if r > 0}
+        settle = time.monotonic() + SETTLE_S
+        lacking = [f"{n}:{t}" for n, t in need]
+        try:
+            while time.monotonic() < end:
+                ex.spin_once(timeout_sec=0.05)
+                lacking = [f"{n}:{t} {seen.get(n, {}).get(t, 0)} of {r}"
+                           for (n, t), r in need.items() if seen.get(n, {}).get(t, 0) < r]
+                if not lacking and time.monotonic() >= settle:
+                    return ""
+        finally:
+            probe.destroy_subscription(sub)
+        return "matched readers on " + ", ".join(lacking)
+
     def _start_deferred(self, probe: Any, ctx: Context, end: float) -> str:
         """Call ``~/start`` of each deferred excitation node.
 
@@ -277,10 +312,11 @@ class Launcher:
 
         ex = SingleThreadedExecutor(context=ctx)
         ex.add_node(probe)
-        settle = time.monotonic() + SETTLE_S  # the probe saw every endpoint; let the nodes
-        while self.deferred and time.monotonic() < settle:  # match each other's too
-            ex.spin_once(timeout_sec=0.05)
         try:
+            if self.deferred:
+                unmatched = self._wait_matched(probe, ex, end)
+                if unmatched:
+                    return unmatched
             for name in self.deferred:
                 client = probe.create_client(StartExcitation, f"/{name}/start")
                 fut = None

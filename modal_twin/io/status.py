@@ -1,8 +1,10 @@
 """Node state on ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, the ROS convention).
 
 Every node gets one :class:`NodeStatus` (:func:`status_of`): its state (``starting``,
-``ready``, ``busy: <what>``, ``error``), counters of what it refused or dropped, and the
-fraction done of long work. It publishes on every change of state and once a second, so
+``ready``, ``busy: <what>``, ``error``), counters of what it refused or dropped, the
+fraction done of long work, and for each topic it publishes how many subscriptions have
+matched it (``matched <topic>``: the launcher starts the excitation only when every hop of
+the graph has matched its readers). It publishes on every change of state and once a second, so
 ``ros2 topic echo /diagnostics``, rqt_robot_monitor or Foxglove show a node that hangs,
 refuses input or works on a long request. The wrappers of :mod:`modal_twin.io.ros` set the
 state and count refusals for every node without code in the nodes.
@@ -15,9 +17,12 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
-__all__ = ["STATUS_TOPIC", "NodeStatus", "status_of"]
+__all__ = ["MATCHED", "STATUS_TOPIC", "NodeStatus", "status_of"]
 
 STATUS_TOPIC = "/diagnostics"
+MATCHED = "matched "
+"""Key prefix of a published topic's matched-subscription count."""
+_OWN = ("/rosout", "/parameter_events", STATUS_TOPIC)
 _LEVEL = {"starting": DiagnosticStatus.OK, "ready": DiagnosticStatus.OK,
           "busy": DiagnosticStatus.OK, "warning": DiagnosticStatus.WARN,
           "error": DiagnosticStatus.ERROR}
@@ -57,6 +62,8 @@ class NodeStatus:
         values = [("state", self.state), *((k, str(v)) for k, v in self.counters.items())]
         if self.progress is not None:
             values.append(("progress", f"{self.progress:.3f}"))
+        values += [(MATCHED + p.topic_name, str(p.get_subscription_count()))
+                   for p in self.node.publishers if p.topic_name not in _OWN]
         st.values = [KeyValue(key=k, value=v) for k, v in values]
         arr = DiagnosticArray()
         arr.header.stamp = self.node.get_clock().now().to_msg()

@@ -68,3 +68,39 @@ def test_status_follows_requests_and_counts_refusals(domain_id: int) -> None:
         node.destroy_node()
         probe.destroy_node()
         rclpy.try_shutdown()
+
+
+def test_status_reports_matched_readers_per_published_topic(domain_id: int) -> None:
+    """The launcher's readiness: ``matched /topic`` counts the subscriptions that matched."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from std_msgs.msg import Float64
+
+    from modal_twin.io.status import MATCHED, status_of
+
+    rclpy.init(domain_id=domain_id)
+    node = rclpy.create_node("writer")
+    readers = [rclpy.create_node(f"reader_{k}") for k in range(2)]
+    ex = SingleThreadedExecutor()
+    for n in (node, *readers):
+        ex.add_node(n)
+    try:
+        node.create_publisher(Float64, "/hop", 10)
+        status = status_of(node)
+
+        def matched() -> dict[str, str]:
+            return {kv.key: kv.value for kv in status.message().status[0].values
+                    if kv.key.startswith(MATCHED)}
+
+        assert matched() == {"matched /hop": "0"}  # no reader yet; own topics left out
+        for r in readers:
+            r.create_subscription(Float64, "/hop", lambda m: None, 10)
+        for _ in range(100):  # discovery
+            ex.spin_once(timeout_sec=0.05)
+            if matched()["matched /hop"] == "2":
+                break
+        assert matched() == {"matched /hop": "2"}
+    finally:
+        for n in (node, *readers):
+            n.destroy_node()
+        rclpy.try_shutdown()
