@@ -10,6 +10,9 @@ structure twice: measured (blue) and the twin's prediction for the same measured
 model's modes and scaled alike, the sensors coloured by the twin's NRMSE there (green
 below 10 %, yellow, red from 30 %).
 
+MODEL may be a vehicle file: the car seen from the side (carbody, bogies, wheelsets,
+suspensions, equipment) with its coupled modes (:mod:`modal_twin.viz.vehicle_scene`).
+
 MODEL may also be a test geometry: a UFF file with nodes and trace lines, or a bag
 ``modal-twin import`` wrote with one (its channels' nodes are the sensors); ``--modes`` (the
 identify JSON of that bag) then draws each identified mode at the nodes and directions its
@@ -67,8 +70,17 @@ def model_scene(model: Path, n_modes: int) -> tuple[list[object], str]:
 
     mv = read_version(model)
     blamed = {e.component: e.law for e in mv.effects}
-    geom = building_geometry(mv.structure)
-    modes = building_modes(mv.structure, n_modes) if n_modes > 0 else None
+    if _is_vehicle(mv.structure):
+        from modal_twin.models.vehicle import assemble_vehicle
+        from modal_twin.models.vehicle_spec import load_vehicle
+        from modal_twin.viz.vehicle_scene import vehicle_scene
+
+        vm = assemble_vehicle(load_vehicle(mv.structure), theta=mv.theta or None)
+        vs = vehicle_scene(vm)
+        geom, modes = vs.geom, (vs.modes(vm, n_modes) if n_modes > 0 else None)
+    else:
+        geom = building_geometry(mv.structure)
+        modes = building_modes(mv.structure, n_modes) if n_modes > 0 else None
     return (scene_commands(geom, modes, blamed=blamed),
             overlay_html(geom, modes, blamed))
 
@@ -248,8 +260,32 @@ def load_measured_geometry(path: Path) -> Any:
     return MeasuredGeometry(geom, ids, chans)
 
 
+def _is_vehicle(path: Path) -> bool:
+    from modal_twin.models.vehicle_spec import is_vehicle_file
+
+    return is_vehicle_file(path)
+
+
 def _is_geometry(path: Path) -> bool:
     return path.is_dir() or path.suffix.lower() in (".uff", ".unv")
+
+
+def _scene(args: argparse.Namespace) -> tuple[list[object], str]:
+    """Return the scene the arguments ask for (module docstring)."""
+    from modal_twin.errors import ConfigError
+
+    if (args.modes is not None or args.bag is not None) and args.model.is_file() and \
+            _is_vehicle(args.model):
+        msg = (f"{args.model}: --modes and --bag draw on a building or a test geometry; a "
+               "vehicle shows its model modes")
+        raise ConfigError(msg)
+    if _is_geometry(args.model) and args.bag is None:
+        return geometry_scene(args.model, args.modes)
+    if args.bag is not None:
+        return bag_scene(args.model, args.bag, args.window)
+    if args.modes is not None:
+        return identified_scene(args.model, args.modes)
+    return model_scene(args.model, args.n_modes)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -267,14 +303,7 @@ def run(args: argparse.Namespace) -> int:
     if args.modes is not None and args.bag is not None:
         print("modal-twin view: give --modes or --bag, not both", file=sys.stderr)
         return ExitCode.USAGE
-    if _is_geometry(args.model) and args.bag is None:
-        cmds, caption = geometry_scene(args.model, args.modes)
-    elif args.bag is not None:
-        cmds, caption = bag_scene(args.model, args.bag, args.window)
-    elif args.modes is not None:
-        cmds, caption = identified_scene(args.model, args.modes)
-    else:
-        cmds, caption = model_scene(args.model, args.n_modes)
+    cmds, caption = _scene(args)
     if args.html is not None:
         args.html.parent.mkdir(parents=True, exist_ok=True)
         args.html.write_text(static_html(cmds, caption=caption, title=args.model.name))

@@ -281,13 +281,17 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
     lo, hi = geom.node_xyz.min(axis=0), geom.node_xyz.max(axis=0)
     # copies in rows of up to four, side by side along -y, rows downwards (-z); the default
     # camera looks along -x from +x, y to the left: scale the whole scene into a few metres
-    cols = min(n_modes + 1, 4)
-    rows = -(-(n_modes + 1) // cols)
     step = 1.4 * float(hi[1] - lo[1]) + 0.3 * size
     zstep = 1.3 * float(hi[2] - lo[2]) + 0.3 * size
-    width = step * (cols - 1) + float(hi[1] - lo[1])
-    height = zstep * (rows - 1) + float(hi[2] - lo[2])
-    s = min(5.5 / max(width, 2.0 * height), 2.5 / max(float(hi[0] - lo[0]), 1e-9))
+
+    def layout(cols: int) -> tuple[float, int]:  # scale, rows
+        rows = -(-(n_modes + 1) // cols)
+        w = step * (cols - 1) + float(hi[1] - lo[1])
+        h = zstep * (rows - 1) + float(hi[2] - lo[2])
+        return min(5.5 / max(w, 2.0 * h), 2.5 / max(float(hi[0] - lo[0]), 1e-9)), rows
+
+    cols = max(range(1, min(n_modes + 1, 4) + 1), key=lambda c: layout(c)[0])
+    s, rows = layout(cols)
     T = np.diag([s, s, s, 1.0])
     T[:3, 3] = -s * np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1] - step * (cols - 1)) / 2,
                               (lo[2] + hi[2] - zstep * (rows - 1)) / 2])
