@@ -11,7 +11,8 @@ model's modes and scaled alike, the sensors coloured by the twin's NRMSE there (
 below 10 %, yellow, red from 30 %).
 
 MODEL may be a vehicle file: the car seen from the side (carbody, bogies, wheelsets,
-suspensions, equipment) with its coupled modes (:mod:`modal_twin.viz.vehicle_scene`).
+suspensions, equipment) with its coupled modes (:mod:`modal_twin.viz.vehicle_scene`); with
+``--bag`` its floor sensors' motion is expanded with as many coupled modes as sensors.
 
 MODEL may also be a test geometry: a UFF file with nodes and trace lines, or a bag
 ``modal-twin import`` wrote with one (its channels' nodes are the sensors); ``--modes`` (the
@@ -163,31 +164,30 @@ def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12
     from modal_twin.errors import ConfigError
     from modal_twin.io.records import record_from_bag
     from modal_twin.models.loading import load_model
+    from modal_twin.models.versions import read_version
     from modal_twin.viz.live import residual_colour
-    from modal_twin.viz.mode_pairs import channel_nodes, sampled_shapes
     from modal_twin.viz.motion import displacement_from_acceleration, record_motion
-    from modal_twin.viz.scene import (
-        SceneMotion,
-        caption_html,
-        scene_commands,
-    )
+    from modal_twin.viz.scene import SceneMotion, caption_html, scene_commands
 
-    mv, geom, basis = _structure(model, n_basis)
+    mv = read_version(model)
     plant = load_model(model).plant()
     rec = record_from_bag(bag, plant=plant)
     quantity = {c.name: c.quantity for c in plant.channels}
-    chs = [c for c in rec.channel_names if quantity.get(c) == "acceleration"
-           and c.rpartition("_")[0] in geom.sensors and c.rpartition("_")[2] in "xyz"]
+    acc = [c for c in rec.channel_names if quantity.get(c) == "acceleration"]
+    geom, chs, at_ch, shapes, f1 = (_vehicle_basis if _is_vehicle(mv.structure)
+                                    else _building_basis)(model, acc, n_basis)
     if not chs:
         msg = f"{bag}: no acceleration channel at a sensor of {mv.structure.name}"
         raise ConfigError(msg)
+    n_basis = shapes.shape[0]
     rec = rec.with_channels(chs)
-    f_low = 0.5 * float(basis.f_hz[0])
+    f_low = 0.5 * f1
+    sim = simulate_record(plant, rec)
     meas = displacement_from_acceleration(rec.data, rec.fs_hz, f_low)
-    twin = displacement_from_acceleration(simulate_record(plant, rec), rec.fs_hz, f_low)
-    at_ch = sampled_shapes(basis.shapes, channel_nodes(chs, geom.node_xyz, geom.sensors))
-    span = window_s if window_s > 0 else 3.0 / float(basis.f_hz[0])
-    mo = record_motion(chs, meas, twin, rec.fs_hz, at_ch, basis.shapes, window_s=span)
+    twin = displacement_from_acceleration(sim, rec.fs_hz, f_low)
+    span = window_s if window_s > 0 else 3.0 / f1
+    mo = record_motion(chs, meas, twin, rec.fs_hz, at_ch, shapes, window_s=span,
+                       scored=(rec.data, sim))
     colours = {s: residual_colour(r) for s, r in mo.sensor_nrmse.items()}
     motion = SceneMotion(np.stack([mo.measured, mo.twin]), 1.0 / mo.dt_s,
                          (0x1F77B4, 0xE4572E), colours)
@@ -197,9 +197,40 @@ def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12
              f"right) and twin (orange, left), {mo.t0_s:.1f}-{t1:.1f} s in real time",
              f"displacements from {len(chs)} accelerations above {f_low:.2f} Hz, expanded "
              f"with {n_basis} model modes (fit {100 * mo.fit:.1f} %)",
-             "sensors by the twin's NRMSE there: green &lt; 10 %, yellow, red &ge; 30 %",
+             "sensors by the twin's NRMSE of the measured accelerations there over the "
+             "stretch: green &lt; 10 %, yellow, red &ge; 30 %",
              "worst: " + ", ".join(f"{html.escape(s)} {100 * r:.1f} %" for s, r in worst)]
     return scene_commands(geom, motion=motion), caption_html(items)
+
+
+def _building_basis(model: Path, acc: list[str], n_basis: int
+                    ) -> tuple[Any, list[str], Any, Any, float]:
+    """Return the wireframe, sensor channels, modes at them and on every node, and f_1."""
+    from modal_twin.viz.mode_pairs import channel_nodes, sampled_shapes
+
+    _, geom, basis = _structure(model, n_basis)
+    chs = [c for c in acc if c.rpartition("_")[0] in geom.sensors
+           and c.rpartition("_")[2] in ("x", "y", "z")]
+    at_ch = sampled_shapes(basis.shapes, channel_nodes(chs, geom.node_xyz, geom.sensors))
+    return geom, chs, at_ch, basis.shapes, float(basis.f_hz[0])
+
+
+def _vehicle_basis(model: Path, acc: list[str], n_basis: int
+                   ) -> tuple[Any, list[str], Any, Any, float]:
+    """Return the same for a vehicle: its floor sensors, as many coupled modes as sensors."""
+    from modal_twin.models.vehicle import assemble_vehicle
+    from modal_twin.models.vehicle_spec import load_vehicle
+    from modal_twin.models.versions import read_version
+    from modal_twin.viz.vehicle_scene import vehicle_scene
+
+    mv = read_version(model)
+    vm = assemble_vehicle(load_vehicle(mv.structure), theta=mv.theta or None)
+    vs = vehicle_scene(vm)
+    rows = {c.name: i for i, c in enumerate(vm.channels)}
+    chs = [c for c in acc if c in rows]
+    k = max(1, min(n_basis, len(chs)))
+    at_ch = vm.S[[rows[c] for c in chs]] @ vm.Phi[:, :k]
+    return vs.geom, chs, at_ch, vs.modes(vm, k).shapes, float(vm.f_hz[0])
 
 
 def geometry_scene(path: Path, modes_file: Path | None) -> tuple[list[object], str]:
@@ -274,10 +305,9 @@ def _scene(args: argparse.Namespace) -> tuple[list[object], str]:
     """Return the scene the arguments ask for (module docstring)."""
     from modal_twin.errors import ConfigError
 
-    if (args.modes is not None or args.bag is not None) and args.model.is_file() and \
-            _is_vehicle(args.model):
-        msg = (f"{args.model}: --modes and --bag draw on a building or a test geometry; a "
-               "vehicle shows its model modes")
+    if args.modes is not None and args.model.is_file() and _is_vehicle(args.model):
+        msg = (f"{args.model}: --modes draws on a building or a test geometry; a vehicle "
+               "shows its model modes (and a record's motion with --bag)")
         raise ConfigError(msg)
     if _is_geometry(args.model) and args.bag is None:
         return geometry_scene(args.model, args.modes)

@@ -64,7 +64,8 @@ class RecordMotion:
     t0_s, dt_s : float
         Time of the first frame in the record and between frames, s.
     sensor_nrmse : mapping sensor -> float
-        RMS(measured - twin) / RMS(measured) over the stretch, worst axis of the sensor.
+        RMS(measured - twin) / RMS(measured) over the stretch, worst axis of the sensor (of
+        the ``scored`` signals).
     fit : float
         Share of the measured sensor motion the expansion reproduces (1 - relative
         residual of the least-squares fit).
@@ -80,7 +81,8 @@ class RecordMotion:
 
 def record_motion(channels: Sequence[str], measured: FloatArray, twin: FloatArray, fs_hz: float,
                   basis_at_channels: FloatArray, basis_shapes: FloatArray, *,
-                  window_s: float, n_frames: int = 96) -> RecordMotion:
+                  window_s: float, n_frames: int = 96,
+                  scored: tuple[FloatArray, FloatArray] | None = None) -> RecordMotion:
     """Measured and twin motion of the strongest ``window_s`` of a record, on every node.
 
     Parameters
@@ -95,6 +97,9 @@ def record_motion(channels: Sequence[str], measured: FloatArray, twin: FloatArra
         Length of the stretch shown, s.
     n_frames : int
         Frames drawn over the stretch.
+    scored : (measured, twin) arrays like ``measured``, optional
+        What the NRMSE per sensor is taken of (e.g. the accelerations the sensors measure);
+        default the displacements drawn.
     """
     win = strongest_window(measured, max(2, round(window_s * fs_hz)))
     step = max(1, (win.stop - win.start) // n_frames)
@@ -104,8 +109,9 @@ def record_motion(channels: Sequence[str], measured: FloatArray, twin: FloatArra
                       / (np.linalg.norm(measured[:, idx]) or 1.0))
     m = expand_shapes(measured[:, idx], basis_at_channels, basis_shapes)
     t = expand_shapes(twin[:, idx], basis_at_channels, basis_shapes)
-    d = measured[:, win] - twin[:, win]
-    ref = np.sqrt(np.mean(measured[:, win] ** 2, axis=1))
+    sm, st = scored if scored is not None else (measured, twin)
+    d = sm[:, win] - st[:, win]
+    ref = np.sqrt(np.mean(sm[:, win] ** 2, axis=1))
     rel = np.sqrt(np.mean(d * d, axis=1)) / np.where(ref > 0, ref, 1.0)
     worst: dict[str, float] = {}
     for ch, r in zip(channels, rel, strict=True):
