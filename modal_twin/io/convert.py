@@ -136,9 +136,12 @@ def channel_map_from_msg(msg: Any) -> list[Any]:
     ------
     ConfigError
         A channel with a role that is not one of :data:`~modal_twin.channels.ROLES`.
+    OptionError
+        More channels than :data:`~modal_twin.validation.LIMITS` allow.
     """
     from modal_twin.channels import QUANTITY_UNITS, ChannelSpec
 
+    check_field(len(msg.channels), "ChannelMap.channels (count)", "n_channels")
     return [ChannelSpec(c.name, c.quantity, c.location, c.direction, float(c.sensitivity),
                         cast("tuple[float, float, float]", tuple(float(v) for v in c.position_m)),
                         role=c.role, node=c.node,

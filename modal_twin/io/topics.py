@@ -67,7 +67,7 @@ NODE_ENDPOINTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "identification_node": (("/measurement/frames",),
                             ("/identification/modes", "/identification/stabilization")),
     "updating_node": (("/identification/modes",), ("/model/parameters", "/updating/report")),
-    "twin_node": (("/measurement/frames", "/model/parameters"),
+    "twin_node": (("/measurement/frames", "/measurement/channels", "/model/parameters"),
                   ("/twin/prediction", "/twin/residual", "/twin/metrics")),
     "diagnosis_node": (("/measurement/frames", "/twin/residual"),
                        ("/diagnosis/report", "/model/parameters")),

@@ -19,6 +19,7 @@ from modal_twin.io.channel_map import read_channel_map
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import guarded, qos_for, report, run_node
 from modal_twin.twin.session import TwinSession
+from modal_twin.validation import check_request_path
 
 __all__ = ["TwinConfig", "TwinNode", "main"]
 
@@ -46,9 +47,12 @@ class TwinNode(Node):
     def __init__(self) -> None:
         super().__init__("twin")
         self.cfg = declare_config(self, TwinConfig)
-        fixed = read_channel_map(self.cfg.channel_map) if self.cfg.channel_map else None
         self.twin = TwinSession(self.cfg.model_file, self.cfg.fs_hz, self.cfg.window_s,
-                                self.cfg.versions_dir, fixed)
+                                self.cfg.versions_dir)
+        self.fixed_map = bool(self.cfg.channel_map)  # a given map wins over the stream's
+        if self.fixed_map:
+            self.twin.set_channels(read_channel_map(check_request_path(
+                self.cfg.channel_map, "channel_map", self.twin.roots)))
         self.pred_pub, self.res_pub = (
             self.create_publisher(SignalBlockMsg, t, qos_for(t))
             for t in ("/twin/prediction", "/twin/residual"))
@@ -60,10 +64,9 @@ class TwinNode(Node):
         self.create_subscription(ModelParameters, "/model/parameters",
                                  guarded(self, "/model/parameters", self._on_parameters),
                                  qos_for("/model/parameters"))
-        if fixed is None:
-            self.create_subscription(ChannelMap, "/measurement/channels",
-                                     guarded(self, "/measurement/channels", self._on_channels),
-                                     qos_for("/measurement/channels"))
+        self.create_subscription(ChannelMap, "/measurement/channels",
+                                 guarded(self, "/measurement/channels", self._on_channels),
+                                 qos_for("/measurement/channels"))
         self.create_timer(self.cfg.metrics_period_s,
                           guarded(self, "metrics", self._publish_metrics))
         plant = self.twin.plant
@@ -82,7 +85,8 @@ class TwinNode(Node):
 
     def _on_channels(self, msg: ChannelMap) -> None:
         """Route the stream by the roles of its channel map (a refused map changes nothing)."""
-        if self.twin.set_channels(cv.channel_map_from_msg(msg)):
+        channels = cv.channel_map_from_msg(msg)  # validated even when a file map rules
+        if not self.fixed_map and self.twin.set_channels(channels):
             self.get_logger().info(f"channel map of {msg.source or 'the stream'}: "
                                    f"{len(msg.channels)} channels, routed by their roles")
 
