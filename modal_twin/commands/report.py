@@ -202,6 +202,7 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
         cmds, caption = model_scene(path, n_modes)
         scene = static_html(cmds, caption=caption)
     notes = [f"run folder: {run_dir.resolve()}"]
+    record_scene = _record_scene(run_dir, versions, notes)
     ident: dict[str, Any] = {}
     low = sorted(run_dir.glob("*low*/bag"))
     if low and versions:
@@ -212,7 +213,24 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
         except ModalTwinError as err:
             notes.append(f"identification of {low[0].parent.name} failed: {err}")
     return RunData(f"modal_twin run {run_dir.name}", records, versions, scene, images=images,
-                   notes=notes, **ident)
+                   notes=notes, record_scene_html=record_scene, **ident)
+
+
+def _record_scene(run_dir: Path, versions: list[Any], notes: list[str]) -> str | None:
+    """3D scene of the held-out record: measured beside the first and the last version."""
+    from modal_twin.commands.view import bag_scene
+    from modal_twin.viz.scene import static_html
+
+    held = sorted(run_dir.glob("*heldout*/bag"))
+    if len(versions) < 2 or not held or versions[0].path is None or versions[-1].path is None:
+        return None
+    try:
+        cmds, caption = bag_scene(versions[0].path, held[0], others=(versions[-1].path,),
+                                  n_frames=48)
+    except ModalTwinError as err:
+        notes.append(f"the held-out record's 3D view failed: {err}")
+        return None
+    return static_html(cmds, caption=caption)
 
 
 def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: int = 4

@@ -147,9 +147,18 @@ def identified_scene(model: Path, modes_file: Path, n_basis: int = 12
     return scene_commands(geom, modes), overlay_html(geom, caption_modes)
 
 
-def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12
+_TWIN_COLOURS = (0xE4572E, 0x2CA02C, 0x9467BD, 0x8C564B)
+_COLOUR_NAMES = ("orange", "green", "purple", "brown")
+
+
+def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12, *,
+              others: tuple[Path, ...] = (), n_frames: int = 96
               ) -> tuple[list[object], str]:
     """meshcat commands and caption of a record's motion, measured beside the twin.
+
+    ``others``: further model versions of the same structure, each drawn as its own twin
+    (e.g. the nominal model and the version with the effect found); the sensors are
+    coloured by the last one.
 
     Raises
     ------
@@ -182,24 +191,31 @@ def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12
     n_basis = shapes.shape[0]
     rec = rec.with_channels(chs)
     f_low = 0.5 * f1
-    sim = simulate_record(plant, rec)
     meas = displacement_from_acceleration(rec.data, rec.fs_hz, f_low)
-    twin = displacement_from_acceleration(sim, rec.fs_hz, f_low)
     span = window_s if window_s > 0 else 3.0 / f1
-    mo = record_motion(chs, meas, twin, rec.fs_hz, at_ch, shapes, window_s=span,
-                       scored=(rec.data, sim))
+    models = (model, *others)[: len(_TWIN_COLOURS)]
+    runs = []
+    for m in models:
+        sim = simulate_record(load_model(m).plant() if m != model else plant, rec)
+        runs.append(record_motion(
+            chs, meas, displacement_from_acceleration(sim, rec.fs_hz, f_low), rec.fs_hz,
+            at_ch, shapes, window_s=span, n_frames=n_frames, scored=(rec.data, sim)))
+    mo = runs[-1]
     colours = {s: residual_colour(r) for s, r in mo.sensor_nrmse.items()}
-    motion = SceneMotion(np.stack([mo.measured, mo.twin]), 1.0 / mo.dt_s,
-                         (0x1F77B4, 0xE4572E), colours)
-    worst = sorted(mo.sensor_nrmse.items(), key=lambda kv: -kv[1])[:3]
+    motion = SceneMotion(np.stack([mo.measured, *(r.twin for r in runs)]), 1.0 / mo.dt_s,
+                         (0x1F77B4, *_TWIN_COLOURS), colours)
     t1 = mo.t0_s + mo.dt_s * mo.measured.shape[0]
-    items = [f"<b>{html.escape(bag.name)}</b> on {html.escape(mv.label)}: measured (blue, "
-             f"right) and twin (orange, left), {mo.t0_s:.1f}-{t1:.1f} s in real time",
+    label = bag.parent.name if bag.name == "bag" else bag.name
+    items = [f"<b>{html.escape(label)}</b>: measured (blue), then the twin of each "
+             f"model (copies right to left, row by row), {mo.t0_s:.1f}-{t1:.1f} s in real time",
              f"displacements from {len(chs)} accelerations above {f_low:.2f} Hz, expanded "
-             f"with {n_basis} model modes (fit {100 * mo.fit:.1f} %)",
-             "sensors by the twin's NRMSE of the measured accelerations there over the "
-             "stretch: green &lt; 10 %, yellow, red &ge; 30 %",
-             "worst: " + ", ".join(f"{html.escape(s)} {100 * r:.1f} %" for s, r in worst)]
+             f"with {n_basis} model modes (fit {100 * mo.fit:.1f} %)"]
+    for m, r, name in zip(models, runs, _COLOUR_NAMES, strict=False):
+        worst = sorted(r.sensor_nrmse.items(), key=lambda kv: -kv[1])[:3]
+        items.append(f"{name}: {html.escape(read_version(m).label)}, worst: " + ", ".join(
+            f"{html.escape(s)} {100 * v:.1f} %" for s, v in worst))
+    items.append(f"sensors coloured by the {_COLOUR_NAMES[len(runs) - 1]} twin's NRMSE of the "
+                 "measured accelerations there: green &lt; 10 %, yellow, red &ge; 30 %")
     return scene_commands(geom, motion=motion), caption_html(items)
 
 

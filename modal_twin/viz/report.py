@@ -72,6 +72,7 @@ class RunData:
     records: Sequence[RecordData] = ()
     versions: Sequence[Any] = ()  # ModelVersion, oldest first
     scene_html: str | None = None
+    record_scene_html: str | None = None  # a record's motion, measured beside the twins
     stabilization: Any = None  # StabilizationDiagram
     selected_f_hz: FloatArray | None = None
     modes: Mapping[str, Any] | None = None  # keyword arguments of modes_table_html
@@ -196,9 +197,20 @@ def _scene(d: RunData) -> str:
             "</iframe><p class=note>drag to turn, scroll to zoom; the modes are animated</p>")
 
 
+def _record_scene(d: RunData) -> str:
+    if not d.record_scene_html:
+        return ""
+    return (f'<iframe title="the record on the structure" srcdoc="'
+            f'{html.escape(d.record_scene_html, quote=True)}"></iframe><p class=note>the '
+            "held-out record's strongest stretch in real time: measured, the nominal model's "
+            "twin and the last version's twin, each sensor coloured by the last twin's "
+            "error there</p>")
+
+
 def render_report(d: RunData) -> str:
     """Return the HTML of the report (sections without data are left out)."""
     sections = [("scene", "3D scene", _scene(d)),
+                ("record", "the record on the structure", _record_scene(d)),
                 ("identification", "identification", _identification(d)),
                 ("frf", "FRF overlay", _frf(d)),
                 ("where", "where the model fails", _where(d)),

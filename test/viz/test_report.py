@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import re
 from pathlib import Path
 
@@ -128,3 +129,24 @@ def test_model_loops_drive_the_model_device_with_the_measured_drift() -> None:
         np.testing.assert_array_equal(got[f"ESB1 {a}"][0], u[i])
         np.testing.assert_allclose(got[f"ESB1 {a}"][1], 1e6 * u[i] + 5e8 * u[i] ** 3,
                                    rtol=1e-12)
+
+
+def test_report_shows_the_heldout_record_beside_both_versions(tmp_path: Path) -> None:
+    """Known answer: the record is the S1 truth; v1 carries exactly its friction, so the
+    green twin (v1) matches to round-off where the orange one (v0) is far off."""
+    from test_motion import _bag
+
+    from modal_twin.commands.report import make_report
+
+    friction = EffectSpec("ESB1", "stick_slip", {"mu_s": 0.06, "mu_k": 0.04})
+    run = tmp_path / "run"
+    write_version(run / "models", ModelVersion(BUILDING, note="nominal"))
+    write_version(run / "models", ModelVersion(BUILDING, note="friction",
+                                               effects=(friction,)))
+    _bag(run / "3_heldout_quake" / "bag", [friction])
+    page = make_report(run).read_text()
+    assert '<section id="record">' in page
+    text = html.unescape(re.sub(r"<[^>]+>", " ", html.unescape(page)))
+    worst = {m.group(1): float(m.group(2)) for m in
+             re.finditer(r"(orange|green): v\d, worst: \S+ ([\d.]+) %", text)}
+    assert worst["orange"] > 10.0 and worst["green"] < 1e-3
