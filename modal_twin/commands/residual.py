@@ -96,7 +96,11 @@ def live(a: argparse.Namespace) -> int:
         print(f"modal-twin residual: the twin run failed: {res.message} (logs in "
               f"{res.run_dir / 'logs'})", file=sys.stderr)
         return ExitCode.FAILED
-    print(error_report(res.bag, top=a.top or 10_000))
+    log = res.run_dir / "logs" / "twin.log"
+    route = [ln.split("]: ", 1)[-1] for ln in log.read_text(errors="replace").splitlines()
+             if "]: inputs " in ln] if log.is_file() else []
+    print("\n".join(["twin node: " + r for r in route[:1]] + [error_report(
+        res.bag, top=a.top or 10_000)]))
     return ExitCode.OK
 
 

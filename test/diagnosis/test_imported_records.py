@@ -154,6 +154,7 @@ def test_a_twin_node_on_the_replayed_imported_record(bags: dict[str, Path], tmp_
                  "--run-dir", str(tmp_path / "live"), "--top", "3"]) == 0
     out = capsys.readouterr().out
     assert out.splitlines()[-3].startswith("ESB1_f")  # the worst channel printed first
+    assert "twin node: inputs ground_x -> ax, ground_y -> ay; 66 channels compared" in out
     m = last_metrics(tmp_path / "live" / "bag")
     live = dict(zip(m.channel_names, np.asarray(m.residual_rms), strict=True))
     assert set(live) == set(offline) and "R_P1_x" in live  # roof_corner_x by its place
