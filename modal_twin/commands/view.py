@@ -72,18 +72,23 @@ def model_scene(model: Path, n_modes: int) -> tuple[list[object], str]:
     mv = read_version(model)
     blamed = {e.component: e.law for e in mv.effects}
     if _is_vehicle(mv.structure):
-        from modal_twin.models.vehicle import assemble_vehicle
-        from modal_twin.models.vehicle_spec import load_vehicle
-        from modal_twin.viz.vehicle_scene import vehicle_scene
-
-        vm = assemble_vehicle(load_vehicle(mv.structure), theta=mv.theta or None)
-        vs = vehicle_scene(vm)
+        vm, vs = _vehicle(mv)
         geom, modes = vs.geom, (vs.modes(vm, n_modes) if n_modes > 0 else None)
     else:
         geom = building_geometry(mv.structure)
         modes = building_modes(mv.structure, n_modes) if n_modes > 0 else None
     return (scene_commands(geom, modes, blamed=blamed),
             overlay_html(geom, modes, blamed))
+
+
+def _vehicle(mv: Any) -> tuple[Any, Any]:
+    """Return the coupled vehicle model of a version and its side-view scene."""
+    from modal_twin.models.vehicle import assemble_vehicle
+    from modal_twin.models.vehicle_spec import load_vehicle
+    from modal_twin.viz.vehicle_scene import vehicle_scene
+
+    vm = assemble_vehicle(load_vehicle(mv.structure), theta=mv.theta or None)
+    return vm, vehicle_scene(vm)
 
 
 def _structure(model: Path, n_basis: int) -> tuple[Any, Any, Any]:
@@ -184,7 +189,7 @@ def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12, 
     quantity = {c.name: c.quantity for c in plant.channels}
     acc = [c for c in rec.channel_names if quantity.get(c) == "acceleration"]
     geom, chs, at_ch, shapes, f1 = (_vehicle_basis if _is_vehicle(mv.structure)
-                                    else _building_basis)(model, acc, n_basis)
+                                    else _building_basis)(mv, acc, n_basis)
     if not chs:
         msg = f"{bag}: no acceleration channel at a sensor of {mv.structure.name}"
         raise ConfigError(msg)
@@ -212,36 +217,31 @@ def bag_scene(model: Path, bag: Path, window_s: float = 0.0, n_basis: int = 12, 
              f"with {n_basis} model modes (fit {100 * mo.fit:.1f} %)"]
     for m, r, name in zip(models, runs, _COLOUR_NAMES, strict=False):
         worst = sorted(r.sensor_nrmse.items(), key=lambda kv: -kv[1])[:3]
-        items.append(f"{name}: {html.escape(read_version(m).label)}, worst: " + ", ".join(
+        version = (mv if m == model else read_version(m)).label
+        items.append(f"{name}: {html.escape(version)}, worst: " + ", ".join(
             f"{html.escape(s)} {100 * v:.1f} %" for s, v in worst))
     items.append(f"sensors coloured by the {_COLOUR_NAMES[len(runs) - 1]} twin's NRMSE of the "
                  "measured accelerations there: green &lt; 10 %, yellow, red &ge; 30 %")
     return scene_commands(geom, motion=motion), caption_html(items)
 
 
-def _building_basis(model: Path, acc: list[str], n_basis: int
+def _building_basis(mv: Any, acc: list[str], n_basis: int
                     ) -> tuple[Any, list[str], Any, Any, float]:
     """Return the wireframe, sensor channels, modes at them and on every node, and f_1."""
     from modal_twin.viz.mode_pairs import channel_nodes, sampled_shapes
+    from modal_twin.viz.scene import building_geometry, building_modes
 
-    _, geom, basis = _structure(model, n_basis)
+    geom, basis = building_geometry(mv.structure), building_modes(mv.structure, n_basis)
     chs = [c for c in acc if c.rpartition("_")[0] in geom.sensors
            and c.rpartition("_")[2] in ("x", "y", "z")]
     at_ch = sampled_shapes(basis.shapes, channel_nodes(chs, geom.node_xyz, geom.sensors))
     return geom, chs, at_ch, basis.shapes, float(basis.f_hz[0])
 
 
-def _vehicle_basis(model: Path, acc: list[str], n_basis: int
+def _vehicle_basis(mv: Any, acc: list[str], n_basis: int
                    ) -> tuple[Any, list[str], Any, Any, float]:
     """Return the same for a vehicle: its floor sensors, as many coupled modes as sensors."""
-    from modal_twin.models.vehicle import assemble_vehicle
-    from modal_twin.models.vehicle_spec import load_vehicle
-    from modal_twin.models.versions import read_version
-    from modal_twin.viz.vehicle_scene import vehicle_scene
-
-    mv = read_version(model)
-    vm = assemble_vehicle(load_vehicle(mv.structure), theta=mv.theta or None)
-    vs = vehicle_scene(vm)
+    vm, vs = _vehicle(mv)
     rows = {c.name: i for i, c in enumerate(vm.channels)}
     chs = [c for c in acc if c in rows]
     k = max(1, min(n_basis, len(chs)))

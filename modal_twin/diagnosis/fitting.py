@@ -87,10 +87,7 @@ def simulate_record(plant: Plant, rec: Record) -> FloatArray:
         msg = (f"record {rec.source!r}: none of the model's inputs {list(plant.input_names)} "
                f"is measured (its inputs: {list(rec.input_names)})")
         raise OptionError(msg)
-    ag = np.zeros((len(plant.input_names), rec.n_samples))  # unmeasured inputs: zero
-    for i, n in enumerate(plant.input_names):
-        if n in rec.input_names:
-            ag[i] = rec.inputs[rec.input_names.index(n)]
+    ag = plant.input_matrix(rec.input_names, rec.inputs)  # unmeasured inputs: zero
     _say_missing(rec.source, [n for n in plant.input_names if n not in have])
     sim = Simulator(plant.system, 1.0 / rec.fs_hz, modal_histories=False)
     y = plant.measure(sim.step_block(ag))

@@ -109,10 +109,10 @@ def record_from_blocks(blocks: list[SignalBlock], *, source: str = "",
         An input channel that drives none of the ``plant``'s inputs.
     """
     blk = concatenate_blocks(blocks)
-    with_map = channels is not None and plant is not None
+    model = plant if channels is not None else None  # without a map: the naming rule
     route = route_channels(blk.channel_names, channels,
-                           plant.input_names if with_map and plant is not None else None,
-                           plant.channels if with_map and plant is not None else (),
+                           model.input_names if model is not None else None,
+                           model.channels if model is not None else (),
                            source=f"record {source!r}")
     if not route.inputs:
         what = "with role input" if channels is not None else "table_*"

@@ -36,11 +36,11 @@ from modal_twin.models.matrix_model import (
 from modal_twin.models.parameter_info import ParameterInfo
 from modal_twin.models.plant import Plant, with_sensor_effects
 from modal_twin.models.reduced import ReducedSystem
+from modal_twin.validation import LIMITS
 
 __all__ = ["MatrixFactory", "dof_place"]
 
 _AXES = ("x", "y", "z")
-MAX_CHANNELS = 4096  # the acquisition's channel limit
 
 
 def dof_place(label: str) -> tuple[str, str]:
@@ -126,7 +126,7 @@ class MatrixFactory:
         C = (Phi.T @ (mm.C @ Phi) if mm.C is not None
              else np.diag(2.0 * self.zeta * omega))
         rows = (mm.measured_dofs if mm.measured_dofs.size
-                else np.flatnonzero(P.any(axis=1)))[:MAX_CHANNELS]
+                else np.flatnonzero(P.any(axis=1)))[:int(LIMITS["n_channels"].hi)]
         n_out = rows.size
         C_out = np.zeros((n_out, 3 * r))
         C_out[:, 2 * r:] = Phi[rows]  # absolute acceleration: Phi_s q'' + P_s a_g

@@ -9,7 +9,7 @@ produce the same channels in the same order.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import Literal
 
@@ -77,6 +77,18 @@ class Plant:
     def channel_names(self) -> tuple[str, ...]:
         """Names of the measured channels."""
         return tuple(c.name for c in self.channels)
+
+    def input_matrix(self, names: Sequence[str], data: FloatArray) -> FloatArray:
+        """Return the inputs (n_inputs, nt) from measured rows ``data`` of inputs ``names``.
+
+        Any subset of the model's inputs: the unmeasured ones are zero; names the model
+        does not have are left out.
+        """
+        ag = np.zeros((len(self.input_names), np.shape(data)[-1]))
+        for row, name in zip(data, names, strict=True):
+            if name in self.input_names:
+                ag[self.input_names.index(name)] = row
+        return ag
 
     def measure(self, res: SimResult) -> FloatArray:
         """Channels (n_channels, nt) from a simulation result."""

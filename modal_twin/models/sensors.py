@@ -129,7 +129,7 @@ def route_channels(names: Sequence[str], channels: Sequence[ChannelSpec] | None 
     specs = {c.name: c for c in channels or ()}
     rename = match_outputs([specs.get(n) or ChannelSpec(n, "") for n in names],
                            model_channels) if model_channels else {}
-    ins: list[tuple[str, str]] = []
+    driven: dict[str, str] = {}  # model input -> the channel driving it
     outs: list[tuple[str, str]] = []
     for name in names:
         spec = specs.get(name) or ChannelSpec(name, "")
@@ -147,10 +147,9 @@ def route_channels(names: Sequence[str], channels: Sequence[ChannelSpec] | None 
                    f"{spec.direction or '?'}) drives none of the model's inputs "
                    f"{list(model_inputs or ())}")
             raise ConfigError(msg)
-        if any(t == target for _, t in ins):
-            other = next(n for n, t in ins if t == target)
-            msg = (f"{source or 'record'}: channels {other!r} and {name!r} both drive the "
-                   f"model input {target!r}")
+        if target in driven:
+            msg = (f"{source or 'record'}: channels {driven[target]!r} and {name!r} both drive "
+                   f"the model input {target!r}")
             raise ConfigError(msg)
-        ins.append((name, target))
-    return ChannelRoute(tuple(ins), tuple(outs))
+        driven[target] = name
+    return ChannelRoute(tuple((n, t) for t, n in driven.items()), tuple(outs))

@@ -80,7 +80,7 @@ class TwinRunner:
         driven = {m for _, m in route.inputs}
         self.zero_inputs = tuple(n for n in p.input_names if n not in driven)
         self._in_frame = [n for n, _ in route.inputs]
-        self._in_rows = [p.input_names.index(m) for _, m in route.inputs]
+        self._in_model = [m for _, m in route.inputs]
         self._out_frame = [n for n, _ in outs]
         self.compare = [m for _, m in outs]
         self._rows = [model[m] for m in self.compare]
@@ -96,8 +96,7 @@ class TwinRunner:
         if first:
             self._setup(frame)
         assert self.compare is not None
-        ag = np.zeros((len(self.plant.input_names), frame.n_samples))
-        ag[self._in_rows] = frame.select(self._in_frame).data
+        ag = self.plant.input_matrix(self._in_model, frame.select(self._in_frame).data)
         res = self.sim.step_block(ag)
         pred = self.plant.measure(res)[self._rows]
         meas = frame.select(self._out_frame).data

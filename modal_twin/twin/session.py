@@ -35,15 +35,15 @@ class TwinSession:
     versions_dir : path
         Folder of the model versions a parameter message may name (besides the working
         folder, the model's folder and the configuration roots).
-    channels : sequence of ChannelSpec, optional
-        Channel map of the measured stream (roles: which channels drive the model).
+
+    The stream's channel map (roles) comes with :meth:`set_channels`; until then the
+    ``table_<input>`` naming rule routes the frames.
     """
 
     def __init__(self, model_file: str, fs_hz: float, window_s: float,
-                 versions_dir: str | Path, channels: Sequence[ChannelSpec] | None = None
-                 ) -> None:
+                 versions_dir: str | Path) -> None:
         self.model_file = model_file
-        self.channels = None if channels is None else tuple(channels)
+        self.channels: tuple[ChannelSpec, ...] | None = None
         self.fs_hz, self.window_s = float(fs_hz), float(window_s)
         self.plant = load_model(resolve_config(model_file)).plant()
         self.version = self.plant.name

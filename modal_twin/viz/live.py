@@ -69,23 +69,25 @@ class LiveResidual:
                 buf.append(dict(zip(samples.channel_names, samples.values[:, k],
                                     strict=True)))
 
-    def relative(self) -> dict[str, float]:
-        """Sensor -> RMS(measured - twin) / RMS(measured), worst axis (paired samples)."""
+    def _paired(self) -> tuple[list[str], FloatArray, FloatArray] | None:
+        """Sensor channels both streams carry, measured and twin (n_ch, n) paired samples."""
         n = min(len(self._meas), len(self._twin))
         if n == 0:
-            return {}
+            return None
         meas, twin = list(self._meas)[-n:], list(self._twin)[-n:]
-        out: dict[str, float] = {}
-        for ch in meas[0]:
-            sensor, _, axis = ch.rpartition("_")
-            if sensor not in self.sensors or axis not in ("x", "y", "z") or ch not in twin[0]:
-                continue
-            m = np.array([s[ch] for s in meas])
-            d = m - np.array([s[ch] for s in twin])
-            ref = float(np.sqrt(np.mean(m * m)))
-            rel = float(np.sqrt(np.mean(d * d))) / ref if ref > 0 else 0.0
-            out[sensor] = max(out.get(sensor, 0.0), rel)
-        return out
+        chans = [c for c in meas[0] if c in twin[0] and c.rpartition("_")[0] in self.sensors
+                 and c.rpartition("_")[2] in ("x", "y", "z")]
+        if not chans:
+            return None
+        return (chans, np.array([[s[c] for c in chans] for s in meas]).T,
+                np.array([[s[c] for c in chans] for s in twin]).T)
+
+    def relative(self) -> dict[str, float]:
+        """Sensor -> RMS(measured - twin) / RMS(measured), worst axis (paired samples)."""
+        from modal_twin.viz.motion import nrmse_per_sensor
+
+        paired = self._paired()
+        return {} if paired is None else nrmse_per_sensor(*paired)
 
     def deflections(self, node_xyz: FloatArray, basis_shapes: FloatArray
                     ) -> tuple[FloatArray, FloatArray] | None:
@@ -98,17 +100,11 @@ class LiveResidual:
         """
         from modal_twin.viz.mode_pairs import channel_nodes, expand_shapes, sampled_shapes
 
-        n = min(len(self._meas), len(self._twin))
-        if n == 0:
+        paired = self._paired()
+        if paired is None:
             return None
-        meas, twin = list(self._meas)[-n:], list(self._twin)[-n:]
-        chans = [c for c in meas[0] if c in twin[0] and c.rpartition("_")[0] in self.sensors
-                 and c.rpartition("_")[2] in ("x", "y", "z")]
-        if not chans:
-            return None
+        chans, m, t = paired
         at_ch = sampled_shapes(basis_shapes, channel_nodes(chans, node_xyz, self.sensors))
-        m = np.array([[s[c] for c in chans] for s in meas]).T  # (n_ch, n)
-        t = np.array([[s[c] for c in chans] for s in twin]).T
         um = expand_shapes(m, at_ch, basis_shapes)  # (n, n_nodes, 3)
         ut = expand_shapes(t[:, -1:], at_ch, basis_shapes)[0]
         peak = float(np.abs(um).max()) or 1.0
@@ -117,20 +113,16 @@ class LiveResidual:
     def shape_commands(self, node_xyz: FloatArray, edges: Any, basis_shapes: FloatArray,
                        amplitude: float) -> Sequence[Any]:
         """meshcat commands drawing the latest measured and twin deflections overlaid."""
-        import meshcat.commands as mc
-        import meshcat.geometry as mg
         from meshcat.path import Path as MPath
+
+        from modal_twin.viz.scene import lines_object
 
         shapes = self.deflections(node_xyz, basis_shapes)
         if shapes is None:
             return []
-        cmds = []
-        for (name, colour), u in zip(_SHAPE_COLOURS.items(), shapes, strict=True):
-            pts = (node_xyz + amplitude * u)[np.asarray(edges).reshape(-1)].T.astype(np.float32)
-            cmds.append(mc.SetObject(mg.LineSegments(mg.PointsGeometry(pts),
-                                                     mg.LineBasicMaterial(color=colour)),
-                                     path=MPath(("modal_twin", "live", f"{name}_shape"))))
-        return cmds
+        return [lines_object(node_xyz + amplitude * u, np.asarray(edges), colour,
+                             MPath(("modal_twin", "live", f"{name}_shape")))
+                for (name, colour), u in zip(_SHAPE_COLOURS.items(), shapes, strict=True)]
 
     def commands(self, radius: float) -> Sequence[Any]:
         """meshcat commands colouring each compared sensor (spheres at its position)."""

@@ -20,8 +20,8 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
 from modal_twin.viz.mode_pairs import expand_shapes
 
-__all__ = ["RecordMotion", "displacement_from_acceleration", "record_motion",
-           "strongest_window"]
+__all__ = ["RecordMotion", "displacement_from_acceleration", "nrmse_per_sensor",
+           "record_motion", "strongest_window"]
 
 
 def displacement_from_acceleration(acc: FloatArray, fs_hz: float, f_low_hz: float
@@ -41,6 +41,22 @@ def displacement_from_acceleration(acc: FloatArray, fs_hz: float, f_low_hz: floa
     keep = f >= f_low_hz
     gain[keep] = -1.0 / (2.0 * np.pi * f[keep]) ** 2
     return np.fft.irfft(np.fft.rfft(a, axis=-1) * gain, n, axis=-1)
+
+
+def nrmse_per_sensor(channels: Sequence[str], measured: FloatArray, twin: FloatArray
+                     ) -> dict[str, float]:
+    """Sensor -> RMS(measured - twin) / RMS(measured) of its worst axis.
+
+    Rows are the channels ``<sensor>_<axis>``; a channel that measured nothing scores 0.
+    """
+    d = measured - twin
+    ref = np.sqrt(np.mean(measured ** 2, axis=1))
+    rel = np.sqrt(np.mean(d * d, axis=1)) / np.where(ref > 0, ref, 1.0)
+    worst: dict[str, float] = {}
+    for ch, r in zip(channels, rel, strict=True):
+        sensor = ch.rpartition("_")[0]
+        worst[sensor] = max(worst.get(sensor, 0.0), float(r))
+    return worst
 
 
 def strongest_window(x: FloatArray, n: int) -> slice:
@@ -110,11 +126,5 @@ def record_motion(channels: Sequence[str], measured: FloatArray, twin: FloatArra
     m = expand_shapes(measured[:, idx], basis_at_channels, basis_shapes)
     t = expand_shapes(twin[:, idx], basis_at_channels, basis_shapes)
     sm, st = scored if scored is not None else (measured, twin)
-    d = sm[:, win] - st[:, win]
-    ref = np.sqrt(np.mean(sm[:, win] ** 2, axis=1))
-    rel = np.sqrt(np.mean(d * d, axis=1)) / np.where(ref > 0, ref, 1.0)
-    worst: dict[str, float] = {}
-    for ch, r in zip(channels, rel, strict=True):
-        sensor = ch.rpartition("_")[0]
-        worst[sensor] = max(worst.get(sensor, 0.0), float(r))
+    worst = nrmse_per_sensor(channels, sm[:, win], st[:, win])
     return RecordMotion(m, t, win.start / fs_hz, step / fs_hz, worst, fit)

@@ -41,6 +41,7 @@ __all__ = [
     "StructureGeometry",
     "building_geometry",
     "building_modes",
+    "lines_object",
     "scene_commands",
     "static_html",
 ]
@@ -182,7 +183,8 @@ def _segment_pose(p1: FloatArray, p2: FloatArray) -> tuple[list[float], list[flo
     return [float(x) for x in p1], _quaternion_x_to(d / length), [length, 1.0, 1.0]
 
 
-def _lines(xyz: FloatArray, edges: IntArray, color: int, path: Any) -> Any:
+def lines_object(xyz: FloatArray, edges: IntArray, color: int, path: Any) -> Any:
+    """Return the meshcat command drawing the ``edges`` between points ``xyz`` at ``path``."""
     import meshcat.commands as mc
     import meshcat.geometry as mg
 
@@ -214,7 +216,7 @@ def _moving_copy(geom: StructureGeometry, frames: FloatArray, base: Any, anim: A
     import meshcat.geometry as mg
     from meshcat.animation import AnimationFrameVisualizer
 
-    cmds: list[Any] = [_lines(geom.node_xyz, geom.edges, 0xBBBBBB, base.append("rest"))]
+    cmds: list[Any] = [lines_object(geom.node_xyz, geom.edges, 0xBBBBBB, base.append("rest"))]
     unit = mg.PointsGeometry(np.array([[0.0, 1.0], [0.0, 0.0], [0.0, 0.0]], np.float32))
     for e, (i, j) in enumerate(geom.edges):
         path = base.append("edges").append(f"e{e}")
@@ -300,7 +302,7 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
                          MPath(("Cameras", "default", "rotated", "<object>")))
     cmds: list[Any] = [mc.Delete(root), mc.SetTransform(T, path=root), cam]
     base = root.append("structure")
-    cmds.append(_lines(geom.node_xyz, geom.edges, 0x333333, base.append("frame")))
+    cmds.append(lines_object(geom.node_xyz, geom.edges, 0x333333, base.append("frame")))
     r = 0.012 * size
     tint = {} if motion is None else dict(motion.sensor_colors)
     plain = {k: v for k, v in geom.sensors.items() if k not in blamed and k not in tint}
