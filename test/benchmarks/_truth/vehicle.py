@@ -93,8 +93,9 @@ class VehicleTruth:
         j = int(np.argmin(np.abs(w / (2 * np.pi) - f_bend)))
         return modes[:, j], float(w[j])
 
-    def simulate(self, u: FloatArray, fs_hz: float) -> FloatArray:
-        """Clean floor accelerations (n_ch, nt) for the track inputs ``u`` (8, nt)."""
+    def matrices(self) -> tuple[FloatArray, FloatArray, list[Attached]]:
+        """Stiffness and damping of the truth's linear part (the model's, less the springs
+        the laws replace, with any damper wear and added bending damping) and its laws."""
         vm = self.vm
         K, C = vm.K.copy(), vm.C.copy()
         att = []
@@ -118,6 +119,12 @@ class VehicleTruth:
             phi, w = self.bending_mode()
             Mp = vm.M @ phi
             C += 2.0 * self.bending_zeta_add * w * np.outer(Mp, Mp)
+        return K, C, att
+
+    def simulate(self, u: FloatArray, fs_hz: float) -> FloatArray:
+        """Clean channels (n_ch, nt) for the track inputs ``u`` (8, nt)."""
+        vm = self.vm
+        K, C, att = self.matrices()
         lam = np.linalg.eigvals(np.linalg.solve(vm.M, K))
         w_max = float(np.sqrt(np.max(np.abs(lam))))
         n_sub = max(2, int(np.ceil(w_max / (0.6 * fs_hz))))  # omega_max h <= 0.6
