@@ -73,6 +73,7 @@ class Case:
     quiet_pct: float | None = None  # noise % of drift / stroke / force channels
     delays: dict[str, float] = field(default_factory=dict)  # channel -> s
     turns: dict[str, float] = field(default_factory=dict)  # sensor -> degrees about z
+    table_channels: bool = False  # the record also carries the table's x / y acceleration
 
 
 def _nominal() -> BuildingTruth:
@@ -337,6 +338,14 @@ NEW_CASES: tuple[Case, ...] = (
          (Hidden("damping", "carbody", aliases=_CARBODY),),
          lambda: VehicleTruth(bending_zeta_add=0.03, device_channels=True), 2.0, seed=66,
          new=True, quiet_pct=0.05),
+    # the two-effect case above with the table's accelerations recorded too (channels the
+    # model lacks): the crash of issue 20, item 9 (added after the first run of the others;
+    # run on main's head before the fix, see the baseline file)
+    Case("new_two_stribeck_ESB2_bw1_RB1_table", "building",
+         (Hidden("friction", "ESB2"), Hidden("hysteresis", "RB1")),
+         _laws(ESB2=lambda: _stribeck("ESB2", 0.07, 0.035, 0.03, 0.2),
+               RB1=lambda: _bw("RB1", 0.3, 0.012, 0.5)), 2.0, seed=57, new=True,
+         quiet_pct=0.02, table_channels=True),
     # control of the car with its device channels
     Case("new_veh_control_devices", "vehicle", (),
          lambda: VehicleTruth(device_channels=True), 1.0, seed=67, new=True, quiet_pct=0.05),
@@ -367,8 +376,12 @@ def records(case: Case, *, quick: bool = False) -> dict[str, Noisy]:
         inputs = V_INPUTS
     pct_of = None if case.quiet_pct is None else {
         n: case.quiet_pct for n in names if n.rpartition("_")[2] in DEVICE_QUANTITIES}
+    if case.table_channels:  # channels the model lacks, appended (the others' noise stays)
+        names = (*names, "table_ax", "table_ay")
     for k, u in ins.items():
         clean = truth.simulate(u, fs)
+        if case.table_channels:
+            clean = np.vstack([clean, u[:2]])
         out[k] = measured(inputs, u, names, clean, fs, case.noise_pct,
                           s + {"train": 1, "test": 2, "low": 3}[k],
                           f"{case.name}:{k}", case.gains, pct_of=pct_of,
