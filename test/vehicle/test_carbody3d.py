@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from modal_twin.errors import ModelError
+from modal_twin.errors import ConfigError, ModelError
 from modal_twin.models.carbody3d import CarbodyParams, build_carbody, default_zones
+from modal_twin.models.carbody3d_file import load_carbody3d
 from modal_twin.models.carbody_modes import name_modes, rigid_mode_mask
 from modal_twin.models.carbody_reduction import reduce_carbody, reduced_modes
 from modal_twin.models.craig_bampton import cb_check
@@ -142,3 +147,46 @@ def test_bad_parameters_are_refused():
         build_carbody(replace(P, zones=zones))
     with pytest.raises(ModelError, match="n_width"):
         build_carbody(replace(P, n_width=1))
+
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "modal_twin.cli", *args], capture_output=True,
+                          text=True, timeout=300, cwd=ROOT)
+
+
+def test_model_info_names_the_empty_shells_modes() -> None:
+    out = _cli("model", "info", "config/carbodies/trailer_car_shell_empty.yaml", "--json",
+               "--show", "4")
+    assert out.returncode == 0, out.stderr
+    d = json.loads(out.stdout)
+    assert d["n_rigid"] == 6 and not d["in_service"]
+    assert [m["kind"] for m in d["modes"]] == ["diamond", "vertical bending", "torsion",
+                                               "lateral bending"]
+    assert d["modes"][0]["f_hz"] == pytest.approx(13.03, rel=0.05)
+
+
+def test_carbody_file_overrides_and_bad_files(tmp_path: Path) -> None:
+    good = tmp_path / "car.yaml"
+    good.write_text("carbody3d:\n  in_service: false\n  mesh: {n_length: 12}\n"
+                    "  zones: {roof: {E: 6.0e10, t: 0.01}}\n")
+    name, p, n_modes = load_carbody3d(good)
+    assert name == "car" and not p.in_service and p.n_length == 12 and n_modes == 30
+    assert (p.zones["roof"].E, p.zones["roof"].t) == (6.0e10, 0.01)
+    assert p.zones["underframe"] == P.zones["underframe"]
+    for text, match in (("carbody3d: {zones: {attic: {E: 1}}}", "unknown keys"),
+                        ("carbody3d: {zones: {roof: {E: fast}}}", "zones.roof.E"),
+                        ("carbody3d: {mesh: {n_width: 1}}", "mesh.n_width"),
+                        ("carbody3d: {in_service: 2}", "in_service")):
+        good.write_text(text)
+        with pytest.raises(ConfigError, match=match):
+            load_carbody3d(good)
+    out = _cli("model", "info", str(good))
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr and "in_service" in out.stderr
+    good.write_text("carbody3d: {zones: {roof: {t: -1.0}}}")
+    out = _cli("model", "info", str(good))
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert "thicknesses > 0" in out.stderr
