@@ -369,8 +369,8 @@ def build_carbody(p: CarbodyParams | None = None) -> CarbodyFE:
     W, H, half = p.width, p.height, p.length / 2
     xp = p.pivot_spacing / 2
     door_x = [half - p.door_offset, half - p.door_offset + p.door_width]
-    eq_x: list[float] = []
-    for e in (p.equipment if p.in_service else ()):
+    eq_x: list[float] = []  # hanger lines, in the empty shell's mesh too (same nodes)
+    for e in p.equipment:
         eq_x += [e.x - e.half_length, e.x + e.half_length]
     xs = _grid(-half, half, p.n_length, [-xp, xp, *door_x, *[-d for d in door_x], *eq_x])
     ys = _grid(-W / 2, W / 2, p.n_width, [0.0, -p.seat_half_spacing, p.seat_half_spacing])
@@ -444,15 +444,14 @@ def _bolsters(fem: ShellModel, p: CarbodyParams, xs: FloatArray, ring: np.ndarra
     pivots: dict[str, NodeId] = {}
     floor = [k for k, (_, z) in enumerate(ring_yz) if abs(z) < 1e-9]
     order = sorted(floor, key=lambda k: ring_yz[k, 0])
-    ei = p.bolster_ei
-    sec: dict[str, float] = {"E": 70e9, "G": 26e9, "A": 0.02, "Iy": ei / 70e9, "Iz": ei / 70e9,
-           "J": 2 * ei / 70e9, "rho": 0.0}
+    E, G = 70e9, 26e9  # aluminium box beam; its mass is in the underframe zone
+    inertia = p.bolster_ei / E
     for name, x in (("front", p.pivot_spacing / 2), ("rear", -p.pivot_spacing / 2)):
         i = int(np.argmin(np.abs(xs - x)))
         nodes = [ring[i, k] for k in order]
         for a, b in itertools.pairwise(nodes):
-            fem.add_frame(a, b, orientation=(0.0, 0.0, 1.0), E=sec["E"], G=sec["G"],
-                          A=sec["A"], Iy=sec["Iy"], Iz=sec["Iz"], J=sec["J"], rho=0.0)
+            fem.add_frame(a, b, orientation=(0.0, 0.0, 1.0), E=E, G=G, A=0.02, Iy=inertia,
+                          Iz=inertia, J=2.0 * inertia, rho=0.0)
         pivots[name] = _floor_node(xs, ring, ring_yz, x, 0.0)
         seats[f"{name}_left"] = _floor_node(xs, ring, ring_yz, x, p.seat_half_spacing)
         seats[f"{name}_right"] = _floor_node(xs, ring, ring_yz, x, -p.seat_half_spacing)
@@ -461,7 +460,10 @@ def _bolsters(fem: ShellModel, p: CarbodyParams, xs: FloatArray, ring: np.ndarra
 
 def _hanger_nodes(e: Equipment, xs: FloatArray, ring: np.ndarray, ring_yz: FloatArray,
                   W: float, H: float) -> tuple[NodeId, ...]:
-    """Carbody nodes of the four hangers: side beams (underframe) or roof, ``x +- a``."""
+    """Carbody nodes of the four hangers: side beams (underframe) or roof, ``x +- a``.
+
+    The mesh has lines at ``x +- a``; across the roof the nearest node to ``+-half_width``.
+    """
     zh = H if e.mount == "roof" else 0.0
     hy = e.half_width if e.mount == "roof" else W / 2
     out: list[NodeId] = []
