@@ -8,6 +8,10 @@ counted apart), named from their shapes (:mod:`modal_twin.models.carbody_modes`)
 default mesh's modes beside [002] (Sec. 2 and Fig. 8; only mode 1's frequency is in the
 text) and its Craig-Bampton reduction on the seats, centre pins and hangers.
 
+Peer: when OpenSeesPy imports (requirements/bench.txt; see peer_opensees.py), a simply
+supported square plate (16 x 16, the mesh of test_fe_shell.py) in our shell and in
+OpenSees' ShellMITC4, beside Leissa's closed form; otherwise a line says it was skipped.
+
 usage: python test/benchmarks/bench_carbody3d.py [--meshes 15,2,2 30,4,4 45,6,6 60,8,8]
        [--f-cut 60]
 Last line: JSON with the figures (units in the keys).
@@ -17,15 +21,22 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from dataclasses import replace
+
+import numpy as np
 
 from modal_twin.models.carbody3d import CarbodyParams, build_carbody
 from modal_twin.models.carbody_modes import CarbodyMode, name_modes
 from modal_twin.models.carbody_reduction import reduce_carbody, reduced_modes
 from modal_twin.models.craig_bampton import cb_check
 from modal_twin.models.fe import solve_modes
+from modal_twin.models.fe.shell import ShellModel
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import peer_opensees
 
 PAPER = (  # [002] Fig. 8 (measured in service); Sec. 2: empty shell 13.03 Hz
     (1, "diamond", 8.73),
@@ -45,6 +56,51 @@ def _solve(p: CarbodyParams, n_modes: int) -> tuple[int, float, float, list[Carb
     t2 = time.perf_counter()
     modes = [m for m in name_modes(car, sol.f_hz, sol.Phi) if m.kind != "rigid"]
     return car.asm.n_dof, t1 - t0, t2 - t1, modes
+
+
+def plate_peer(n: int = 16) -> dict[str, list[float]] | None:
+    """SS square plate (1 m, 10 mm, aluminium): ours, OpenSees ShellMITC4, Leissa (Hz)."""
+    E, nu, rho, t = 70e9, 0.3, 2700.0, 0.01
+    ok, info = peer_opensees.available()
+    if not ok:
+        print(f"OpenSees plate peer skipped: {info}")
+        return None
+    h = 1.0 / n
+    fix = {}
+    fem = ShellModel()
+    for i in range(n + 1):
+        for j in range(n + 1):
+            fem.add_node(i * (n + 1) + j + 1, (i * h, j * h, 0.0))
+            dofs = ["ux", "uy", "rz"] + (["uz", "rx"] if i in (0, n) else []) \
+                + (["uz", "ry"] if j in (0, n) else [])
+            fem.fix(i * (n + 1) + j + 1, dofs)
+            fix[i * (n + 1) + j + 1] = [int(d in dofs) for d in
+                                        ("ux", "uy", "uz", "rx", "ry", "rz")]
+    quads = [(i * (n + 1) + j + 1, (i + 1) * (n + 1) + j + 1, (i + 1) * (n + 1) + j + 2,
+              i * (n + 1) + j + 2) for i in range(n) for j in range(n)]
+    fem.add_shells(quads, E=E, nu=nu, rho=rho, t=t)
+    asm = fem.assemble()
+    ours = solve_modes(asm.K, asm.M, 4).f_hz
+    ops = peer_opensees._ops()
+    ops.wipe()
+    ops.model("basic", "-ndm", 3, "-ndf", 6)
+    for node, xyz in zip(asm.nodes, asm.xyz, strict=True):
+        ops.node(int(node), *map(float, xyz))
+        ops.fix(int(node), *fix[int(node)])
+    ops.section("ElasticMembranePlateSection", 1, E, nu, t, rho)
+    for e, q in enumerate(quads):
+        ops.element("ShellMITC4", e + 1, *q, 1)
+    theirs = np.sqrt(np.array(ops.eigen(4))) / (2 * np.pi)
+    ops.wipe()
+    D = E * t**3 / (12 * (1 - nu**2))
+    leissa = [np.pi / 2 * (m**2 + k**2) * np.sqrt(D / (rho * t))
+              for m, k in ((1, 1), (1, 2), (2, 1), (2, 2))]
+    print(f"SS plate {n} x {n}: ours " + ", ".join(f"{f:.2f}" for f in ours)
+          + " Hz; OpenSees ShellMITC4 " + ", ".join(f"{f:.2f}" for f in theirs)
+          + " Hz; Leissa " + ", ".join(f"{f:.2f}" for f in leissa) + " Hz")
+    return {"ours_hz": [round(float(f), 3) for f in ours],
+            "opensees_hz": [round(float(f), 3) for f in theirs],
+            "leissa_hz": [round(float(f), 3) for f in leissa]}
 
 
 def main() -> int:
@@ -96,7 +152,9 @@ def main() -> int:
           f"{chk.rb_mass_rel_err:.1e}; max |f_red - f_full| / f_full below {a.f_cut / 2:g} Hz "
           f"{100 * chk.max_f_rel_err:.2f} % ({chk.f_full_hz.size} modes); rigid modes found "
           f"by projection: {int(rigid.sum())}")
+    peer = plate_peer()
     figures = {
+        "plate_peer": peer,
         "meshes": rows,
         "default_n_dof": car.asm.n_dof,
         "default_mass_t": round(car.asm.total_mass() / 1e3, 3),

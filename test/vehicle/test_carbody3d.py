@@ -72,6 +72,15 @@ def test_interface_nodes_sit_at_the_pivots_seats_and_hangers(service):
     assert car.interface_dofs().size == 6 * len(car.interface_nodes())
 
 
+def test_carbody_without_equipment_bodies_keeps_the_hanger_nodes(service):
+    car = build_carbody(replace(P, equipment_bodies=False))
+    full = service[0]
+    assert car.hangers == full.hangers and not car.equipment_nodes
+    eq = sum(e.mass for e in P.equipment)
+    assert car.asm.total_mass() == pytest.approx(full.asm.total_mass() - eq, rel=1e-9)
+    assert car.interface_nodes() == full.interface_nodes()
+
+
 def test_free_free_rigid_modes_found_by_projection(empty, service):
     for car, sol in (empty, service):
         rigid = rigid_mode_mask(car, sol.Phi)
