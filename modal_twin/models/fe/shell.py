@@ -223,7 +223,8 @@ def shell_local_matrices(
     Returns
     -------
     k_unit, m_unit : (ne, 24, 24) float arrays
-        Per unit modulus (m^3... : ``K = E k_unit``) and per unit density.
+        Stiffness per unit modulus (``K = E k_unit``) and mass per unit density
+        (``M = rho m_unit``), local DOFs ``u, v, w, theta_x, theta_y, theta_z`` per node.
 
     Raises
     ------
