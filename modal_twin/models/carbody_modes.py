@@ -14,7 +14,8 @@ template's share of the mode's section motion; the largest names the mode
 (``vertical`` / ``lateral`` -> bending, ``rotation`` -> torsion). Its order comes from the
 sign changes of the template's coefficient along ``x`` (nodes): a free-free bending mode of
 order ``n`` has ``n + 1`` nodes, torsion ``n``, diamond and breathing ``n - 1``. A mode
-with more than 70 % of its kinetic energy in the equipment bodies is named after the equipment. A
+with more than 70 % of its kinetic energy in the equipment bodies is named after the
+equipment that moves most; above 40 % a body mode's label adds ``with <equipment>``. A
 mode is **rigid** when its mass-weighted projection on the six rigid-body vectors of the
 node coordinates holds more than half of it: ``p' (R' M R)^-1 p > 0.5`` with ``p = R' M phi``
 (a physical rule, no threshold relative to the spectrum).
@@ -45,6 +46,7 @@ SECTION_TEMPLATES: tuple[str, ...] = ("lateral", "vertical", "rotation", "diamon
 _TYPE = {"lateral": "lateral bending", "vertical": "vertical bending", "rotation": "torsion",
          "diamond": "diamond", "breathing": "breathing", "local": "local"}
 _EQUIPMENT_SHARE = 0.7  # kinetic-energy share above which a mode is the equipment's
+_WITH_EQUIPMENT = 0.4  # above this, the label names the equipment that moves with the body
 _ORDER_SHIFT = {"lateral": -1, "vertical": -1, "rotation": 0, "diamond": 1, "breathing": 1}
 
 
@@ -64,7 +66,9 @@ class CarbodyMode:
         Order of the dominant shape (0 for rigid, equipment and local modes).
     label : str
         ``kind order``, with a second share above 30 % after ``+`` (e.g.
-        ``"torsion 1 + lateral bending 1"``), or the equipment's name.
+        ``"torsion 1 + lateral bending 1"``) and ``with <equipment>`` when more than 40 %
+        of the kinetic energy is in the equipment (the body moving most is named), or, for
+        an equipment mode, the equipment's name.
     fractions : (6,) float array
         Shares of :data:`SECTION_TEMPLATES` (sum 1).
     equipment_share : float
@@ -205,6 +209,8 @@ def name_modes(car: CarbodyFE, f_hz: FloatArray, Phi: FloatArray) -> list[Carbod
                 parts.append((_TYPE[tname], max(1, n + _ORDER_SHIFT[tname])))
             kind, order = parts[0]
             label = " + ".join(k if o == 0 else f"{k} {o}" for k, o in parts)
+            if eq[j] > _WITH_EQUIPMENT:
+                label += f" with {_dominant_equipment(car, Phi[:, j])}"
         out.append(CarbodyMode(number=j + 1, f_hz=float(f[j]), kind=kind, order=order,
                                label=label, fractions=F[j], equipment_share=float(eq[j])))
     return out
