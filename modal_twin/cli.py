@@ -108,6 +108,7 @@ def _cmd_model(a: argparse.Namespace) -> int:
     import json
 
     from modal_twin.models.building import build_building, modal_reduction
+    from modal_twin.models.carbody3d_file import is_carbody3d_file
     from modal_twin.models.model_info import model_info
     from modal_twin.models.vehicle_spec import is_vehicle_file
 
@@ -115,11 +116,29 @@ def _cmd_model(a: argparse.Namespace) -> int:
         return matrix_info(a)
     if is_vehicle_file(a.file):  # config/vehicles
         return _vehicle_info(a)
+    if is_carbody3d_file(a.file):  # config/carbodies: the 3D shell carbody
+        return _carbody3d_info(a)
     bld = build_building(a.file)
     red = modal_reduction(bld, a.modes)
     info = model_info(bld.assembly, red.f_hz, red.Phi, red.zeta, name=bld.spec.name,
                       groups=[f.nodes for f in bld.spec.floors], n_show=a.show)
     print(json.dumps(info.to_dict(), indent=1) if a.json else info.table())
+    return ExitCode.OK
+
+
+def _carbody3d_info(a: argparse.Namespace) -> int:
+    import json
+
+    from modal_twin.models.carbody3d import build_carbody
+    from modal_twin.models.carbody3d_file import (
+        carbody3d_info,
+        format_carbody3d_info,
+        load_carbody3d,
+    )
+
+    name, params, n_modes = load_carbody3d(a.file)
+    info = carbody3d_info(build_carbody(params), a.modes or n_modes, name=name, n_show=a.show)
+    print(json.dumps(info, indent=1) if a.json else format_carbody3d_info(info))
     return ExitCode.OK
 
 
@@ -250,8 +269,9 @@ def _parser() -> argparse.ArgumentParser:
     msub = mo.add_subparsers(dest="model_cmd", required=True)
     mi = msub.add_parser("info", help="DOF count, total mass, lowest modes")
     mi.add_argument("file", type=Path,
-                    help="structure or vehicle YAML (config/structures/..., config/vehicles/...)"
-                         " or M, K (K_j, C) matrices in a .mat / .npz file")
+                    help="structure, vehicle or 3D carbody YAML (config/structures/..., "
+                         "config/vehicles/..., config/carbodies/...) or M, K (K_j, C) "
+                         "matrices in a .mat / .npz file")
     mi.add_argument("--json", action="store_true")
     mi.add_argument("--modes", type=int, default=None, help="modes to compute")
     mi.add_argument("--show", type=int, default=12, help="modes to list")
