@@ -16,14 +16,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from modal_twin.errors import SignalError
 from modal_twin.exit_codes import ExitCode
 
-__all__ = ["register", "run"]
+__all__ = ["last_metrics", "metrics_consistent", "register", "run", "settling_samples"]
+
+log = logging.getLogger(__name__)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,13 +46,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def metrics_consistent(msg: Any) -> bool:
+    """Whether a ComparisonMetrics message has one value per channel in every array."""
+    try:
+        n = len(msg.channel_names)
+        return all(len(getattr(msg, f)) == n for f in (
+            "rms_error", "residual_rms", "rms_measured", "rms_predicted"))
+    except (AttributeError, TypeError):
+        return False
+
+
 def last_metrics(bag: Path) -> Any:
-    """Return the last /twin/metrics message of a bag (None if there is none)."""
+    """Return the last usable /twin/metrics message of a bag (None if there is none).
+
+    Messages that do not decode or whose arrays disagree in length are skipped, and the
+    count is logged.
+    """
     from modal_twin.io.bag import read_messages
 
-    last = None
+    last, bad = None, 0
     for _, _, msg in read_messages(bag, ["/twin/metrics"]):
-        last = msg
+        if metrics_consistent(msg):
+            last = msg
+        else:
+            bad += 1
+    if bad:
+        log.warning("bag %s, /twin/metrics: skipped %d message(s) with arrays of unequal "
+                    "length", bag, bad)
     return last
 
 
@@ -69,8 +94,6 @@ def error_report(bag: Path, top: int = 12) -> str:
 
 def live(a: argparse.Namespace) -> int:
     """Replay the bag into a twin node running the model; print its per-channel error."""
-    import sys
-
     from modal_twin.io.bag import bag_info, read_messages
     from modal_twin.launch import Launcher
     from modal_twin.scenario import NodeSpec, Scenario
@@ -104,6 +127,44 @@ def live(a: argparse.Namespace) -> int:
     return ExitCode.OK
 
 
+def settling_samples(plant: Any, fs_hz: float, fraction: float = 0.01) -> int:
+    """Return the samples until the model's slowest free decay falls to ``fraction``.
+
+    From the slowest pole of the linear part, ``exp(-sigma t) = fraction``, with the poles
+    the eigenvalues of ``[[0, I], [-M^-1 K, -M^-1 C]]`` (devices left out).
+    """
+    sysm = plant.system
+    n = sysm.M.shape[0]
+    Minv = np.linalg.inv(sysm.M)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ sysm.K, -Minv @ sysm.C]])
+    sigma = float(np.min(-np.linalg.eigvals(A).real))
+    if not sigma > 0:
+        return 2**62
+    return int(np.ceil(np.log(1.0 / fraction) / sigma * fs_hz))
+
+
+def _warmed_up(plant: Any, recs: list[Any], frames: Any) -> list[Any]:
+    """Return the runs of a damaged record; a run after a gap scored after settling.
+
+    The first run starts where the record starts (from rest, as any record) unless a
+    message before it was lost; a run after a gap starts from an unknown state, so its
+    first :func:`settling_samples` are simulated but not scored (runs shorter are left out).
+    """
+    from dataclasses import replace
+
+    if len(recs) == 1 and not frames.skipped:
+        return recs
+    warm = settling_samples(plant, recs[0].fs_hz)
+    t0 = frames.runs[0].stamp_ns
+    clean_start = not any(t < t0 for _, t, _ in frames.skipped)
+    out = []
+    for k, r in enumerate(recs):
+        skip = 0 if k == 0 and clean_start else warm
+        if skip < r.n_samples - 1:
+            out.append(replace(r, skip=skip))
+    return out
+
+
 def run(a: argparse.Namespace) -> int:
     """Run the model on the record and print its error per channel."""
     if a.live:
@@ -111,19 +172,37 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.diagnosis.fitting import simulate_record
     from modal_twin.diagnosis.judge import record_noise_floor
     from modal_twin.diagnosis.noise import error_figures
-    from modal_twin.io.records import record_from_bag
+    from modal_twin.io.records import records_from_bag
     from modal_twin.models.loading import load_model
 
     plant = load_model(a.model).plant()
-    rec = record_from_bag(a.bag, plant=plant)
+    recs, frames = records_from_bag(a.bag, plant=plant)
+    if not recs:
+        msg = f"{a.bag}: no run of frames of at least 2 samples ({frames.note()})"
+        raise SignalError(msg)
+    rec = max(recs, key=lambda r: r.n_samples)
     have = [c for c in rec.channel_names if c in set(plant.channel_names)]
     left = [c for c in rec.channel_names if c not in set(plant.channel_names)]
-    rec = rec.with_channels(have)
-    noise = record_noise_floor(plant, rec)
-    fig = error_figures(simulate_record(plant, rec)[:, rec.skip:], rec.scored, rec.channel_names,
+    recs = [r.with_channels(have) for r in recs]
+    recs = _warmed_up(plant, recs, frames)
+    if not recs:
+        msg = (f"{a.bag}: every run of frames after a gap is shorter than the model's "
+               f"settling time ({frames.note()})")
+        raise SignalError(msg)
+    noise = record_noise_floor(plant, max(recs, key=lambda r: r.n_samples))
+    fig = error_figures(np.concatenate([simulate_record(plant, r)[:, r.skip:] for r in recs],
+                                       axis=1),
+                        np.concatenate([r.scored for r in recs], axis=1), recs[0].channel_names,
                         noise, str(a.bag))
     order = np.argsort(-fig.nrmse)
     rows = order[: a.top] if a.top > 0 else order
+    note = frames.note()
+    if note:
+        scored = sum(r.n_samples - r.skip for r in recs)
+        warm = settling_samples(plant, rec.fs_hz) / rec.fs_hz
+        print(f"modal-twin residual: {a.bag}: {note}; scored {scored} samples in "
+              f"{len(recs)} of {len(frames.runs)} runs (a run after a gap from the model's "
+              f"settling time, {warm:.1f} s, on)", file=sys.stderr)
     print(f"{plant.name} on {a.bag}: inputs {', '.join(rec.input_names)}; "
           f"{len(have)} channels compared" + (f", {len(left)} not in the model" if left else ""))
     print(f"{'channel':<18} {'NRMSE %':>9} {'noise %':>9} {'x noise':>8} {'Eq. (8) %':>10}")
