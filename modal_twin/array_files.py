@@ -313,9 +313,10 @@ def read_csv_numbers(path: str | Path, header: Callable[[list[list[str]]], int],
     rows_done = 0
     try:
         with p.open(newline="", encoding="utf-8") as fh:
-            rows = (r for r in csv.reader(_lines(fh, p, max_line))
-                    if r and not r[0].lstrip().startswith("#"))
-            first = [r for _, r in zip(range(peek), rows, strict=False)]
+            lines = (ln for ln in _lines(fh, p, max_line)
+                     if ln.strip() and not ln.lstrip().startswith("#"))
+            first_lines = [ln for _, ln in zip(range(peek), lines, strict=False)]
+            first = list(csv.reader(first_lines))
             if not first:
                 msg = f"{p}: empty CSV"
                 raise ConfigError(msg)
@@ -325,11 +326,11 @@ def read_csv_numbers(path: str | Path, header: Callable[[list[list[str]]], int],
                        f"({MAX_CHANNELS} channels and a time column)")
                 raise ConfigError(msg)
             n_head = header(first)
-            pending = first[n_head:]
+            pending = first_lines[n_head:]
             line_no = n_head
             chunk_rows = max(1, _CHUNK_CELLS // max(n_col, 1))
-            for r in rows:
-                pending.append(r)
+            for ln in lines:
+                pending.append(ln)
                 if len(pending) >= chunk_rows:
                     chunks.append(_to_floats(p, pending, n_col, line_no))
                     line_no += len(pending)
@@ -345,17 +346,24 @@ def read_csv_numbers(path: str | Path, header: Callable[[list[list[str]]], int],
     return first[:n_head], values
 
 
-def _to_floats(p: Path, rows: list[list[str]], n_col: int, before: int) -> FloatArray:
-    for k, r in enumerate(rows):
+def _to_floats(p: Path, lines: list[str], n_col: int, before: int) -> FloatArray:
+    """Parse data lines with NumPy's C reader; name the first bad row if they do not."""
+    try:
+        a = np.loadtxt(lines, delimiter=",", ndmin=2, dtype=np.float64, comments=None,
+                       quotechar='"')
+        if a.shape[1] == n_col:
+            return a
+    except ValueError as err:
+        problem: Exception | None = err
+    else:
+        problem = None
+    for k, r in enumerate(csv.reader(lines)):
         if len(r) != n_col:
             msg = (f"{p}: expected {n_col} columns on every row, row {before + k + 1} has "
                    f"{len(r)} (missing columns)")
             raise ConfigError(msg)
-    try:
-        return np.array(rows, dtype=np.float64)
-    except ValueError as err:
-        msg = f"{p}: non-numeric cell in data rows {before + 1}..{before + len(rows)} ({err})"
-        raise ConfigError(msg) from err
+    msg = f"{p}: non-numeric cell in data rows {before + 1}..{before + len(lines)} ({problem})"
+    raise ConfigError(msg)
 
 
 # ---------------------------------------------------------------------------- text, zip
