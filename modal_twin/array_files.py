@@ -201,12 +201,13 @@ def mat_sizes(path: str | Path, limit: int = FILE_UNPACKED_MAX_BYTES) -> int:
         Not a MATLAB file scipy reads.
     """
     import scipy.io as sio
+    from scipy.io.matlab import MatReadError
 
     p = Path(path)
     try:
         info = sio.whosmat(p)
-    except (OSError, ValueError, NotImplementedError, TypeError, struct.error,
-            zlib.error) as err:
+    except (OSError, ValueError, NotImplementedError, TypeError, struct.error, zlib.error,
+            MatReadError) as err:
         msg = f"{p}: not a readable .mat file ({type(err).__name__}: {err})"
         raise ConfigError(msg) from err
     with p.open("rb") as fh:
@@ -253,6 +254,7 @@ def mat_arrays(path: str | Path, *, max_bytes: int = FILE_UNPACKED_MAX_BYTES
         Not a readable ``.mat`` file, or too large unpacked.
     """
     import scipy.io as sio
+    from scipy.io.matlab import MatReadError
 
     p = Path(path)
     try:
@@ -266,8 +268,8 @@ def mat_arrays(path: str | Path, *, max_bytes: int = FILE_UNPACKED_MAX_BYTES
     check_unpacked(p, mat_sizes(p, max_bytes), max_bytes, "variables")
     try:
         return {k: v for k, v in sio.loadmat(p).items() if not k.startswith("__")}
-    except (OSError, ValueError, NotImplementedError, TypeError, struct.error,
-            zlib.error) as err:
+    except (OSError, ValueError, NotImplementedError, TypeError, struct.error, zlib.error,
+            MatReadError) as err:
         msg = f"{p}: not a readable .mat file ({type(err).__name__}: {err})"
         raise ConfigError(msg) from err
 

@@ -388,12 +388,15 @@ class FrameRead:
         stays a gap, the samples after it keep their place).
     n_messages : int
         Messages on the topic.
+    start_ns : int
+        Receive time of the topic's first message (times in :meth:`note` count from it).
     """
 
     runs: tuple[SignalBlock, ...]
     skipped: tuple[tuple[int, int, str], ...]
     gaps: tuple[tuple[int, int], ...]
     n_messages: int
+    start_ns: int = 0
 
     @property
     def longest(self) -> SignalBlock:
@@ -409,7 +412,8 @@ class FrameRead:
         if self.skipped:
             k, t_ns, why = self.skipped[0]
             parts.append(f"skipped {len(self.skipped)} of {self.n_messages} messages "
-                         f"(first #{k} at t={t_ns / 1e9:.3f} s: {why.splitlines()[0][:120]})")
+                         f"(first #{k}, {(t_ns - self.start_ns) / 1e9:.3f} s in: "
+                         f"{why.splitlines()[0][:120]})")
         if self.gaps:
             lost = sum(b - a for a, b in self.gaps)
             where = ", ".join(f"{a}..{b - 1}" for a, b in self.gaps[:3])
@@ -446,9 +450,9 @@ def read_frames(path: str | Path, topic: str = "/measurement/frames") -> FrameRe
     store = typestore()
     good: list[tuple[int, int, SignalBlock]] = []
     skipped: list[tuple[int, int, str]] = []
-    n = 0
+    n, start = 0, 0
     for k, (_, msgtype, t_ns, raw) in enumerate(read_raw(path, [topic])):
-        n = k + 1
+        n, start = k + 1, start if k else t_ns
         if msgtype != SIGNAL_BLOCK:
             msg = f"bag {path}: topic {topic} holds {msgtype}, expected {SIGNAL_BLOCK}"
             raise BagError(msg)
@@ -481,7 +485,7 @@ def read_frames(path: str | Path, topic: str = "/measurement/frames") -> FrameRe
     from modal_twin.signal_block import concatenate_blocks
 
     return FrameRead(tuple(concatenate_blocks(r) for r in runs), tuple(skipped), tuple(gaps),
-                     n)
+                     n, start)
 
 
 def bag_info(path: str | Path) -> BagInfo:

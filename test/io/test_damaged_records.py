@@ -52,7 +52,7 @@ def test_a_malformed_frame_in_the_middle_leaves_a_gap_in_place(tmp_path: Path) -
     np.testing.assert_array_equal(fr.runs[1].data[:, :25], blocks[201].data)
     np.testing.assert_array_equal(fr.runs[0].data[:, -25:], blocks[199].data)
     note = fr.note(fr.longest)
-    assert "skipped 1 of 400 messages (first #200" in note
+    assert "skipped 1 of 400 messages (first #200, 10.000 s in:" in note
     assert "1 gap(s) of 25 samples (0.050 s) at samples 5000..5024" in note
     assert "using samples 0..4999" in note
 
