@@ -147,30 +147,64 @@ _MI_MATRIX, _MI_COMPRESSED = 14, 15
 _DENSE_BYTES = {"double": 8, "single": 8, "int8": 8, "uint8": 8, "int16": 8, "uint16": 8,
                 "int32": 8, "uint32": 8, "int64": 8, "uint64": 8, "logical": 8, "char": 4}
 """Bytes per element a dense variable takes once read and made float (text: 4 per char)."""
+_MX_CLASS = {4: "char", 5: "sparse", 6: "double", 7: "single", 8: "int8", 9: "uint8",
+             10: "int16", 11: "uint16", 12: "int32", 13: "uint32", 14: "int64", 15: "uint64"}
+"""MATLAB 5 array classes (mxCLASS) by code; the others are cells, structs, objects."""
+_HEAD = 512
 
 
-def _stream_size(fh: Any, nbytes: int, limit: int) -> int:
-    """Return the unpacked size of ``nbytes`` of zlib data, not kept (stops past ``limit``)."""
+def _stream_size(fh: Any, nbytes: int, limit: int) -> tuple[int, bytes]:
+    """Return the unpacked size of ``nbytes`` of zlib data and its first bytes (not more).
+
+    Counting stops past ``limit``.
+    """
     d = zlib.decompressobj()
-    total, left = 0, nbytes
+    total, left, head = 0, nbytes, b""
     while left > 0 and total <= limit:
         buf = fh.read(min(left, 1 << 20))
         if not buf:
             break
         left -= len(buf)
         while buf and total <= limit:
-            total += len(d.decompress(buf, 1 << 20))
+            out = d.decompress(buf, 1 << 20)
+            if len(head) < _HEAD:
+                head += out[: _HEAD - len(head)]
+            total += len(out)
             buf = d.unconsumed_tail
-    return total
+    return total, head
 
 
-def mat5_element_sizes(path: Path, limit: int) -> list[int]:
-    """Unpacked size in bytes of each top-level variable of a MATLAB 5-7.2 file."""
+def _matrix_estimate(head: bytes, size: int, end: str) -> int:
+    """Return the bytes a miMATRIX element of ``size`` unpacked bytes takes once read.
+
+    Its header (MAT-file format: tag, array flags with the class, dimensions) gives the
+    class and shape: a numeric or text array takes its shape's worth; a cell, struct,
+    object or sparse array (no shape bounds it) 8 times its unpacked size.
+    """
+    try:
+        mtype = struct.unpack_from(end + "I", head, 0)[0]
+        cls = _MX_CLASS.get(struct.unpack_from(end + "I", head, 16)[0] & 0xFF, "")
+        dtype, dbytes = struct.unpack_from(end + "II", head, 24)
+        dims = struct.unpack_from(end + f"{dbytes // 4}i", head, 32) if dtype == 5 else ()
+    except struct.error:
+        return 8 * size
+    if mtype != _MI_MATRIX or cls not in _DENSE_BYTES or not dims or min(dims) < 0:
+        return 8 * size
+    return max(size, prod(dims) * _DENSE_BYTES[cls])
+
+
+def mat5_sizes(path: Path, limit: int) -> list[int]:
+    """Return the bytes each top-level variable of a MATLAB 5-7.2 file takes once read.
+
+    Compressed variables are streamed through zlib and counted, not kept
+    (:func:`_matrix_estimate` of their header and unpacked size); reading stops once the
+    sum passes ``limit``.
+    """
     sizes: list[int] = []
     with path.open("rb") as fh:
         head = fh.read(128)
         end = "<" if head[126:128] == b"IM" else ">"
-        while True:
+        while sum(sizes) <= limit:
             tag = fh.read(8)
             if len(tag) < 8:
                 break
@@ -179,21 +213,23 @@ def mat5_element_sizes(path: Path, limit: int) -> list[int]:
                 sizes.append(4)
                 continue
             if mtype == _MI_COMPRESSED:
-                sizes.append(_stream_size(fh, nbytes, limit))
+                size, first = _stream_size(fh, nbytes, limit)
             else:
-                sizes.append(nbytes)
-                fh.seek(nbytes + (-nbytes) % 8, 1)
-            if sum(sizes) > limit:
-                break
+                pos = fh.tell()
+                first = tag + fh.read(min(nbytes, _HEAD - 8))
+                size = nbytes
+                fh.seek(pos + nbytes)
+            sizes.append(_matrix_estimate(first, size, end))
     return sizes
 
 
 def mat_sizes(path: str | Path, limit: int = FILE_UNPACKED_MAX_BYTES) -> int:
-    """Bytes the variables of a ``.mat`` file take once read (an upper estimate).
+    """Return the bytes the variables of a ``.mat`` file take once read (upper estimate).
 
-    Dense variables: their declared shape (:func:`scipy.io.whosmat`) times 8 bytes (4 per
-    character of text); cells, structs, sparse matrices and objects: 8 times their unpacked
-    size in the file (MATLAB may store doubles as bytes), counted by streaming.
+    MATLAB 5 to 7.2 (:func:`mat5_sizes`): numeric and text arrays by their declared shape
+    times 8 bytes (4 per character), cells, structs, sparse matrices and objects 8 times
+    their unpacked size in the file (MATLAB may store doubles as bytes), counted by
+    streaming. MATLAB 4 (never compressed): :func:`scipy.io.whosmat` shapes.
 
     Raises
     ------
@@ -205,22 +241,16 @@ def mat_sizes(path: str | Path, limit: int = FILE_UNPACKED_MAX_BYTES) -> int:
 
     p = Path(path)
     try:
+        with p.open("rb") as fh:
+            head = fh.read(128)
+        if len(head) == 128 and head[124:126] in (b"\x00\x01", b"\x01\x00"):
+            return sum(mat5_sizes(p, limit))
         info = sio.whosmat(p)
     except (OSError, ValueError, NotImplementedError, TypeError, struct.error, zlib.error,
             MatReadError) as err:
         msg = f"{p}: not a readable .mat file ({type(err).__name__}: {err})"
         raise ConfigError(msg) from err
-    with p.open("rb") as fh:
-        v5 = fh.read(128)[124:126] in (b"\x00\x01", b"\x01\x00")
-    streams = mat5_element_sizes(p, limit) if v5 else []
-    total = 0
-    for k, (_, shape, cls) in enumerate(info):
-        stream = streams[k] if k < len(streams) else 0
-        dense = prod(int(s) for s in shape) * _DENSE_BYTES[cls] if cls in _DENSE_BYTES else 0
-        total += max(dense, stream if cls in _DENSE_BYTES else 8 * stream)
-    if len(streams) > len(info):  # elements whosmat does not list still get unpacked
-        total += 8 * sum(streams[len(info):])
-    return total
+    return sum(prod(int(s) for s in shape) * _DENSE_BYTES.get(cls, 8) for _, shape, cls in info)
 
 
 def _h5_arrays(p: Path, max_bytes: int) -> dict[str, Any]:
