@@ -12,9 +12,10 @@ of them:
   :func:`scipy.io.whosmat`, and each compressed variable's unpacked size, counted by
   streaming it through zlib without keeping it (cells, structs and sparse matrices have no
   shape that bounds them); MATLAB 7.3 (HDF5) through h5py, by the datasets' shapes;
-- **CSV**: read line by line (a line longer than ``max_columns`` cells of 64 characters is
-  refused), columns counted on the header, rows converted in chunks and counted against
-  ``max_bytes`` as they come (memory and time linear in the file).
+- **CSV**: columns counted on the header (a line longer than ``max_columns`` cells of 64
+  characters is refused unread), lines counted in one pass without keeping them, rows x
+  columns x 8 bytes checked against ``max_bytes`` before parsing; then read line by line
+  and converted in chunks by NumPy's C reader (memory and time linear in the file).
 """
 
 from __future__ import annotations
@@ -358,6 +359,9 @@ def read_csv_numbers(path: str | Path, header: Callable[[list[list[str]]], int],
                        f"({MAX_CHANNELS} channels and a time column)")
                 raise ConfigError(msg)
             n_head = header(first)
+            # rows x columns before parsing: the lines counted in one pass, nothing kept
+            check_unpacked(p, 8 * n_col * max(_count_lines(p) - n_head, 0), max_bytes,
+                           "numbers")
             pending = first_lines[n_head:]
             line_no = n_head
             chunk_rows = max(1, _CHUNK_CELLS // max(n_col, 1))
@@ -376,6 +380,16 @@ def read_csv_numbers(path: str | Path, header: Callable[[list[list[str]]], int],
         raise ConfigError(msg) from err
     values = np.concatenate(chunks, axis=0) if chunks else np.zeros((0, n_col))
     return first[:n_head], values
+
+
+def _count_lines(p: Path) -> int:
+    """Lines of a file (a last line without a newline counted), read in 1 MiB blocks."""
+    n, last = 0, b"\n"
+    with p.open("rb") as fh:
+        while block := fh.read(1 << 20):
+            n += block.count(b"\n")
+            last = block[-1:]
+    return n + (last != b"\n")
 
 
 def _to_floats(p: Path, lines: list[str], n_col: int, before: int) -> FloatArray:

@@ -202,7 +202,7 @@ def run(a: argparse.Namespace) -> int:
     held = 0
     for k, f in enumerate(a.files):
         size = f.stat().st_size / 1e6 if f.is_file() else 0.0
-        if size >= LARGE_MB:
+        if size >= LARGE_MB and sys.stderr.isatty():  # a refusal stays one line in a log
             _progress(f"[{k + 1}/{len(a.files)}] reading {f} ({size:.1f} MB)")
         part = _read(f, a, meta, extra)
         if part is not None:
