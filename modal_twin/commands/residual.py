@@ -135,10 +135,13 @@ def settling_samples(plant: Any, fs_hz: float, fraction: float = 0.01) -> int:
     """
     sysm = plant.system
     n = sysm.M.shape[0]
-    Minv = np.linalg.inv(sysm.M)
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ sysm.K, -Minv @ sysm.C]])
-    sigma = float(np.min(-np.linalg.eigvals(A).real))
-    if not sigma > 0:
+    try:
+        Minv = np.linalg.inv(sysm.M)
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ sysm.K, -Minv @ sysm.C]])
+        sigma = float(np.min(-np.linalg.eigvals(A).real))
+    except (np.linalg.LinAlgError, ValueError):
+        sigma = 0.0
+    if not sigma > 0:  # no decay to wait for: a run after a gap is never scored
         return 2**62
     return int(np.ceil(np.log(1.0 / fraction) / sigma * fs_hz))
 

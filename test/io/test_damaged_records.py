@@ -189,3 +189,19 @@ def test_residual_and_identify_on_a_record_with_a_malformed_frame(tmp_path: Path
     assert r.returncode in (0, 1) and "Traceback" not in r.stderr, r.stderr
     assert "skipped 1 of" in r.stderr and "using samples 0..7972" in r.stderr
     assert "8.0 s at 1000 Hz" in r.stdout
+
+
+def test_settling_time_of_a_run_after_a_gap_is_the_slowest_decay() -> None:
+    """Two modes (2 Hz at 5 %, 7 Hz at 1 %): the slowest decay rate is zeta w of the second,
+    sigma = 0.01 * 2 pi 7; 1 % is reached after ln(100) / sigma s."""
+    from types import SimpleNamespace
+
+    from modal_twin.commands.residual import settling_samples
+
+    w = 2 * np.pi * np.array([2.0, 7.0])
+    z = np.array([0.05, 0.01])
+    sysm = SimpleNamespace(M=np.eye(2), K=np.diag(w**2), C=np.diag(2 * z * w))
+    n = settling_samples(SimpleNamespace(system=sysm), 1000.0)
+    assert n == int(np.ceil(np.log(100.0) / (0.01 * w[1]) * 1000.0))
+    undamped = SimpleNamespace(M=np.eye(1), K=np.eye(1), C=np.zeros((1, 1)))
+    assert settling_samples(SimpleNamespace(system=undamped), 1000.0) >= 2**62
