@@ -26,7 +26,7 @@ import numpy as np
 from modal_twin.errors import SignalError
 from modal_twin.exit_codes import ExitCode
 
-__all__ = ["last_metrics", "metrics_consistent", "register", "run", "settling_samples"]
+__all__ = ["last_metrics", "metrics_consistent", "register", "run"]
 
 log = logging.getLogger(__name__)
 
@@ -127,47 +127,6 @@ def live(a: argparse.Namespace) -> int:
     return ExitCode.OK
 
 
-def settling_samples(plant: Any, fs_hz: float, fraction: float = 0.01) -> int:
-    """Return the samples until the model's slowest free decay falls to ``fraction``.
-
-    From the slowest pole of the linear part, ``exp(-sigma t) = fraction``, with the poles
-    the eigenvalues of ``[[0, I], [-M^-1 K, -M^-1 C]]`` (devices left out).
-    """
-    sysm = plant.system
-    n = sysm.M.shape[0]
-    try:
-        Minv = np.linalg.inv(sysm.M)
-        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ sysm.K, -Minv @ sysm.C]])
-        sigma = float(np.min(-np.linalg.eigvals(A).real))
-    except (np.linalg.LinAlgError, ValueError):
-        sigma = 0.0
-    if not sigma > 0:  # no decay to wait for: a run after a gap is never scored
-        return 2**62
-    return int(np.ceil(np.log(1.0 / fraction) / sigma * fs_hz))
-
-
-def _warmed_up(plant: Any, recs: list[Any], frames: Any) -> list[Any]:
-    """Return the runs of a damaged record; a run after a gap scored after settling.
-
-    The first run starts where the record starts (from rest, as any record) unless a
-    message before it was lost; a run after a gap starts from an unknown state, so its
-    first :func:`settling_samples` are simulated but not scored (runs shorter are left out).
-    """
-    from dataclasses import replace
-
-    if len(recs) == 1 and not frames.skipped:
-        return recs
-    warm = settling_samples(plant, recs[0].fs_hz)
-    t0 = frames.runs[0].stamp_ns
-    clean_start = not any(t < t0 for _, t, _ in frames.skipped)
-    out = []
-    for k, r in enumerate(recs):
-        skip = 0 if k == 0 and clean_start else warm
-        if skip < r.n_samples - 1:
-            out.append(replace(r, skip=skip))
-    return out
-
-
 def run(a: argparse.Namespace) -> int:
     """Run the model on the record and print its error per channel."""
     if a.live:
@@ -175,23 +134,19 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.diagnosis.fitting import simulate_record
     from modal_twin.diagnosis.judge import record_noise_floor
     from modal_twin.diagnosis.noise import error_figures
-    from modal_twin.io.records import records_from_bag
+    from modal_twin.io.records import records_from_bag, settling_samples
     from modal_twin.models.loading import load_model
 
     plant = load_model(a.model).plant()
     recs, frames = records_from_bag(a.bag, plant=plant)
-    if not recs:
-        msg = f"{a.bag}: no run of frames of at least 2 samples ({frames.note()})"
+    if not recs:  # a run after a gap is scored after the model's settling time
+        msg = (f"{a.bag}: no run of frames long enough to score (every run after a gap "
+               f"shorter than the model's settling time; {frames.note()})")
         raise SignalError(msg)
-    rec = max(recs, key=lambda r: r.n_samples)
+    rec = recs[0]
     have = [c for c in rec.channel_names if c in set(plant.channel_names)]
     left = [c for c in rec.channel_names if c not in set(plant.channel_names)]
     recs = [r.with_channels(have) for r in recs]
-    recs = _warmed_up(plant, recs, frames)
-    if not recs:
-        msg = (f"{a.bag}: every run of frames after a gap is shorter than the model's "
-               f"settling time ({frames.note()})")
-        raise SignalError(msg)
     noise = record_noise_floor(plant, max(recs, key=lambda r: r.n_samples))
     fig = error_figures(np.concatenate([simulate_record(plant, r)[:, r.skip:] for r in recs],
                                        axis=1),

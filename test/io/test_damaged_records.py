@@ -196,7 +196,7 @@ def test_settling_time_of_a_run_after_a_gap_is_the_slowest_decay() -> None:
     sigma = 0.01 * 2 pi 7; 1 % is reached after ln(100) / sigma s."""
     from types import SimpleNamespace
 
-    from modal_twin.commands.residual import settling_samples
+    from modal_twin.io.records import settling_samples
 
     w = 2 * np.pi * np.array([2.0, 7.0])
     z = np.array([0.05, 0.01])
