@@ -21,6 +21,7 @@ of them:
 from __future__ import annotations
 
 import csv
+import stat
 import struct
 import zipfile
 import zlib
@@ -44,6 +45,7 @@ __all__ = [
     "npz_members",
     "read_csv_numbers",
     "read_text_bounded",
+    "regular_file",
     "zip_texts",
 ]
 
@@ -76,6 +78,28 @@ def check_unpacked(path: str | Path, nbytes: int, max_bytes: int, what: str = "a
         raise ConfigError(msg)
 
 
+def regular_file(path: str | Path) -> Path:
+    """Return ``path`` if it is a regular file; refuse a FIFO, device or folder unopened.
+
+    Opening a FIFO would block until someone writes to it.
+
+    Raises
+    ------
+    ConfigError
+        Missing, or not a regular file.
+    """
+    p = Path(path)
+    try:
+        mode = p.stat().st_mode
+    except OSError as err:
+        msg = f"{p}: cannot read ({err.strerror or err})"
+        raise ConfigError(msg) from err
+    if not stat.S_ISREG(mode):
+        msg = f"{p}: expected a regular file, got a FIFO, device or folder"
+        raise ConfigError(msg)
+    return p
+
+
 # ----------------------------------------------------------------------------------- NPZ
 def _npy_header(fh: Any) -> tuple[tuple[int, ...], np.dtype[Any]]:
     fmt = np.lib.format
@@ -97,7 +121,7 @@ def npz_members(path: str | Path) -> dict[str, tuple[tuple[int, ...], np.dtype[A
     ConfigError
         Not a zip file, a member that is not an ``.npy`` array, or an object array.
     """
-    p = Path(path)
+    p = regular_file(path)
     out: dict[str, tuple[tuple[int, ...], np.dtype[Any]]] = {}
     try:
         with zipfile.ZipFile(p) as z:
@@ -287,7 +311,7 @@ def mat_arrays(path: str | Path, *, max_bytes: int = FILE_UNPACKED_MAX_BYTES
     import scipy.io as sio
     from scipy.io.matlab import MatReadError
 
-    p = Path(path)
+    p = regular_file(path)
     try:
         with p.open("rb") as fh:
             head = fh.read(128)
@@ -340,7 +364,7 @@ def read_csv_numbers(path: str | Path, header: Callable[[list[list[str]]], int],
         Too many columns, too many values (``max_bytes`` as float64), a ragged row, a cell
         that is not a number, or text that does not decode.
     """
-    p = Path(path)
+    p = regular_file(path)
     max_line = max_columns * CELL_CHARS
     chunks: list[FloatArray] = []
     rows_done = 0
@@ -421,13 +445,8 @@ def check_text_file(path: str | Path, *, max_bytes: int = FILE_UNPACKED_MAX_BYTE
     ConfigError
         Larger, or not there.
     """
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-    except OSError as err:
-        msg = f"{p}: cannot read ({err})"
-        raise ConfigError(msg) from err
-    check_unpacked(p, size * TEXT_FACTOR, max_bytes, "text's numbers")
+    p = regular_file(path)
+    check_unpacked(p, p.stat().st_size * TEXT_FACTOR, max_bytes, "text's numbers")
 
 
 def read_text_bounded(path: str | Path, *, max_bytes: int = FILE_UNPACKED_MAX_BYTES) -> bytes:
@@ -460,7 +479,7 @@ def zip_texts(path: str | Path, keep: Callable[[str], bool], *,
     ConfigError
         Not a readable zip, or too large unpacked.
     """
-    p = Path(path)
+    p = regular_file(path)
     try:
         with zipfile.ZipFile(p) as z:
             infos = sorted((i for i in z.infolist() if keep(i.filename)),

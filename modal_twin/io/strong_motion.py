@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from modal_twin._types import FloatArray
-from modal_twin.array_files import read_text_bounded, zip_texts
+from modal_twin.array_files import read_text_bounded, regular_file, zip_texts
 from modal_twin.errors import SignalError
 
 __all__ = [
@@ -251,7 +251,7 @@ def read_record(path: str | Path) -> tuple[tuple[StrongMotionChannel, ...],
     SignalError
         No V1, V2 or SMC acceleration data found.
     """
-    p = Path(path)
+    p = regular_file(path)
     texts: list[tuple[str, str]] = []
     if zipfile.is_zipfile(p):
         texts = zip_texts(p, lambda fn: fn.lower().endswith((".v1", ".v2", ".v3", ".smc")))

@@ -6,6 +6,7 @@ come from the declared sizes, so the memory traced while refusing stays small.
 
 from __future__ import annotations
 
+import os
 import tracemalloc
 from collections.abc import Callable
 from pathlib import Path
@@ -167,3 +168,15 @@ def test_text_and_zip_bounded_by_what_they_unpack_to(tmp_path: Path) -> None:
     with big.open("wb") as fh:
         fh.truncate(FILE_UNPACKED_MAX_BYTES // 4 + 1)  # sparse: no disk used
     assert _peak_mb(lambda: read_uff(big)) < 5.0
+
+
+@pytest.mark.parametrize("reader", [npz_arrays, mat_arrays, read_csv, read_uff, read_record,
+                                    load_record])
+def test_a_fifo_is_refused_unopened(tmp_path: Path, reader: Callable) -> None:
+    """Opening a FIFO for reading blocks until a writer comes: no reader may open one."""
+    fifo = tmp_path / "x.npz"
+    if reader in (read_csv, load_record):
+        fifo = fifo.with_suffix(".csv")
+    os.mkfifo(fifo)
+    with pytest.raises(ConfigError, match=r"regular file|no such file"):
+        reader(fifo)
