@@ -119,7 +119,7 @@ def _chunks(f: Path) -> list[int]:
     return [off - 9 - 24 for off, _ in _chunk_crcs(f)]
 
 
-@pytest.mark.parametrize("where", ["records", "length"])
+@pytest.mark.parametrize("where", ["records", "one byte", "length"])
 def test_salvage_reads_on_past_a_corrupt_chunk(tmp_path: Path, where: str) -> None:
     blocks = _blocks(825)
     _write(tmp_path / "bag", blocks, flush_every=50, topic="/rig/raw")  # 17 chunks
@@ -128,13 +128,13 @@ def test_salvage_reads_on_past_a_corrupt_chunk(tmp_path: Path, where: str) -> No
     assert len(chunks) == 17
     data = bytearray(f.read_bytes())
     c = chunks[8]  # messages 400..449
-    off = c + 9 + 300 if where == "records" else c + 1  # 64 bytes of records, or the length
-    for i in range(64 if where == "records" else 8):
+    off = c + 1 if where == "length" else c + 9 + 300  # the length, or the records
+    for i in {"records": range(64), "one byte": range(1), "length": range(8)}[where]:
         data[off + i] ^= 0xA5
     f.write_bytes(bytes(data))
     scan = scan_mcap(f)
     assert len(scan.messages) == 775
-    if where == "records":
+    if where != "length":
         assert scan.bad_chunks == 1 and scan.lost_messages == 50
         assert scan.lost_span_ns == (blocks[400].stamp_ns, blocks[449].stamp_ns)
     else:
