@@ -612,7 +612,8 @@ def scan_mcap(f: Path) -> McapScan:  # noqa: C901
     many messages it held and when) and reading goes on at the next record; a length field
     that cannot be right (past the end of the file, an unknown opcode) is damage in the
     framing itself: the bytes are searched for the next intact chunk. A file cut while
-    recording ends inside its last record.
+    recording ends inside its last record; a complete one has a summary after the data,
+    whose schemas and channels stand in for damaged ones.
     """
     from io import BytesIO
 
@@ -621,7 +622,7 @@ def scan_mcap(f: Path) -> McapScan:  # noqa: C901
 
     scan = McapScan({}, {}, [])
     size = f.stat().st_size
-    last_bad = False
+    last_bad = summary = False
     with f.open("rb") as fh:
         if fh.read(8) != MCAP_MAGIC:
             msg = f"{f} is not an MCAP file (wrong magic bytes)"
@@ -631,8 +632,10 @@ def scan_mcap(f: Path) -> McapScan:  # noqa: C901
             fh.seek(pos)
             head = fh.read(9)
             op, length = head[0], struct.unpack_from("<Q", head, 1)[0]
-            if op in (_FOOTER_OP, _DATA_END_OP):
+            if op == _FOOTER_OP:
                 break
+            if op == _DATA_END_OP:  # the summary follows: its schemas and channels only
+                summary = True
             if op not in _KNOWN_OPS or length > MAX_RECORD_BYTES or pos + 9 + length > size:
                 nxt = _next_chunk(fh, pos + 1, size)
                 if nxt is None:
@@ -658,6 +661,8 @@ def scan_mcap(f: Path) -> McapScan:  # noqa: C901
                             lo, hi = scan.lost_span_ns or (min(times), max(times))
                             scan.lost_span_ns = (min(lo, *times), max(hi, *times))
                     continue
+                elif summary and op not in (0x03, 0x04):
+                    continue
                 elif op in (0x03, 0x04, 0x05):  # schema, channel, message outside chunks
                     st = ReadDataStream(BytesIO(body))
                     recs = [Schema.read(st) if op == 0x03 else Channel.read(st) if op == 0x04
@@ -670,9 +675,9 @@ def scan_mcap(f: Path) -> McapScan:  # noqa: C901
                 continue
             for rec in recs:
                 if isinstance(rec, Schema):
-                    scan.schemas[rec.id] = rec
+                    scan.schemas.setdefault(rec.id, rec)
                 elif isinstance(rec, Channel):
-                    scan.channels[rec.id] = rec
+                    scan.channels.setdefault(rec.id, rec)
                 elif isinstance(rec, Message):
                     scan.messages.append((rec.channel_id, rec.log_time, bytes(rec.data)))
     return scan
