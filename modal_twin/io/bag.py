@@ -3,9 +3,11 @@
 Bags are written with rosbags' MCAP storage. To bound what a crash (SIGKILL, power loss)
 can take, the writer closes the open chunk and flushes the file every ``flush_period_s``
 (0.5 s by default); a bag cut that way has no summary and no ``metadata.yaml``, and
-:func:`salvage` reads its records to the break with the ``mcap`` stream reader and writes
-a complete, indexed bag. Long campaigns rotate into numbered parts (``rotate_s`` /
-``rotate_bytes``); every function here accepts a bag folder or a folder of parts.
+:func:`salvage` reads its records to the break (:func:`scan_mcap`, record by record, over
+a damaged chunk to the next intact one) and writes a complete, indexed bag. Long campaigns
+rotate into numbered parts (``rotate_s`` / ``rotate_bytes``); every function here accepts
+a bag folder or a folder of parts. :func:`read_frames` gives a topic's SignalBlocks as
+contiguous runs, with what it skipped and the gaps in place.
 """
 
 from __future__ import annotations
