@@ -279,7 +279,11 @@ def mat_sizes(path: str | Path, limit: int = FILE_UNPACKED_MAX_BYTES) -> int:
 
 
 def _h5_arrays(p: Path, max_bytes: int) -> dict[str, Any]:
-    import h5py  # type: ignore[import-untyped]
+    try:
+        import h5py  # type: ignore[import-untyped]
+    except ImportError as err:
+        msg = f"{p}: a MATLAB 7.3 (HDF5) file needs h5py (requirements/python.txt)"
+        raise ConfigError(msg) from err
 
     try:
         with h5py.File(p, "r") as f:
