@@ -436,7 +436,8 @@ def read_frames(path: str | Path, topic: str = "/measurement/frames") -> FrameRe
     """Read the SignalBlocks of ``topic`` as contiguous runs, skipping what cannot be used.
 
     A message that does not decode, that has another channel layout or sample rate than
-    most of the topic, or that repeats samples already read is skipped and counted; a
+    most of the topic, that holds NaN / Inf or that repeats samples already read is
+    skipped and counted; a
     missing stretch of samples ends a run and is kept as a gap (never closed up).
 
     Raises
@@ -474,6 +475,8 @@ def read_frames(path: str | Path, topic: str = "/measurement/frames") -> FrameRe
         if _layout(b) != common:
             skipped.append((k, t_ns, f"channels or rate differ from the topic's "
                                      f"({b.n_channels} channels at {b.fs_hz:g} Hz)"))
+        elif bad := b.nonfinite():
+            skipped.append((k, t_ns, f"non-finite sample in {bad[0][0]} at {bad[0][1]}"))
         elif end is not None and b.first_index < end:
             skipped.append((k, t_ns, f"repeats samples {b.first_index}..{end - 1}"))
         else:

@@ -73,6 +73,16 @@ def test_layout_changes_and_repeats_are_skipped_not_joined(tmp_path: Path) -> No
     fr = read_frames(tmp_path / "odd")
     assert "channels or rate differ" in fr.skipped[0][2]
     assert fr.gaps == ((125, 150),)
+    nan = SignalBlock(("a", "b", "c"), 500.0, 75, blocks[3].data.copy(),
+                      stamp_ns=blocks[3].stamp_ns)
+    nan.data[1, 7] = np.nan
+    with BagWriter(tmp_path / "nan", {"/measurement/frames": SB}) as w:
+        for b in [*blocks[:3], nan, *blocks[4:]]:
+            w.write("/measurement/frames", b.stamp_ns,
+                    st.serialize_cdr(block_to_rosbags(b, st), SB))
+    fr = read_frames(tmp_path / "nan")
+    assert fr.skipped[0][0] == 3 and "non-finite sample in b at 82" in fr.skipped[0][2]
+    assert fr.gaps == ((75, 100),)
 
 
 def test_read_imported_gives_the_longest_run_and_says_so(tmp_path: Path,
