@@ -21,6 +21,7 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError, ShapeError, SignalError
 
 __all__ = [
+    "FILE_UNPACKED_MAX_BYTES",
     "LIMITS",
     "MEMORY_BUDGET_BYTES",
     "REQUEST_FILE_MAX_BYTES",
@@ -35,6 +36,10 @@ __all__ = [
 
 MEMORY_BUDGET_BYTES = 1 << 28
 """Largest float64 array a single request may make a node allocate (256 MiB)."""
+
+FILE_UNPACKED_MAX_BYTES = 1 << 29
+"""Most a data file (NPZ, .mat, CSV, UFF, strong-motion zip) may unpack to (512 MiB),
+judged on its declared shapes before anything is allocated (:mod:`modal_twin.array_files`)."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -47,24 +47,27 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _windows(a: argparse.Namespace) -> tuple[list, tuple[str, ...]]:
     from modal_twin.identification.campaign import split_windows
-    from modal_twin.io.bag import read_blocks
-    from modal_twin.signal_block import concatenate_blocks
+    from modal_twin.io.bag import read_frames
 
     windows, outputs = [], None
     inputs = tuple(a.inputs.split(",")) if a.inputs else ()
     for bag in a.bags:
-        blocks = read_blocks(bag, a.topic)
-        if not blocks:
-            msg = f"{bag}: expected blocks on {a.topic}, got none"
-            raise OptionError(msg)
-        rec = concatenate_blocks(blocks)
+        frames = read_frames(bag, a.topic)
+        if frames.skipped or frames.gaps:  # windows within each contiguous run
+            print(f"campaign: {bag}: {frames.note()}; windows taken within each of the "
+                  f"{len(frames.runs)} runs", file=sys.stderr)
+        rec = frames.runs[0]
         names = tuple(a.channels.split(",")) if a.channels else tuple(
             c for c in rec.channel_names if c not in inputs)
         if outputs is not None and names != outputs:
             msg = f"{bag}: expected the channels of {a.bags[0]} {list(outputs)}, got {list(names)}"
             raise OptionError(msg)
         outputs = names
-        windows += split_windows(rec, a.window, outputs=names, inputs=inputs, source=str(bag))
+        runs = [r for r in frames.runs if r.n_samples >= a.window * r.fs_hz] or [
+            frames.longest]  # none long enough: split_windows says so
+        for run in runs:
+            src = str(bag) if len(frames.runs) == 1 else f"{bag}[{run.first_index}:]"
+            windows += split_windows(run, a.window, outputs=names, inputs=inputs, source=src)
     return windows, outputs or ()
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
+from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -20,8 +21,9 @@ from typing import Any
 import numpy as np
 
 from modal_twin.channels import ChannelSpec
-from modal_twin.errors import ConfigError, SignalError
+from modal_twin.errors import ConfigError, OptionError, SignalError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.validation import FILE_UNPACKED_MAX_BYTES, check_array_budget, check_field
 
 __all__ = ["register", "run"]
 
@@ -136,6 +138,26 @@ def _read(path: Path, a: argparse.Namespace, meta: dict[str, Any],
     raise ConfigError(msg)
 
 
+def check_record(n_channels: int, n_samples: int, fs_hz: float, source: str) -> None:
+    """Refuse a record nothing downstream can use, before it is joined or written.
+
+    Raises
+    ------
+    OptionError
+        A sample rate outside ``LIMITS["sample_rate_hz"]``, fewer than 2 samples, more
+        than ``LIMITS["n_channels"]`` channels or more than ``FILE_UNPACKED_MAX_BYTES`` of
+        samples (:mod:`modal_twin.validation`).
+    """
+    check_field(fs_hz, f"{source}: sample rate", "sample_rate_hz")
+    check_field(n_channels, f"{source}: number of channels", "n_channels")
+    if n_channels < 1 or n_samples < 2:
+        msg = (f"{source}: an empty record ({n_channels} channels x {n_samples} samples); "
+               f"expected at least 1 channel and 2 samples")
+        raise OptionError(msg)
+    check_array_budget((n_channels, n_samples), f"{source}: record",
+                       FILE_UNPACKED_MAX_BYTES)
+
+
 def _join(parts: list[tuple[Path, Part]]) -> Part:
     fs = {round(p[1], 9) for _, p in parts}
     ns = {p[2].shape[1] for _, p in parts}
@@ -144,8 +166,12 @@ def _join(parts: list[tuple[Path, Part]]) -> Part:
                f"length {sorted(ns)}; import them into separate bags")
         raise SignalError(msg)
     chans = [c for _, p in parts for c in p[0]]
-    names = [c.name for c in chans]
-    dup = sorted({n for n in names if names.count(n) > 1})
+    check_record(len(chans), ns.pop(), parts[0][1][1], str(parts[0][0]))
+    if any(np.iscomplexobj(p[2]) for _, p in parts):
+        msg = (f"{[str(f) for f, _ in parts]}: complex samples; a record is a real time "
+               "series and no channel role takes complex data")
+        raise SignalError(msg)
+    dup = [n for n, k in Counter(c.name for c in chans).items() if k > 1]
     if dup:
         chans = [replace(c, name=f"{f.stem}.{c.name}") for f, p in parts for c in p[0]]
     return chans, parts[0][1][1], np.concatenate([p[2] for _, p in parts], axis=0)
@@ -173,12 +199,18 @@ def run(a: argparse.Namespace) -> int:
     meta: dict[str, Any] = {"files": [str(f) for f in a.files]}
     extra: dict[str, Any] = {}
     parts = []
+    held = 0
     for k, f in enumerate(a.files):
         size = f.stat().st_size / 1e6 if f.is_file() else 0.0
-        if size >= LARGE_MB:
+        if size >= LARGE_MB and sys.stderr.isatty():  # a refusal stays one line in a log
             _progress(f"[{k + 1}/{len(a.files)}] reading {f} ({size:.1f} MB)")
         part = _read(f, a, meta, extra)
         if part is not None:
+            X = np.asarray(part[2])
+            check_record(X.shape[0], X.shape[-1] if X.ndim == 2 else 0, part[1], str(f))
+            held += X.size
+            check_array_budget((held,), f"{f}: the files' samples together",
+                               FILE_UNPACKED_MAX_BYTES)
             parts.append((f, part))
     if not parts:
         out = write_side_files(a.out, extra)

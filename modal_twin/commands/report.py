@@ -36,18 +36,30 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _metrics(bag: Path) -> tuple[Any, dict[str, tuple[str, str, str]]]:
+    from modal_twin.commands.residual import metrics_consistent
     from modal_twin.io.bag import bag_info, read_messages
     from modal_twin.io.convert import channel_map_from_msg
 
     last, meta = None, {}
     present = {t.name for t in bag_info(bag).topics}
     wanted: list[str] = [t for t in ("/twin/metrics", "/measurement/channels") if t in present]
+    bad = 0
     for topic, _, msg in read_messages(bag, wanted) if wanted else ():
         if topic == "/twin/metrics":
-            last = msg
+            if metrics_consistent(msg):
+                last = msg
+            else:
+                bad += 1
         else:
-            meta = {c.name: (c.location, c.direction, c.quantity)
-                    for c in channel_map_from_msg(msg)}
+            try:
+                meta = {c.name: (c.location, c.direction, c.quantity)
+                        for c in channel_map_from_msg(msg)}
+            except (ModalTwinError, ValueError, TypeError, AttributeError) as err:
+                print(f"report: {bag}, /measurement/channels: skipped a channel map that "
+                      f"does not convert ({type(err).__name__}: {err})"[:300], file=sys.stderr)
+    if bad:
+        print(f"report: {bag}, /twin/metrics: skipped {bad} message(s) with arrays of "
+              "unequal length", file=sys.stderr)
     return last, meta
 
 
@@ -136,11 +148,13 @@ def _identification(bag: Path, structure: Path) -> dict[str, Any]:
 
     from modal_twin.identification.metrics import mac
     from modal_twin.identification.node import IdentificationConfig, identify_window
-    from modal_twin.io.bag import read_blocks
+    from modal_twin.io.bag import read_frames
     from modal_twin.models.building import build_building, modal_reduction
-    from modal_twin.signal_block import concatenate_blocks
 
-    blk = concatenate_blocks(read_blocks(bag, "/measurement/frames"))
+    frames = read_frames(bag, "/measurement/frames")
+    blk = frames.longest  # a damaged record: its longest contiguous run
+    if frames.skipped or frames.gaps:
+        print(f"report: {bag}: {frames.note(blk)}", file=sys.stderr)
     cfg = IdentificationConfig(method="n4sid", fs_target_hz=100.0, max_order=40,
                                outputs="[FR]*_[xyz]")
     modes, diagram, outs = identify_window(blk, cfg)

@@ -16,14 +16,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from modal_twin.errors import SignalError
 from modal_twin.exit_codes import ExitCode
 
-__all__ = ["register", "run"]
+__all__ = ["last_metrics", "metrics_consistent", "register", "run"]
+
+log = logging.getLogger(__name__)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,13 +46,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def metrics_consistent(msg: Any) -> bool:
+    """Whether a ComparisonMetrics message has one value per channel in every array."""
+    try:
+        n = len(msg.channel_names)
+        return all(len(getattr(msg, f)) == n for f in (
+            "rms_error", "residual_rms", "rms_measured", "rms_predicted"))
+    except (AttributeError, TypeError):
+        return False
+
+
 def last_metrics(bag: Path) -> Any:
-    """Return the last /twin/metrics message of a bag (None if there is none)."""
+    """Return the last usable /twin/metrics message of a bag (None if there is none).
+
+    Messages that do not decode or whose arrays disagree in length are skipped, and the
+    count is logged.
+    """
     from modal_twin.io.bag import read_messages
 
-    last = None
+    last, bad = None, 0
     for _, _, msg in read_messages(bag, ["/twin/metrics"]):
-        last = msg
+        if metrics_consistent(msg):
+            last = msg
+        else:
+            bad += 1
+    if bad:
+        log.warning("bag %s, /twin/metrics: skipped %d message(s) with arrays of unequal "
+                    "length", bag, bad)
     return last
 
 
@@ -69,8 +94,6 @@ def error_report(bag: Path, top: int = 12) -> str:
 
 def live(a: argparse.Namespace) -> int:
     """Replay the bag into a twin node running the model; print its per-channel error."""
-    import sys
-
     from modal_twin.io.bag import bag_info, read_messages
     from modal_twin.launch import Launcher
     from modal_twin.scenario import NodeSpec, Scenario
@@ -111,19 +134,33 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.diagnosis.fitting import simulate_record
     from modal_twin.diagnosis.judge import record_noise_floor
     from modal_twin.diagnosis.noise import error_figures
-    from modal_twin.io.records import record_from_bag
+    from modal_twin.io.records import records_from_bag, settling_samples
     from modal_twin.models.loading import load_model
 
     plant = load_model(a.model).plant()
-    rec = record_from_bag(a.bag, plant=plant)
+    recs, frames = records_from_bag(a.bag, plant=plant)
+    if not recs:  # a run after a gap is scored after the model's settling time
+        msg = (f"{a.bag}: no run of frames long enough to score (every run after a gap "
+               f"shorter than the model's settling time; {frames.note()})")
+        raise SignalError(msg)
+    rec = recs[0]
     have = [c for c in rec.channel_names if c in set(plant.channel_names)]
     left = [c for c in rec.channel_names if c not in set(plant.channel_names)]
-    rec = rec.with_channels(have)
-    noise = record_noise_floor(plant, rec)
-    fig = error_figures(simulate_record(plant, rec)[:, rec.skip:], rec.scored, rec.channel_names,
+    recs = [r.with_channels(have) for r in recs]
+    noise = record_noise_floor(plant, max(recs, key=lambda r: r.n_samples))
+    fig = error_figures(np.concatenate([simulate_record(plant, r)[:, r.skip:] for r in recs],
+                                       axis=1),
+                        np.concatenate([r.scored for r in recs], axis=1), recs[0].channel_names,
                         noise, str(a.bag))
     order = np.argsort(-fig.nrmse)
     rows = order[: a.top] if a.top > 0 else order
+    note = frames.note()
+    if note:
+        scored = sum(r.n_samples - r.skip for r in recs)
+        warm = settling_samples(plant, rec.fs_hz) / rec.fs_hz
+        print(f"modal-twin residual: {a.bag}: {note}; scored {scored} samples in "
+              f"{len(recs)} of {len(frames.runs)} runs (a run after a gap from the model's "
+              f"settling time, {warm:.1f} s, on)", file=sys.stderr)
     print(f"{plant.name} on {a.bag}: inputs {', '.join(rec.input_names)}; "
           f"{len(have)} channels compared" + (f", {len(left)} not in the model" if left else ""))
     print(f"{'channel':<18} {'NRMSE %':>9} {'noise %':>9} {'x noise':>8} {'Eq. (8) %':>10}")

@@ -12,7 +12,9 @@ import numpy as np
 from scipy import signal
 
 from modal_twin._types import FloatArray
+from modal_twin.array_files import npz_arrays, read_csv_numbers
 from modal_twin.errors import ConfigError, OptionError, SignalError
+from modal_twin.validation import check_array_budget, check_field
 
 __all__ = [
     "band_limited_random",
@@ -128,32 +130,34 @@ def load_record(path: str | Path) -> tuple[FloatArray, float, list[str]]:
         msg = f"record {p}: no such file"
         raise ConfigError(msg)
     if p.suffix == ".npz":
-        with np.load(p) as z:
-            if "data" not in z or "fs_hz" not in z:
-                msg = f"record {p}: expected keys 'data' and 'fs_hz', found {list(z.keys())}"
-                raise ConfigError(msg)
-            data = np.atleast_2d(np.asarray(z["data"], dtype=float))
-            fs = float(z["fs_hz"])
-            names = [str(c) for c in z["channels"]] if "channels" in z else [
-                f"ch{i}" for i in range(data.shape[0])]
+        z = npz_arrays(p, keys=("data", "fs_hz", "channels"))
+        if "data" not in z or "fs_hz" not in z:
+            msg = f"record {p}: expected keys 'data' and 'fs_hz', found {sorted(z)}"
+            raise ConfigError(msg)
+        if z["data"].dtype.kind not in "iuf" or z["fs_hz"].size != 1:
+            msg = (f"record {p}: expected real 'data' and one 'fs_hz', got "
+                   f"{z['data'].dtype} data and {z['fs_hz'].size} rates")
+            raise ConfigError(msg)
+        data = np.atleast_2d(np.asarray(z["data"], dtype=float))
+        fs = float(z["fs_hz"].ravel()[0])
+        names = [str(c) for c in np.atleast_1d(z["channels"])] if "channels" in z else [
+            f"ch{i}" for i in range(data.shape[0])]
     elif p.suffix == ".csv":
-        with p.open() as fh:
-            header = fh.readline().strip().split(",")
-        try:
-            table = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
-        except ValueError as err:
-            msg = f"record {p}: not a numeric CSV after the header row ({err})"
-            raise ConfigError(msg) from err
+        head, table = read_csv_numbers(p, lambda rows: 1)
+        if table.shape[0] < 2 or table.shape[1] < 2:
+            msg = f"record {p}: expected a time column and a channel, at least 2 rows"
+            raise ConfigError(msg)
         t, data = table[:, 0], table[:, 1:].T
         dt = np.diff(t)
         if dt.size == 0 or np.any(dt <= 0) or np.ptp(dt) > 1e-6 * dt.mean():
             msg = f"record {p}: the time column must increase with a constant step"
             raise ConfigError(msg)
         fs = 1.0 / float(dt.mean())
-        names = header[1:]
+        names = [c.strip() for c in head[0][1:]]
     else:
         msg = f"record {p}: unknown format {p.suffix!r}; expected .npz or .csv"
         raise ConfigError(msg)
+    fs = check_field(fs, f"record {p}: sample rate", "sample_rate_hz")
     if not np.all(np.isfinite(data)):
         bad = np.argwhere(~np.isfinite(data))[0]
         msg = f"record {p}: non-finite sample in channel {names[bad[0]]} at index {bad[1]}"
@@ -166,6 +170,8 @@ def resample_record(data: FloatArray, fs_in_hz: float, fs_out_hz: float) -> Floa
     from fractions import Fraction
 
     r = Fraction(fs_out_hz / fs_in_hz).limit_denominator(1000)
+    check_array_budget((data.shape[0], data.shape[-1] * r.numerator // r.denominator + 1),
+                       "resampled record")
     return signal.resample_poly(data, r.numerator, r.denominator, axis=-1)
 
 

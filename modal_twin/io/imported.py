@@ -11,6 +11,7 @@ interrupted or failed import leaves nothing half-written.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import shutil
 import tempfile
@@ -36,6 +37,8 @@ __all__ = [
     "write_imported",
     "write_side_files",
 ]
+
+log = logging.getLogger(__name__)
 
 FRAMES = "/measurement/frames"
 CHANNELS = "/measurement/channels"
@@ -148,18 +151,18 @@ def read_imported(bag: str | Path) -> tuple[SignalBlock, list[ChannelSpec]]:
     """Return the record of a bag as one block and its channel map.
 
     The map comes from ``channel_map.json`` when the bag has one, else from the
-    channel names (:func:`modal_twin.channels.default_role`).
+    channel names (:func:`modal_twin.channels.default_role`). A damaged bag gives its
+    longest contiguous run; what was skipped and where is logged as one warning
+    (:func:`~modal_twin.io.bag.read_frames`).
 
     """
-    from modal_twin.io.bag import read_blocks
+    from modal_twin.io.bag import read_frames
     from modal_twin.io.channel_map import read_channel_map
-    from modal_twin.signal_block import concatenate_blocks
 
-    blocks = read_blocks(bag, FRAMES)
-    if not blocks:
-        msg = f"{bag}: no SignalBlock on {FRAMES}"
-        raise BagError(msg)
-    block = concatenate_blocks(blocks)
+    frames = read_frames(bag, FRAMES)
+    block = frames.longest
+    if frames.skipped or frames.gaps:
+        log.warning("bag %s, %s: %s", bag, FRAMES, frames.note(block))
     p = Path(bag) / MAP_FILE
     if p.is_file():
         chans = {c.name: c for c in read_channel_map(p)}

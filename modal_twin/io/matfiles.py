@@ -16,10 +16,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.io as sio
 import scipy.sparse as sp
 
 from modal_twin._types import FloatArray, IntArray
+from modal_twin.array_files import mat_arrays
 from modal_twin.errors import ConfigError
 from modal_twin.models.matrix_model import (
     MatrixModel,
@@ -133,8 +133,8 @@ def load_bridge(folder: str | Path | None = None) -> BridgeData:
         A file is missing or lacks a variable.
     """
     d = Path(folder) if folder is not None else BRIDGE_DIR
-    mod = sio.loadmat(_file(d, _MODEL))
-    exp = sio.loadmat(_file(d, _MODES))
+    mod = mat_arrays(_file(d, _MODEL))
+    exp = mat_arrays(_file(d, _MODES))
     try:
         K_j = tuple(sp.csr_array(np.asarray(mod[k], dtype=float)) for k in SUBSTRUCTURES)
         M = sp.csr_array(np.asarray(mod["M0"], dtype=float))
@@ -167,7 +167,7 @@ def load_bridge_published(folder: str | Path | None = None, formulation: int = 1
         msg = f"formulation: expected 1 or 2, got {formulation!r}"
         raise ConfigError(msg)
     d = Path(folder) if folder is not None else BRIDGE_DIR
-    r = sio.loadmat(_file(d, f"{_PREFIX}Results__form{formulation}_interior-point_100runs.mat"))
+    r = mat_arrays(_file(d, f"{_PREFIX}Results__form{formulation}_interior-point_100runs.mat"))
     fval = np.asarray(r["fval"], dtype=float).ravel()
     k = int(np.argmin(fval))
     return BridgePublished(alpha=np.asarray(r["x"], dtype=float)[:, k]

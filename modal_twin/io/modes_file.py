@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.io as sio
 
 from modal_twin._types import ComplexArray, FloatArray, IntArray
+from modal_twin.array_files import mat_arrays
 from modal_twin.errors import ConfigError
 
 __all__ = ["ModesFile", "read_modes"]
@@ -67,11 +67,7 @@ def _json(p: Path) -> ModesFile:
 
 
 def _mat(p: Path) -> ModesFile:
-    try:
-        d = sio.loadmat(p)
-    except (OSError, ValueError, NotImplementedError) as err:
-        msg = f"{p}: not a readable .mat file ({err})"
-        raise ConfigError(msg) from err
+    d = mat_arrays(p)
 
     def get(*keys: str) -> np.ndarray | None:
         for k in keys:

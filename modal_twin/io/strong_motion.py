@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from modal_twin._types import FloatArray
+from modal_twin.array_files import read_text_bounded, regular_file, zip_texts
 from modal_twin.errors import SignalError
 
 __all__ = [
@@ -250,14 +251,12 @@ def read_record(path: str | Path) -> tuple[tuple[StrongMotionChannel, ...],
     SignalError
         No V1, V2 or SMC acceleration data found.
     """
-    p = Path(path)
+    p = regular_file(path)
     texts: list[tuple[str, str]] = []
     if zipfile.is_zipfile(p):
-        with zipfile.ZipFile(p) as z:
-            texts = [(i.filename, z.read(i.filename).decode("latin-1"))
-                     for i in sorted(z.infolist(), key=lambda i: i.filename)]
+        texts = zip_texts(p, lambda fn: fn.lower().endswith((".v1", ".v2", ".v3", ".smc")))
     else:
-        texts = [(p.name, p.read_bytes().decode("latin-1"))]
+        texts = [(p.name, read_text_bounded(p).decode("latin-1"))]
     by_name: dict[str, StrongMotionChannel] = {}
     spectra: dict[str, dict[str, object]] = {}
     for fn, text in texts:
@@ -372,14 +371,11 @@ def read_zip(path: str | Path) -> tuple[StrongMotionChannel, ...]:
         The zip holds no V2 or SMC acceleration file.
     """
     out = []
-    with zipfile.ZipFile(path) as z:
-        for info in sorted(z.infolist(), key=lambda i: i.filename):
-            fn = info.filename
-            low = fn.lower()
-            if low.endswith(".v2"):
-                out.append(read_v2(z.read(fn).decode("latin-1"), fn))
-            elif low.endswith("_a.smc"):
-                out.append(read_smc(z.read(fn).decode("latin-1"), fn))
+    for fn, text in zip_texts(path, lambda fn: fn.lower().endswith((".v2", "_a.smc"))):
+        if fn.lower().endswith(".v2"):
+            out.append(read_v2(text, fn))
+        else:
+            out.append(read_smc(text, fn))
     if not out:
         msg = f"{path}: expected .v2 or _a.smc files in the zip, found none"
         raise SignalError(msg)

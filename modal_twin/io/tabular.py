@@ -13,13 +13,13 @@ Units are converted to SI with :data:`UNITS`.
 
 from __future__ import annotations
 
-import csv
 import re
 from pathlib import Path
 
 import numpy as np
 
 from modal_twin._types import FloatArray
+from modal_twin.array_files import MAX_CHANNELS, npz_arrays, npz_members, read_csv_numbers
 from modal_twin.channels import ROLES, ChannelSpec
 from modal_twin.errors import ConfigError
 
@@ -48,20 +48,27 @@ def _unit(path: Path, name: str, unit: str) -> tuple[str, float]:
     return UNITS[u]
 
 
-def _header(path: Path, rows: list[list[str]]) -> tuple[list[str], list[str], int]:
-    first = [c.strip() for c in rows[0]]
-    cells = [_CELL.match(c) for c in first]
+def _header(path: Path, rows: list[list[str]]) -> int:
+    """Return the number of header rows (1: ``name [unit]`` cells, 2: names, units)."""
+    cells = [_CELL.match(c.strip()) for c in rows[0]]
     if all(cells):
-        return [m.group(1) for m in cells if m], [m.group(2) for m in cells if m], 1
+        return 1
     if len(rows) > 1:
-        second = [c.strip() for c in rows[1]]
         try:
-            [float(c) for c in second]
+            [float(c) for c in rows[1]]
         except ValueError:
-            return first, second, 2
+            return 2
     msg = (f"{path}: CSV without units: write the header as 'name [unit]' "
            f"(e.g. 't [s], a1 [m/s^2]') or add a second header row of units")
     raise ConfigError(msg)
+
+
+def _names_units(rows: list[list[str]]) -> tuple[list[str], list[str]]:
+    first = [c.strip() for c in rows[0]]
+    if len(rows) == 1:
+        cells = [_CELL.match(c) for c in first]
+        return [m.group(1) for m in cells if m], [m.group(2) for m in cells if m]
+    return first, [c.strip() for c in rows[1]]
 
 
 def read_csv(path: str | Path, fs_hz: float | None = None
@@ -75,30 +82,12 @@ def read_csv(path: str | Path, fs_hz: float | None = None
         column and no ``fs_hz``, non-uniform time.
     """
     p = Path(path)
-    try:
-        with p.open(newline="") as fh:
-            rows = [r for r in csv.reader(fh) if r and not r[0].startswith("#")]
-    except (OSError, UnicodeDecodeError) as err:
-        msg = f"{p}: cannot read as CSV text ({err})"
-        raise ConfigError(msg) from err
-    if not rows:
-        msg = f"{p}: empty CSV"
-        raise ConfigError(msg)
-    names, units, skip = _header(p, rows)
+    head, values = read_csv_numbers(p, lambda rows: _header(p, rows))
+    names, units = _names_units(head)
     if len(names) != len(units):
         msg = f"{p}: {len(names)} column names but {len(units)} units"
         raise ConfigError(msg)
-    body = rows[skip:]
-    bad = [skip + k + 1 for k, r in enumerate(body) if len(r) != len(names)]
-    if bad:
-        msg = (f"{p}: expected {len(names)} columns on every row, rows {bad[:5]} differ "
-               f"(missing columns)")
-        raise ConfigError(msg)
-    try:
-        X = np.array([[float(c) for c in r] for r in body], dtype=np.float64).T
-    except ValueError as err:
-        msg = f"{p}: non-numeric cell ({err})"
-        raise ConfigError(msg) from err
+    X = values.T
     if X.shape[1] < 2:
         msg = f"{p}: expected at least 2 samples, got {X.shape[1]}"
         raise ConfigError(msg)
@@ -131,23 +120,32 @@ def read_npz(path: str | Path) -> tuple[list[ChannelSpec], float, FloatArray]:
         A missing array, shapes that disagree, an unknown unit or role.
     """
     p = Path(path)
-    try:
-        z = np.load(p, allow_pickle=False)
-    except (OSError, ValueError) as err:
-        msg = f"{p}: not a readable NPZ file ({err})"
-        raise ConfigError(msg) from err
-    missing = [k for k in ("data", "fs_hz", "names", "units") if k not in z.files]
+    members = npz_members(p)
+    missing = [k for k in ("data", "fs_hz", "names", "units") if k not in members]
     if missing:
-        msg = f"{p}: NPZ record lacks arrays {missing} (has {z.files})"
+        msg = f"{p}: NPZ record lacks arrays {missing} (has {sorted(members)})"
         raise ConfigError(msg)
+    shape, dtype = members["data"]
+    if dtype.kind == "c":
+        msg = (f"{p}: data holds complex samples; a record is real time series (give the "
+               f"real and imaginary parts as separate channels)")
+        raise ConfigError(msg)
+    if len(shape) != 2 or not 1 <= shape[0] <= MAX_CHANNELS:
+        msg = (f"{p}: expected data (n_channels, n_samples) with 1 to {MAX_CHANNELS} "
+               f"channels, got shape {shape}")
+        raise ConfigError(msg)
+    z = npz_arrays(p, keys=("data", "fs_hz", "names", "units", "roles"))
     X = np.array(z["data"], dtype=np.float64)
-    names = [str(v) for v in z["names"]]
-    units = [str(v) for v in z["units"]]
-    if X.ndim != 2 or X.shape[0] != len(names) or len(units) != len(names):
+    names = [str(v) for v in np.atleast_1d(z["names"])]
+    units = [str(v) for v in np.atleast_1d(z["units"])]
+    if X.shape[0] != len(names) or len(units) != len(names):
         msg = (f"{p}: expected data (n_ch, n_s) with n_ch = len(names) = len(units) = "
                f"{len(names)}, got data {X.shape} and {len(units)} units")
         raise ConfigError(msg)
-    roles = [str(v) for v in z["roles"]] if "roles" in z.files else [""] * len(names)
+    if z["fs_hz"].size != 1 or z["fs_hz"].dtype.kind not in "iuf":
+        msg = f"{p}: fs_hz: expected one number, got {z['fs_hz']!r}"[:300]
+        raise ConfigError(msg)
+    roles = [str(v) for v in np.atleast_1d(z["roles"])] if "roles" in z else [""] * len(names)
     bad = sorted({r for r in roles if r and r not in ROLES})
     if bad:
         msg = f"{p}: roles {bad} unknown; expected {ROLES}"
@@ -158,4 +156,4 @@ def read_npz(path: str | Path) -> tuple[list[ChannelSpec], float, FloatArray]:
         X[k] *= f
         chans.append(ChannelSpec(n, q, role=roles[k], meta=(("file", p.name),
                                                             ("unit_in_file", u))))
-    return chans, float(z["fs_hz"]), X
+    return chans, float(z["fs_hz"].ravel()[0]), X

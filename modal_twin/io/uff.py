@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from modal_twin._types import ComplexArray, FloatArray
+from modal_twin.array_files import check_text_file
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
 
@@ -67,6 +68,7 @@ class UffContents:
 def _sets(path: Path) -> list[dict[str, Any]]:
     import pyuff
 
+    check_text_file(path)  # pyuff reads the whole file and parses it into lists
     try:
         u = pyuff.UFF(str(path))
         types = [int(t) for t in u.get_set_types()]
@@ -110,7 +112,12 @@ def _time_channel(s: dict[str, Any], path: Path, k: int) -> tuple[ChannelSpec, f
             ("id1", str(s.get("id1", ""))), ("id3", str(s.get("id3", ""))))
     spec = ChannelSpec(name, quantity, "", direction, node=str(node) if node else "",
                        meta=meta)
-    data = np.real(np.asarray(s["data"])).astype(np.float64) * scale
+    raw = np.asarray(s["data"])
+    if np.iscomplexobj(raw) and np.any(raw.imag != 0):
+        msg = (f"{path}: dataset {k} ({name}) holds complex time samples; a record is a real "
+               f"time series and no channel role takes complex data")
+        raise SignalError(msg)
+    data = np.real(raw).astype(np.float64) * scale
     return spec, 1.0 / dt, float(s.get("abscissa_min", 0.0)), data
 
 
@@ -219,6 +226,7 @@ def read_uff55(path: str | Path) -> dict[str, Any]:
     import pyuff
 
     p = Path(path)
+    check_text_file(p)
     try:
         u = pyuff.UFF(str(p))
         idx = [k for k, t in enumerate(u.get_set_types()) if int(t) == 55]

@@ -174,24 +174,22 @@ def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
 
 
 def read_matrix_arrays(path: str | Path) -> dict[str, Any]:
-    """Named arrays of a ``.mat`` (MATLAB 5 to 7.2) or ``.npz`` file.
+    """Return the named arrays of a ``.mat`` (MATLAB 4 to 7.3) or ``.npz`` file.
+
+    Refused before loading when they would unpack to more than
+    :data:`~modal_twin.validation.FILE_UNPACKED_MAX_BYTES` (:mod:`modal_twin.array_files`).
 
     Raises
     ------
     ConfigError
-        Another kind of file, or one that does not read.
+        Another kind of file, one that does not read, or one too large unpacked.
     """
-    import scipy.io as sio
+    from modal_twin.array_files import mat_arrays, npz_arrays
 
     p = Path(path)
-    try:
-        if p.suffix.lower() == ".npz":
-            with np.load(p, allow_pickle=False) as z:
-                return {k: z[k] for k in z.files}
-        if p.suffix.lower() == ".mat":
-            return {k: v for k, v in sio.loadmat(p).items() if not k.startswith("__")}
-    except (OSError, ValueError, NotImplementedError) as err:
-        msg = f"{p}: not a readable {p.suffix} file ({type(err).__name__}: {err})"
-        raise ConfigError(msg) from err
+    if p.suffix.lower() == ".npz":
+        return npz_arrays(p)
+    if p.suffix.lower() == ".mat":
+        return mat_arrays(p)
     msg = f"{p}: expected a .mat or .npz matrix file, got {p.suffix!r}"
     raise ConfigError(msg)

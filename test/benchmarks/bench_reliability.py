@@ -11,7 +11,12 @@ Figures:
 - SIGKILL loss: a recorder at 100 blocks/s killed after 5 s; seconds between the last
   block published before the kill and the last one salvaged;
 - orphans: processes left 60 s after the launcher is SIGKILLed;
-- 64 ch at 2 kHz for ``--minutes`` with the recorder (bench_transport.py): blocks lost.
+- 64 ch at 2 kHz for ``--minutes`` with the recorder (bench_transport.py): blocks lost;
+- bombs (issue 21): a compressed bomb per reader (NPZ record / matrix model / excitation
+  record, .mat cell and dense, strong-motion zip, CSV, UFF): refused, peak RSS (MB);
+- damaged records (issue 21): a 64-byte flip in the middle chunk salvaged (kept, reported
+  lost, silent loss), residual on a record with one malformed frame, report's metrics
+  with one malformed message.
 
 usage: python test/benchmarks/bench_reliability.py [--minutes 10] [--launches 10]
 Last line: one JSON object.
@@ -171,6 +176,141 @@ def long_run_figures(minutes: float) -> dict[str, object]:
             "long_blocks_lost_recorder": fig.get("blocks_lost_recorder")}
 
 
+_PROBE = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:], "
+          "capture_output=True, text=True); sys.stderr.write(r.stderr[-400:]); "
+          "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+
+
+def _peak(args: list[str], cwd: Path) -> tuple[int, float, str]:
+    """Exit code, peak RSS (MB, the child's own ``ru_maxrss``) and stderr of a command."""
+    r = subprocess.run([PY, "-c", _PROBE, *args], cwd=cwd, capture_output=True, text=True,
+                       check=False)
+    code, kb = (int(v) for v in r.stdout.split()[-2:])
+    return code, kb / 1e3, r.stderr.strip()
+
+
+def bomb_figures(tmp: Path) -> dict[str, object]:
+    """Issue 21, item 3: a compressed bomb per reader -> refused?, peak RSS (MB).
+
+    Real bombs (the data is there, compressed), except the UFF (a sparse file: text is
+    not compressed, its size is the bound) and the dense .mat (a declared shape).
+    """
+    from bombs import (
+        csv_of_zeros,
+        mat_cell_zeros,
+        mat_declaring,
+        npz_zeros,
+        zip_of_zeros,
+    )
+
+    d = tmp / "bombs"
+    d.mkdir()
+    names = np.array([f"a{i}" for i in range(128)])
+    npz = npz_zeros(d / "record.npz", 128, 1 << 20, fs_hz=np.array(100.0), names=names,
+                    units=np.array(["g"] * 128), channels=names)  # 1 GiB of zeros
+    mat_cell = mat_cell_zeros(d / "cell.mat", 1 << 30)  # 1 GiB of zeros in a cell
+    mat_dense = mat_declaring(d / "dense.mat", 20_000, 20_000)
+    zipf = zip_of_zeros(d / "record.zip", "CHAN001.V2", 600 << 20)
+    csvf = csv_of_zeros(d / "record.csv", 1_100_000, 64)  # 70 M cells, 563 MB as float64
+    uff = d / "record.uff"
+    with uff.open("wb") as fh:
+        fh.truncate((512 << 20) // 4 + 1)
+    cli = [PY, "-m", "modal_twin.cli"]
+    load = [PY, "-c", "import sys; from modal_twin.excitation.signals import load_record; "
+            "load_record(sys.argv[1])"]
+    cases = {
+        "npz_import": [*cli, "import", str(npz), "--out", str(d / "o1")],
+        "npz_matrix_model": [*cli, "model", "info", str(npz)],
+        "npz_excitation_record": [*load, str(npz)],
+        "mat_cell_matrix_model": [*cli, "model", "info", str(mat_cell)],
+        "mat_dense_matrix_model": [*cli, "model", "info", str(mat_dense)],
+        "zip_strong_motion_import": [*cli, "import", str(zipf), "--out", str(d / "o2")],
+        "csv_import": [*cli, "import", str(csvf), "--fs", "100", "--out", str(d / "o3")],
+        "csv_excitation_record": [*load, str(csvf)],
+        "uff_import": [*cli, "import", str(uff), "--out", str(d / "o4")],
+    }
+    fig: dict[str, object] = {"files_bomb_on_disk_mb": {
+        k: round(p.stat().st_size / 1e6, 2) for k, p in (
+            ("npz", npz), ("mat_cell", mat_cell), ("mat_dense", mat_dense), ("zip", zipf),
+            ("csv", csvf))}}
+    refused, peaks = {}, {}
+    for name, args in cases.items():
+        code, mb, err = _peak(args, d)
+        refused[name] = code != 0 and "unpack to" in err and "Traceback" not in err
+        peaks[name] = round(mb, 1)
+    fig["files_bombs_tried"] = len(cases)
+    fig["files_bombs_refused"] = sum(refused.values())
+    fig["files_bomb_peak_rss_mb"] = peaks
+    fig["files_bomb_peak_rss_max_mb"] = max(peaks.values())
+    return fig
+
+
+def damaged_figures(tmp: Path) -> dict[str, object]:
+    """Issue 21, item 5: a flipped chunk salvaged, a malformed frame and metrics message.
+
+    - salvage: 825 messages in 17 chunks, 64 bytes flipped in the middle chunk: messages
+      kept, messages reported lost, and the silent loss (neither kept nor reported);
+    - residual on a 27 s record (403 frames) with one malformed frame in the middle,
+      against the truth model of the record: exit code, seconds scored, worst NRMSE;
+    - report's metrics with one malformed message among three: the last good one read.
+    """
+    import struct
+
+    sys.path.insert(0, str(TEST))
+    from conftest import write_frames_bag
+    from test_damaged_records import _blocks, _chunks, _metrics, _write
+
+    from modal_twin.commands.report import _metrics as report_metrics
+    from modal_twin.io.bag import BagWriter, read_raw, salvage, scan_mcap
+    from modal_twin.io.typestore import typestore
+    from modal_twin.models.loading import load_model
+
+    d = tmp / "damaged"
+    d.mkdir()
+    _write(d / "bag", _blocks(825), flush_every=50, topic="/rig/raw")
+    f = next((d / "bag").glob("*.mcap"))
+    data = bytearray(f.read_bytes())
+    c = _chunks(f)[8]
+    for i in range(64):
+        data[c + 9 + 300 + i] ^= 0xA5
+    f.write_bytes(bytes(data))
+    scan = scan_mcap(f)
+    kept = salvage(d / "bag").message_count
+    fig: dict[str, object] = {"files_salvage_messages": 825, "files_salvage_kept": kept,
+                              "files_salvage_reported_lost": scan.lost_messages,
+                              "files_salvage_silent_loss": 825 - kept - scan.lost_messages}
+    model = TEST.parent / "config" / "structures" / "building.yaml"
+    write_frames_bag(d / "good", load_model(model).plant(), seconds=27.0, scale=(0.5,) * 6,
+                     seed=3, block=67)
+    msgs = list(read_raw(d / "good"))
+    sb = "modal_twin_msgs/msg/SignalBlock"
+    with BagWriter(d / "bad", {"/measurement/frames": sb}) as w:
+        for k, (t, _, ts, raw) in enumerate(msgs):
+            w.write(t, ts, raw[:60] if k == len(msgs) // 2 else raw)
+    r = subprocess.run([PY, "-m", "modal_twin.cli", "residual", str(model), str(d / "bad"),
+                        "--json", str(d / "r.json")], capture_output=True, text=True,
+                       check=False)
+    table = json.loads((d / "r.json").read_text()) if r.returncode == 0 else {}
+    scored = [ln for ln in r.stderr.splitlines() if "scored" in ln]
+    fig.update({"files_malformed_frame_frames": len(msgs),
+                "files_malformed_frame_residual_exit": r.returncode,
+                "files_malformed_frame_scored_s": (
+                    float(scored[0].split("scored ")[1].split()[0]) / 1000.0
+                    if scored else 0.0),
+                "files_malformed_frame_worst_nrmse_pct": round(100 * max(
+                    (v["nrmse"] for v in table.values()), default=float("nan")), 6)})
+    st = typestore()
+    cm = "modal_twin_msgs/msg/ComparisonMetrics"
+    with BagWriter(d / "metrics", {"/twin/metrics": cm}) as w:
+        w.write("/twin/metrics", 1, st.serialize_cdr(_metrics(st, ["x"], [1.0]), cm))
+        w.write("/twin/metrics", 2, struct.pack("<I", 256) + b"garbage")
+        w.write("/twin/metrics", 3, st.serialize_cdr(_metrics(st, ["x"], [3.0]), cm))
+    m, _ = report_metrics(d / "metrics")
+    fig["files_malformed_metrics_report_reads_last_good"] = int(
+        m is not None and list(m.rms_error) == [3.0])
+    return fig
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--minutes", type=float, default=10.0, help="64 ch at 2 kHz run length")
@@ -184,7 +324,9 @@ def main() -> int:
                        ("start", lambda: start_loss_figures(tmp, a.launches)),
                        ("sigkill", lambda: sigkill_figures(tmp)),
                        ("orphans", lambda: orphan_figures(tmp)),
-                       ("long", lambda: long_run_figures(a.minutes))):
+                       ("long", lambda: long_run_figures(a.minutes)),
+                       ("bombs", lambda: bomb_figures(tmp)),
+                       ("damaged", lambda: damaged_figures(tmp))):
         t0 = time.monotonic()
         part = step()
         fig.update(part)

@@ -74,3 +74,25 @@ def test_campaign_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
     out = _cli(str(tmp_path / "short"), "--jobs", "0")
     assert out.returncode == 2
     assert "executor: expected None, 'auto', 'serial', N >= 1" in out.stderr
+
+
+def test_campaign_windows_stay_within_the_runs_of_a_damaged_bag(tmp_path: Path) -> None:
+    """One malformed 10 s frame (200-210 s) of 40: windows of 90 s in each run, at their
+    true times (1000 + 0, 90 and 1000 + 210, 300 s), none across the gap."""
+    rng = np.random.default_rng(4)
+    n = int(400 * FS)
+    write_bag(tmp_path / "good", modal_response((1.5, 4.0), n, rng), 1000.0)
+    from modal_twin.io.bag import read_raw
+
+    with BagWriter(tmp_path / "bad", {TOPIC: SB}) as w:
+        for k, (t, _, ts, raw) in enumerate(read_raw(tmp_path / "good")):
+            w.write(t, ts, raw[:50] if k == 20 else raw)
+    out = _cli(str(tmp_path / "bad"), "--window", "90", "--f-range", "0.5,10", "--jobs", "1",
+               "--out", str(tmp_path / "out"))
+    assert out.returncode == 0, out.stderr
+    assert "skipped 1 of 40 messages" in out.stderr and "windows taken within each" in out.stderr
+    doc = json.loads((tmp_path / "out" / "campaign.json").read_text())
+    assert doc["n_windows"] == 4
+    with (tmp_path / "out" / "campaign.csv").open() as fh:
+        starts = sorted({float(r["t_start_s"]) for r in csv.DictReader(fh)})
+    assert starts == [1000.0, 1090.0, 1210.0, 1300.0]
