@@ -27,6 +27,7 @@ import yaml
 
 from modal_twin.errors import ConfigError
 from modal_twin.models.effects import EffectSpec
+from modal_twin.paths import check_regular
 from modal_twin.yaml_files import read_yaml
 
 __all__ = ["ModelVersion", "history", "latest_version", "read_version", "write_version"]
@@ -99,12 +100,14 @@ def read_version(path: str | Path) -> ModelVersion:
     doc = read_yaml(p, "model file")
     if "structure" not in doc:  # a structure file itself
         return ModelVersion(structure=p.resolve(), path=p)
+    structure = check_regular((p.parent / str(doc["structure"])).resolve(),
+                              f"structure named by {p}", missing_ok=True)
     try:
         effects = tuple(EffectSpec(str(e["component"]), str(e["law"]),
                                    {str(k): float(v) for k, v in (e.get("params") or {}).items()})
                         for e in doc.get("effects") or [])
         return ModelVersion(
-            structure=(p.parent / str(doc["structure"])).resolve(),
+            structure=structure,
             version=int(doc.get("version", 0)),
             parent=None if doc.get("parent") is None else int(doc["parent"]),
             theta={str(k): float(v) for k, v in (doc.get("theta") or {}).items()},
