@@ -22,6 +22,7 @@ import numpy as np
 
 from modal_twin.commands.residual import error_report, last_metrics
 from modal_twin.errors import LaunchError
+from modal_twin.paths import RUNS
 
 __all__ = ["error_report", "run_demo"]
 
@@ -73,7 +74,7 @@ def run_demo(run_dir: Path | None = None) -> int:
     from modal_twin.viz.force_state import force_state_plots
 
     t0 = time.monotonic()
-    out = run_dir or ROOT / "runs" / time.strftime("demo_%Y%m%d-%H%M%S")
+    out = run_dir or Path.cwd() / RUNS / time.strftime("demo_%Y%m%d-%H%M%S")  # not the source
     sc = load_scenario(SCENARIO)
     model = ROOT / "config" / "structures" / "building.yaml"
     print(f"demo: {sc.description}\n(the diagnosis is not told what the rig hides)\n")

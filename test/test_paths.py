@@ -140,3 +140,224 @@ def test_a_twin_given_a_version_naming_a_fifo_keeps_running(tmp_path: Path) -> N
     r = run_py(code, tmp_path)
     assert "refused:" in r.stdout and "regular" in r.stdout, r.stderr
     assert "version v1" not in r.stdout
+
+
+# -- outputs: only what the project wrote is embedded; nothing overwritten silently ---------
+
+def _png(tmp: Path, name: str, text: str) -> bytes:
+    """A real PNG whose pixels do not matter, with ``text`` in a tEXt chunk."""
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (len(data).to_bytes(4, "big") + kind + data
+                + zlib.crc32(kind + data).to_bytes(4, "big"))
+
+    data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", bytes([0, 0, 0, 1, 0, 0, 0, 1, 8, 0, 0, 0, 0]))
+            + chunk(b"tEXt", b"c\x00" + text.encode()) + chunk(b"IDAT", zlib.compress(b"\x00\x00"))
+            + chunk(b"IEND", b""))
+    (tmp / name).write_bytes(data)
+    return data
+
+
+def test_the_report_embeds_only_the_projects_figures(tmp_path: Path) -> None:
+    import base64
+
+    run = tmp_path / "run"
+    run.mkdir()
+    own = _png(run, "force_state_ESB1_stick_slip.png", "OWN-FIGURE")
+    secret = _png(tmp_path, "secret.png", "SECRET-MARKER")
+    (tmp_path / "secret.txt").write_text("SECRET-MARKER\n")
+    (run / "leak.png").symlink_to(tmp_path / "secret.txt")  # an unknown name
+    (run / "force_state_leak_x.png").symlink_to(tmp_path / "secret.png")  # a known one, linked
+    os.mkfifo(run / "x.png")
+    os.mkfifo(run / "force_state_fifo_x.png")
+    (run / "force_state_text_x.png").write_text("SECRET-MARKER, not a PNG\n")
+    r = run_py(f"import sys; from modal_twin.cli import main; "
+               f"sys.exit(main(['--quiet', 'report', {str(run)!r}]))", tmp_path)
+    assert r.returncode == 0, r.stderr
+    page = (run / "report.html").read_text()
+    assert base64.b64encode(own).decode() in page  # the diagnosis's figure is there
+    assert base64.b64encode(secret).decode() not in page
+    assert "SECRET-MARKER" not in page
+    for name in ("force_state_leak_x.png", "force_state_fifo_x.png", "force_state_text_x.png"):
+        assert f"left out {name}" in page
+    assert "left out leak.png" not in page and "left out x.png" not in page  # not looked at
+
+
+def test_the_report_skips_a_bag_behind_a_link(tmp_path: Path) -> None:
+    from modal_twin.commands.report import own_bags
+
+    run = tmp_path / "run"
+    (run / "a" / "bag").mkdir(parents=True)
+    (run / "a" / "bag" / "metadata.yaml").write_text("x\n")
+    (tmp_path / "elsewhere" / "bag").mkdir(parents=True)
+    (run / "b").symlink_to(tmp_path / "elsewhere")
+    (run / "c" / "bag").mkdir(parents=True)
+    os.mkfifo(run / "c" / "bag" / "part.mcap")
+    notes: list[str] = []
+    assert own_bags(run, notes) == [run / "a" / "bag"]
+    assert len(notes) == 2
+
+
+@pytest.mark.parametrize("argv", [
+    ["export", "model", str(BUILDING), "--out", "{out}.npz"],
+    ["view", str(BUILDING), "--n-modes", "1", "--html", "{out}.html"],
+    ["report", "{run}", "--out", "{out}.html"],
+])
+def test_outputs_are_never_overwritten_without_force(tmp_path: Path, argv: list[str],
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    from modal_twin.cli import main
+
+    (tmp_path / "run").mkdir()
+    out = tmp_path / "out"
+    args = [a.format(out=out, run=tmp_path / "run") for a in argv]
+    target = Path(next(a for a in args if a.startswith(str(out))))
+    target.write_text("KEEP\n")
+    assert main(["--quiet", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("exists; give --force to overwrite it") and "\n" not in err
+    assert target.read_text() == "KEEP\n"
+    assert main(["--quiet", *args, "--force"]) == 0
+    assert target.read_bytes() != b"KEEP\n"
+
+
+def test_residual_json_is_never_overwritten_without_force(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]
+                                                          ) -> None:
+    from modal_twin.cli import main
+
+    out = tmp_path / "t.json"
+    out.write_text("KEEP\n")
+    assert main(["residual", str(BUILDING), str(tmp_path / "nobag"), "--json", str(out)]) == 2
+    assert "exists; give --force" in capsys.readouterr().err
+    assert out.read_text() == "KEEP\n"
+
+
+@pytest.mark.parametrize(("matrix", "where", "value", "match"), [
+    ("K", (0, 0), float("nan"), "K holds 1 NaN / Inf entries"),
+    ("M", (1, 1), -1.0, "M has a negative mass -1"),
+    ("M", (slice(None), slice(None)), 0.0, r"M has no mass \(M = 0\)"),
+    ("K", (0, 1), -1.5, "K is not symmetric"),
+    ("M", (0, 2), 0.3, "M is not symmetric"),
+])
+def test_export_model_refuses_matrices_no_tool_can_use(
+        tmp_path: Path, matrix: str, where: tuple[object, ...], value: float, match: str,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import re
+
+    import numpy as np
+
+    from modal_twin.cli import main
+
+    mats = {"M": np.eye(3), "K": np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])}
+    mats[matrix][where] = value
+    M, K = mats["M"], mats["K"]
+    np.savez(tmp_path / "m.npz", M=M, K=K)
+    assert main(["export", "model", str(tmp_path / "m.npz"), "--out",
+                 str(tmp_path / "o.npz")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert re.search(match, err) and "\n" not in err
+    assert not (tmp_path / "o.npz").exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temp left
+
+
+def test_view_of_a_matrix_model_says_what_it_takes(tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    import numpy as np
+
+    from modal_twin.cli import main
+
+    np.savez(tmp_path / "m.npz", M=np.eye(2), K=np.eye(2))
+    assert main(["view", str(tmp_path / "m.npz"), "--html", str(tmp_path / "v.html")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "a matrix model (.npz) has no geometry to draw; view takes a structure" in err
+    assert "UTF-8" not in err and "\n" not in err
+
+
+def test_effects_history_of_a_missing_folder_exits_2(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    from modal_twin.cli import main
+
+    assert main(["effects", "history", str(tmp_path / "nope")]) == 2
+    assert "no such model folder" in capsys.readouterr().err
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("rate", ["nan", "inf", "0", "-2"])
+def test_replay_refuses_a_rate_that_is_not_finite_and_positive(domain_id: int, tmp_path: Path,
+                                                               rate: str) -> None:
+    from conftest import write_frames_bag
+
+    from modal_twin.models.loading import load_model
+
+    write_frames_bag(tmp_path / "bag", load_model(BUILDING).plant(), seconds=0.2,
+                     scale=(1, 1, 0, 0, 0, 0), seed=1, block=100)
+    r = subprocess.run([sys.executable, "-m", "modal_twin.cli", "replay", str(tmp_path / "bag"),
+                        "--rate", rate, "--wait", "0"], capture_output=True, text=True,
+                       timeout=HANG_GUARD_S, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert r.returncode == 2
+    assert r.stderr.strip().endswith(f"--rate: expected a finite number > 0, got {float(rate)}")
+
+
+def test_a_killed_writers_temporary_is_removed_at_the_next_write(tmp_path: Path) -> None:
+    from modal_twin.paths import TEMP_PREFIX, atomic_file
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale_dir = tmp_path / f"{TEMP_PREFIX}{dead.pid}-bag.x1"
+    (stale_dir / "bag").mkdir(parents=True)
+    stale_file = tmp_path / f"{TEMP_PREFIX}{dead.pid}-o.npz.x2.npz"
+    stale_file.write_text("half")
+    live = tmp_path / f"{TEMP_PREFIX}{os.getpid()}-other.x3"  # a writer still running
+    live.mkdir()
+    with atomic_file(tmp_path / "new.txt") as tmp:
+        tmp.write_text("done")
+    assert (tmp_path / "new.txt").read_text() == "done"
+    assert not stale_dir.exists() and not stale_file.exists() and live.exists()
+
+
+def test_a_sigkilled_import_leaves_nothing_after_the_next_one(tmp_path: Path) -> None:
+    """A writer SIGKILLed inside its temporary folder (as an import is), then an import."""
+    import signal
+
+    import numpy as np
+
+    from modal_twin.paths import TEMP_PREFIX
+
+    out = tmp_path / "out"
+    out.mkdir()
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    p = subprocess.Popen([sys.executable, "-c", (
+        "import time\nfrom modal_twin.paths import atomic_dir\n"
+        f"with atomic_dir({str(out / 'b1')!r}) as w:\n"
+        "    w.mkdir(); (w / 'part.mcap').write_bytes(b'x' * 1000)\n"
+        "    print('writing', flush=True); time.sleep(600)\n")],
+        env=env, stdout=subprocess.PIPE, text=True)
+    assert p.stdout is not None and p.stdout.readline().strip() == "writing"
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    left = list(out.glob(f"{TEMP_PREFIX}{p.pid}-b1.*"))
+    assert len(left) == 1 and (left[0] / "b1" / "part.mcap").is_file()  # what a kill leaves
+    t = np.arange(2000) / 1000.0
+    np.savez(tmp_path / "r.npz", data=np.vstack([np.sin(t), np.cos(t)]), fs_hz=1000.0,
+             names=np.array(["a", "b"]), units=np.array(["m/s^2", "m/s^2"]))
+    r = subprocess.run([sys.executable, "-m", "modal_twin.cli", "--quiet", "import",
+                        str(tmp_path / "r.npz"), "--out", str(out / "b2")], env=env,
+                       capture_output=True, text=True, timeout=HANG_GUARD_S)
+    assert r.returncode == 0, r.stderr
+    assert sorted(q.name for q in out.iterdir()) == ["b2"]
+
+
+def test_outputs_are_private_to_their_user(tmp_path: Path) -> None:
+    """One file-mode policy: files 0600, folders 0700, whatever the caller's umask."""
+    import stat
+
+    old = os.umask(0o022)
+    try:
+        r = run_py("import sys; from modal_twin.cli import main; sys.exit(main(['--quiet', "
+                   f"'export', 'model', {str(BUILDING)!r}, '--out', 'o/m.npz']))", tmp_path)
+    finally:
+        os.umask(old)
+    assert r.returncode == 0, r.stderr
+    assert stat.S_IMODE((tmp_path / "o" / "m.npz").stat().st_mode) == 0o600
+    assert stat.S_IMODE((tmp_path / "o").stat().st_mode) == 0o700

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import atomic_file, check_new
 
 __all__ = ["register", "run"]
 
@@ -33,6 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("bag", type=Path, help="bag of /measurement/frames (e.g. an imported one)")
     p.add_argument("--top", type=int, default=0, help="print only the N worst channels")
     p.add_argument("--json", type=Path, default=None, help="also write the table as JSON")
+    p.add_argument("--force", action="store_true", help="--json: overwrite an existing file")
     p.add_argument("--live", action="store_true",
                    help="replay the bag into a twin node (ROS) instead of simulating offline")
     p.add_argument("--rate", type=float, default=4.0, help="--live: replay rate (x real time)")
@@ -114,6 +116,8 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.io.records import record_from_bag
     from modal_twin.models.loading import load_model
 
+    if a.json is not None:
+        check_new(a.json, a.force)  # before the work
     plant = load_model(a.model).plant()
     rec = record_from_bag(a.bag, plant=plant)
     have = [c for c in rec.channel_names if c in set(plant.channel_names)]
@@ -134,9 +138,10 @@ def run(a: argparse.Namespace) -> int:
           f"{100 * float(np.median(fig.noise)):.2f} % (x{fig.median_over_noise:.2f}); "
           f"Eq. (8) of [004] median {100 * float(np.median(fig.eq8)):.2f} %")
     if a.json is not None:
-        a.json.write_text(json.dumps({c: {"nrmse": float(fig.nrmse[i]),
-                                          "noise": float(fig.noise[i]),
-                                          "eq8": float(fig.eq8[i])}
-                                      for i, c in enumerate(fig.channels)}, indent=1))
+        with atomic_file(a.json, force=a.force) as tmp:
+            tmp.write_text(json.dumps({c: {"nrmse": float(fig.nrmse[i]),
+                                           "noise": float(fig.noise[i]),
+                                           "eq8": float(fig.eq8[i])}
+                                       for i, c in enumerate(fig.channels)}, indent=1))
         print(f"wrote {a.json}")
     return ExitCode.OK

@@ -96,7 +96,8 @@ def read_version(path: str | Path) -> ModelVersion:
 
     p = Path(path)
     if p.suffix.lower() in MATRIX_SUFFIXES:  # a matrix model of the user's FE tool
-        return ModelVersion(structure=p.resolve(), path=p)
+        return ModelVersion(structure=check_regular(p.resolve(), "matrix model",
+                                                    missing_ok=True), path=p)
     doc = read_yaml(p, "model file")
     if "structure" not in doc:  # a structure file itself
         return ModelVersion(structure=p.resolve(), path=p)
@@ -129,5 +130,14 @@ def latest_version(folder: str | Path) -> ModelVersion | None:
 
 
 def history(folder: str | Path) -> list[ModelVersion]:
-    """All versions in order."""
+    """All versions in order.
+
+    Raises
+    ------
+    ConfigError
+        ``folder`` is not a folder.
+    """
+    if not Path(folder).is_dir():
+        msg = f"{folder}: no such model folder"
+        raise ConfigError(msg)
     return [read_version(f) for f in sorted(Path(folder).glob("v[0-9][0-9][0-9][0-9].yaml"))]
