@@ -43,9 +43,10 @@ from modal_twin.errors import ConfigError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.io.ros import dds_env
 from modal_twin.io.topics import NODE_ENDPOINTS
-from modal_twin.paths import private_files
+from modal_twin.paths import RUNS, private_files
 from modal_twin.runtime import runtime_env
 from modal_twin.scenario import Scenario, load_scenario, with_parameters
+from modal_twin.validation import check_name
 
 __all__ = ["LaunchResult", "Launcher", "launch"]
 
@@ -115,7 +116,8 @@ class Launcher:
     ) -> None:
         self.sc = scenario
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-        self.run_dir = run_dir or Path("runs") / f"{stamp}_{scenario.name}"
+        name = check_name(scenario.name, "launch.name")  # it names the run folder
+        self.run_dir = run_dir or Path(RUNS) / f"{stamp}_{name}"
         env_domain = os.environ.get("ROS_DOMAIN_ID")
         if domain_id is None:
             domain_id = int(env_domain) if env_domain else random.SystemRandom().randint(1, 100)

@@ -361,3 +361,36 @@ def test_outputs_are_private_to_their_user(tmp_path: Path) -> None:
     assert r.returncode == 0, r.stderr
     assert stat.S_IMODE((tmp_path / "o" / "m.npz").stat().st_mode) == 0o600
     assert stat.S_IMODE((tmp_path / "o").stat().st_mode) == 0o700
+
+
+def _bag_with(tmp: Path, name: str) -> Path:
+    """A bag folder whose metadata names ``name`` as its one MCAP file."""
+    bag = tmp / "bag"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text(
+        "rosbag2_bagfile_information:\n  version: 8\n  storage_identifier: mcap\n"
+        f"  relative_file_paths: [{name}]\n  files: []\n  message_count: 0\n"
+        "  topics_with_message_count: []\n")
+    return bag
+
+
+def test_a_bag_holding_a_fifo_is_refused_without_blocking(tmp_path: Path) -> None:
+    bag = _bag_with(tmp_path, "part.mcap")
+    os.mkfifo(bag / "part.mcap")
+    for args in (["bag", "info", "bag"], ["identify", "bag", "--out", "id"],
+                 ["bag", "salvage", "bag", "--out", "s"]):
+        r = run_py(f"import sys; from modal_twin.cli import main; sys.exit(main({args!r}))",
+                   tmp_path)
+        assert r.returncode == 2, (args, r.stderr)
+        assert "expected a regular bag file, got a FIFO" in r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_a_bag_naming_a_file_outside_is_refused(tmp_path: Path) -> None:
+    from modal_twin.errors import BagError
+    from modal_twin.io.bag import bag_info
+
+    (tmp_path / "outside.mcap").write_bytes(b"\x89MCAP0\r\n")
+    bag = _bag_with(tmp_path, "../outside.mcap")
+    with pytest.raises(BagError, match="expected a file inside the bag"):
+        bag_info(bag)

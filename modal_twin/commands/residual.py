@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -91,7 +92,8 @@ def live(a: argparse.Namespace) -> int:
              NodeSpec("twin", "twin_node", {"model_file": str(a.model.resolve()),
                                             "fs_hz": fs,
                                             "window_s": min(86_400.0, seconds)}))
-    sc = Scenario(a.bag, f"twin_{a.bag.name}", f"{a.model.name} on {a.bag}", nodes,
+    plain = re.sub(r"[^A-Za-z0-9._-]", "_", a.bag.resolve().name)[:40]  # a name of the run
+    sc = Scenario(a.bag, f"twin_{plain}", f"{a.model.name} on {a.bag}", nodes,
                   seconds / a.rate + 15.0, 60.0, ("/twin/metrics",), {}, {})
     res = Launcher(sc, run_dir=a.run_dir).run()
     if res.exit_code != 0 or res.bag is None:

@@ -205,7 +205,7 @@ def paths_figures(tmp: Path) -> dict[str, int]:
     building = TEST.parent / "config" / "structures" / "building.yaml"
     secret = b"\x89PNG\r\n\x1a\nSECRET-MARKER-21"
     (box / "secret.png").write_bytes(secret)
-    (box / "secret.yaml").write_text("structure: SECRET-MARKER-21\n")
+    (box / "outside.yaml").write_text(building.read_text())  # a valid structure, outside
     before = _tree(box, work / "runs")
     counts = {"cases": 0, "hangs": 0, "symlink_cases": 0, "symlinks_followed": 0,
               "fifo_cases": 0, "fifo_hangs": 0, "escaped_name_cases": 0,
@@ -225,11 +225,12 @@ def paths_figures(tmp: Path) -> dict[str, int]:
     # symbolic links: a report figure, a request path, a version's structure
     (run / "leak.png").symlink_to(box / "secret.png")
     (run / "force_state_leak_x.png").symlink_to(box / "secret.png")
-    case("symlink", ["--quiet", "report", "runs/r1", "--force"])
+    case("symlink", ["--quiet", "report", "runs/r1"])
     page = (run / "report.html").read_text() if (run / "report.html").is_file() else ""
     counts["symlinks_followed"] += base64.b64encode(secret).decode() in page
-    (run / "models").mkdir()
-    (run / "models" / "v0001.yaml").write_text(f"structure: {box / 'secret.yaml'}\nversion: 1\n")
+    (run / "models").mkdir()  # a version naming a link inside to a structure outside
+    (run / "models" / "structure.yaml").symlink_to(box / "outside.yaml")
+    (run / "models" / "v0001.yaml").write_text("structure: structure.yaml\nversion: 1\n")
     code = (f"from modal_twin.twin.session import TwinSession\n"
             f"t = TwinSession({str(building)!r}, 1000.0, 2.0, 'runs/r1/models')\n"
             f"try:\n    t.load_version('runs/r1/models/v0001.yaml', {{}}, 'v1')\n"
@@ -248,12 +249,19 @@ def paths_figures(tmp: Path) -> dict[str, int]:
     for name in ("x.png", "force_state_fifo_x.png", "m.yaml", "structure.yaml", "s.yaml"):
         os.mkfifo(fifo_dir / name)
     (fifo_dir / "v0001.yaml").write_text(f"structure: {fifo_dir / 'structure.yaml'}\n")
+    (fifo_dir / "bag").mkdir()
+    (fifo_dir / "bag" / "metadata.yaml").write_text(
+        "rosbag2_bagfile_information:\n  version: 8\n  storage_identifier: mcap\n"
+        "  relative_file_paths: [part.mcap]\n  files: []\n  message_count: 0\n")
+    os.mkfifo(fifo_dir / "bag" / "part.mcap")
     for args in (["report", "runs/fifo"], ["model", "info", "runs/fifo/m.yaml"],
                  ["view", "runs/fifo/m.yaml", "--html", "runs/fifo/v.html"],
                  ["view", "runs/fifo/v0001.yaml", "--html", "runs/fifo/v2.html"],
                  ["export", "model", "runs/fifo/m.yaml", "--out", "runs/fifo/o.npz"],
                  ["residual", "runs/fifo/v0001.yaml", "runs/fifo"],
-                 ["launch", "runs/fifo/s.yaml"]):
+                 ["launch", "runs/fifo/s.yaml"], ["bag", "info", "runs/fifo/bag"],
+                 ["identify", "runs/fifo/bag", "--out", "runs/fifo/id"],
+                 ["bag", "salvage", "runs/fifo/bag", "--out", "runs/fifo/s"]):
         case("fifo", ["--quiet", *args])
     # names that would move the run folder
     for i, name in enumerate(("x/../../../escaped", "a\\nb", ".hidden", "/abs/x", "..")):
