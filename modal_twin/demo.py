@@ -22,6 +22,7 @@ import numpy as np
 
 from modal_twin.commands.residual import error_report, last_metrics
 from modal_twin.errors import LaunchError
+from modal_twin.exit_codes import ExitCode
 from modal_twin.paths import RUNS
 
 __all__ = ["error_report", "run_demo"]
@@ -57,6 +58,8 @@ def _run(sc: Any, run_dir: Path, **excitation: Any) -> Path:
     from modal_twin.scenario import with_parameters
 
     res = Launcher(with_parameters(sc, "excitation", **excitation), run_dir=run_dir).run()
+    if res.exit_code == ExitCode.INTERRUPTED:  # Ctrl-C: the command exits 130
+        raise KeyboardInterrupt
     if res.exit_code != 0 or res.bag is None:
         msg = f"run {run_dir.name} failed: {res.message}"
         raise LaunchError(msg)

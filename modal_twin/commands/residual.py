@@ -96,6 +96,8 @@ def live(a: argparse.Namespace) -> int:
     sc = Scenario(a.bag, f"twin_{plain}", f"{a.model.name} on {a.bag}", nodes,
                   seconds / a.rate + 15.0, 60.0, ("/twin/metrics",), {}, {})
     res = Launcher(sc, run_dir=a.run_dir).run()
+    if res.exit_code == ExitCode.INTERRUPTED:
+        return ExitCode.INTERRUPTED
     if res.exit_code != 0 or res.bag is None:
         print(f"modal-twin residual: the twin run failed: {res.message} (logs in "
               f"{res.run_dir / 'logs'})", file=sys.stderr)
