@@ -19,7 +19,7 @@ setup(
     name=PACKAGE,
     version="0.1.0",
     packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
-    package_data={f"{PACKAGE}.io": ["fastdds_profiles.xml"]},
+    package_data={f"{PACKAGE}.io": ["fastdds_profiles.xml", "fastdds_profiles_network.xml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),

@@ -40,6 +40,7 @@ from modal_twin.commands import (
 from modal_twin.commands.model_matrix import check_model_kind, matrix_info
 from modal_twin.errors import ModalTwinError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import private_files
 from modal_twin.progress import Verbosity, set_verbosity
 from modal_twin.runtime import THREAD_ENV
 
@@ -71,7 +72,9 @@ def _cmd_launch(a: argparse.Namespace) -> int:
 
     sc = load_scenario(_scenario_path(a.scenario), allow_external=a.allow_external)
     if a.network:
-        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SUBNET"
+        from modal_twin.io.ros import dds_env
+
+        dds_env(os.environ, network=True)
     if a.duration is not None:
         from dataclasses import replace
 
@@ -340,6 +343,7 @@ def _verbosity_flags(p: argparse.ArgumentParser, default: object = False) -> Non
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``modal-twin``."""
     argv = sys.argv[1:] if argv is None else argv
+    private_files()  # one file-mode policy: outputs 0600, folders 0700 (README)
     if "--network" not in argv:  # discovery stays on this host unless asked (README: network)
         os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     if argv and argv[0] == "record":

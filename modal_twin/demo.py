@@ -22,6 +22,8 @@ import numpy as np
 
 from modal_twin.commands.residual import error_report, last_metrics
 from modal_twin.errors import LaunchError
+from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import RUNS
 
 __all__ = ["error_report", "run_demo"]
 
@@ -56,6 +58,8 @@ def _run(sc: Any, run_dir: Path, **excitation: Any) -> Path:
     from modal_twin.scenario import with_parameters
 
     res = Launcher(with_parameters(sc, "excitation", **excitation), run_dir=run_dir).run()
+    if res.exit_code == ExitCode.INTERRUPTED:  # Ctrl-C: the command exits 130
+        raise KeyboardInterrupt
     if res.exit_code != 0 or res.bag is None:
         msg = f"run {run_dir.name} failed: {res.message}"
         raise LaunchError(msg)
@@ -73,7 +77,7 @@ def run_demo(run_dir: Path | None = None) -> int:
     from modal_twin.viz.force_state import force_state_plots
 
     t0 = time.monotonic()
-    out = run_dir or ROOT / "runs" / time.strftime("demo_%Y%m%d-%H%M%S")
+    out = run_dir or Path.cwd() / RUNS / time.strftime("demo_%Y%m%d-%H%M%S")  # not the source
     sc = load_scenario(SCENARIO)
     model = ROOT / "config" / "structures" / "building.yaml"
     print(f"demo: {sc.description}\n(the diagnosis is not told what the rig hides)\n")

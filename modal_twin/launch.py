@@ -8,13 +8,15 @@ Wait until they are up and matched, supervise them, stop them cleanly.
 - Ready = every node visible in the graph and every topic that one launched node
   publishes and another subscribes has both ends discovered. Only then are the
   excitation nodes started (``~/start``), so the first sample reaches the bag.
-- Ctrl-C / SIGTERM are forwarded as SIGINT to the nodes (recorder last); a node that dies
-  stops the run, which exits 1 and names it.
+- Ctrl-C / SIGTERM are forwarded as SIGINT to the nodes (recorder last); the run then exits
+  130 after Ctrl-C, 0 after SIGTERM. A node that dies stops the run, which exits 1 and names it.
 - The nodes die with the launcher even when it is killed (SIGKILL): each is started with
   ``PR_SET_PDEATHSIG`` = SIGTERM (Linux).
-- Discovery stays on this host (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) unless the
-  environment or the scenario (``launch.network: true``) asks for the network; files the
-  nodes create are not world-readable (umask 007). Fast DDS gives its shared-memory
+- Discovery stays on this host (unicast to 127.0.0.1) unless the
+  environment or the scenario (``launch.network: true``) asks for the network, and its UDP
+  sockets bind 127.0.0.1 only (:func:`modal_twin.io.ros.dds_env`); files the launcher and
+  the nodes create are private to the user (files 0600, folders 0700:
+  :data:`modal_twin.paths.UMASK`). Fast DDS gives its shared-memory
   segments mode 0644 whatever the umask; ``launch.shared_memory: false`` keeps the data off
   shared memory (UDP on the loopback only).
 """
@@ -39,10 +41,12 @@ from rclpy.context import Context
 
 from modal_twin.errors import ConfigError
 from modal_twin.exit_codes import ExitCode
-from modal_twin.io.ros import FASTDDS_PROFILES
+from modal_twin.io.ros import dds_env
 from modal_twin.io.topics import NODE_ENDPOINTS
+from modal_twin.paths import RUNS, private_files
 from modal_twin.runtime import runtime_env
 from modal_twin.scenario import Scenario, load_scenario, with_parameters
+from modal_twin.validation import check_name
 
 __all__ = ["LaunchResult", "Launcher", "launch"]
 
@@ -58,10 +62,10 @@ machine; the excitation itself waits for the readers of /excitation/signal."""
 
 
 def _die_with_parent() -> None:
-    """``preexec_fn`` of every node: SIGTERM when the launcher dies, files not world-readable."""
+    """``preexec_fn`` of every node: SIGTERM when the launcher dies, files private (0600)."""
     import ctypes
 
-    os.umask(0o007)
+    private_files()
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
@@ -112,7 +116,8 @@ class Launcher:
     ) -> None:
         self.sc = scenario
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-        self.run_dir = run_dir or Path("runs") / f"{stamp}_{scenario.name}"
+        name = check_name(scenario.name, "launch.name")  # it names the run folder
+        self.run_dir = run_dir or Path(RUNS) / f"{stamp}_{name}"
         env_domain = os.environ.get("ROS_DOMAIN_ID")
         if domain_id is None:
             domain_id = int(env_domain) if env_domain else random.SystemRandom().randint(1, 100)
@@ -131,11 +136,11 @@ class Launcher:
         env["PYTHONUNBUFFERED"] = "1"
         env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
         env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
-        env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
-        if not self.sc.extra.get("network", False):
-            env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-        if self.sc.extra.get("shared_memory", True) is False:  # Fast DDS makes its segments
-            env["FASTDDS_BUILTIN_TRANSPORTS"] = "UDPv4"  # 0644 whatever the umask: avoid them
+        shm = self.sc.extra.get("shared_memory", True) is not False
+        dds_env(env, network=True if self.sc.extra.get("network", False) else None,
+                shared_memory=shm, folder=self.run_dir / "params")
+        if not shm:  # Fast DDS makes its segments 0644 whatever the umask: avoid them
+            env["FASTDDS_BUILTIN_TRANSPORTS"] = "UDPv4"
         return runtime_env(env)  # one BLAS thread, allocator (modal_twin.runtime)
 
     def _spawn(self, name: str, cmd: list[str]) -> None:
@@ -337,9 +342,14 @@ class Launcher:
     # -- the whole run -----------------------------------------------------------------
     def run(self) -> LaunchResult:
         """Start, wait ready, supervise until the duration ends or a signal / death."""
+        interrupted: list[int] = []
+
         def on_signal(signum: int, _frame: object) -> None:
             self._stop_requested = True
+            interrupted.append(signum)
 
+        if self.sc.extra.get("network", False):  # the launcher's own probe too
+            dds_env(os.environ, network=True)
         old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         code, message = ExitCode.OK, ""
         try:
@@ -367,6 +377,8 @@ class Launcher:
             self.stop()
             for s, h in old.items():
                 signal.signal(s, h)
+        if code == ExitCode.OK and signal.SIGINT in interrupted:  # Ctrl-C: 130 (README)
+            code = ExitCode.INTERRUPTED
         if message:
             self.say(f"launch: {message}")
         self.say(f"launch: stopped; logs in {self.run_dir / 'logs'}")

@@ -24,7 +24,8 @@ from typing import Any
 
 import yaml
 
-from modal_twin.errors import ConfigError
+from modal_twin.errors import ConfigError, OptionError
+from modal_twin.validation import check_name
 from modal_twin.yaml_files import read_yaml
 
 __all__ = ["NodeSpec", "Scenario", "load_scenario", "with_parameters"]
@@ -178,9 +179,14 @@ def load_scenario(path: str | Path, *, allow_external: bool = False) -> Scenario
              if k not in {"nodes", "duration_s", "ready_timeout_s", "record", "description",
                           "name"}}
     _check_nodes(p, nodes, allow_external)
+    name = launch.get("name", p.stem)
+    try:
+        check_name(name, "name")  # it names the run folder
+    except OptionError as err:
+        raise _err(p, "launch.name", str(err).partition(": ")[2]) from err
     return Scenario(
         path=p,
-        name=str(launch.get("name", p.stem)),
+        name=name,
         description=str(launch.get("description", "")),
         nodes=tuple(nodes),
         duration_s=numbers["duration_s"],

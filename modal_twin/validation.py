@@ -10,6 +10,7 @@ the limit and the value.
 
 from __future__ import annotations
 
+import re
 import stat
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -29,6 +30,7 @@ __all__ = [
     "as_channels",
     "check_array_budget",
     "check_field",
+    "check_name",
     "check_positive",
     "check_rank",
     "check_request_path",
@@ -174,6 +176,29 @@ def check_rank(x: FloatArray, name: str, *, rtol: float = 1e-10) -> None:
         raise SignalError(msg)
 
 
+NAME_PATTERN = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,63}")
+"""A name that becomes part of a file or folder name: letters, digits, ``. _ -``, at most
+64 characters, not starting with a dot (no ``..``, no separator, no newline)."""
+
+
+def check_name(value: object, name: str) -> str:
+    """Return ``value`` if it is a safe name (:data:`NAME_PATTERN`), else refuse it.
+
+    Every name that becomes part of a path (a run's name, a label, a component in a file
+    name) passes here, where it becomes a path.
+
+    Raises
+    ------
+    OptionError
+        Naming the field and the value.
+    """
+    if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
+        msg = (f"{name}: expected letters, digits, '.', '_' or '-' (not starting with '.', "
+               f"at most 64), got {value!r}")
+        raise OptionError(msg)
+    return value
+
+
 REQUEST_FILE_MAX_BYTES = 256 * 2**20
 """Largest file a message or service request may make a node open (256 MiB)."""
 
@@ -182,9 +207,9 @@ def check_request_path(value: str, name: str, roots: Sequence[str | Path],
                        max_bytes: int = REQUEST_FILE_MAX_BYTES) -> Path:
     """Resolve a path received in a message inside one of ``roots``, or refuse it.
 
-    A relative path is taken relative to each root in turn; an absolute one (or one with
-    ``..`` or symbolic links) must resolve inside a root. The target must be a regular
-    file (a FIFO or device would hang the node) of at most ``max_bytes``.
+    A relative path is taken relative to the working folder and to each root in turn; the
+    path, after ``..`` and symbolic links are resolved, must lie inside a root. The target
+    must be a regular file (a FIFO or device would hang the node) of at most ``max_bytes``.
 
     Raises
     ------
@@ -198,7 +223,8 @@ def check_request_path(value: str, name: str, roots: Sequence[str | Path],
         raise OptionError(msg)
     bases = [Path(r).resolve() for r in roots]
     p = Path(text)
-    candidates = [p.resolve()] if p.is_absolute() else [(b / p).resolve() for b in bases]
+    candidates = [p.resolve()] if p.is_absolute() else [
+        (b / p).resolve() for b in (Path.cwd(), *bases)]
     inside = [c for c in candidates if any(c.is_relative_to(b) for b in bases)]
     if not inside:
         msg = (f"{name}: expected a file inside {[str(b) for b in bases]}, got {text!r}")

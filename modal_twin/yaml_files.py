@@ -11,6 +11,7 @@ from typing import Any
 import yaml
 
 from modal_twin.errors import ConfigError
+from modal_twin.paths import open_regular
 
 __all__ = ["read_yaml"]
 
@@ -21,18 +22,17 @@ def read_yaml(path: str | Path, what: str = "file", *, mapping: bool = True) -> 
     Raises
     ------
     ConfigError
-        Missing or unreadable file, malformed YAML (with its line and column), or, with
-        ``mapping``, a document that is not a mapping.
+        Missing or unreadable file, not a regular file (a FIFO is refused, never waited
+        on), malformed YAML (with its line and column), or, with ``mapping``, a document
+        that is not a mapping.
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError as err:
-        msg = f"{p}: no such {what}"
-        raise ConfigError(msg) from err
-    except OSError as err:
-        msg = f"{p}: cannot read {what} ({err.strerror})"
-        raise ConfigError(msg) from err
+    with open_regular(p, what) as fh:  # a FIFO named here is refused, never waited on
+        try:
+            text = fh.read().decode("utf-8")
+        except OSError as err:
+            msg = f"{p}: cannot read {what} ({err.strerror})"
+            raise ConfigError(msg) from err
     try:
         doc = yaml.safe_load(text)
     except yaml.YAMLError as err:

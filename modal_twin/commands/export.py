@@ -8,7 +8,10 @@
   :func:`modal_twin.io.matfiles.load_matrix_model` (``K(theta) = K + sum (theta -
   theta0)_j K_j``).
 
-Every output is written to a temporary file and renamed: nothing half-written.
+Every output is written to a temporary file and renamed: nothing half-written; an existing
+file is kept unless ``--force``. A model's matrices are checked before anything is written
+(:func:`check_matrices`): finite, a mass matrix with mass and no negative diagonal entry,
+symmetric ``M`` and stiffnesses.
 """
 
 from __future__ import annotations
@@ -19,10 +22,14 @@ from typing import Any
 
 import numpy as np
 
-from modal_twin.errors import ConfigError
+from modal_twin.errors import ConfigError, ModelError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import atomic_file, check_new
 
-__all__ = ["register", "run", "structure_arrays"]
+__all__ = ["check_matrices", "register", "run", "structure_arrays"]
+
+SYMMETRY_RTOL = 1e-9
+"""Largest ``|A - A^T|`` relative to ``max |A|`` a symmetric matrix may show (round-off)."""
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add ``export`` to the sub-commands."""
@@ -30,7 +37,41 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("what", choices=("modes", "frf", "model"))
     p.add_argument("src", type=Path, help="modes JSON, bag, or model file")
     p.add_argument("--out", type=Path, required=True, help="file to write (.uff / .npz)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing file")
     p.set_defaults(func=run)
+
+
+def check_matrices(arrays: dict[str, Any], source: str) -> None:
+    """Refuse a model whose matrices no tool can use, before it is written.
+
+    Every matrix and parameter value finite; ``M`` with a positive total and no negative
+    diagonal entry (massless DOFs allowed); ``M``, ``K`` and every ``K_<name>`` symmetric
+    to :data:`SYMMETRY_RTOL`.
+
+    Raises
+    ------
+    ModelError
+        Naming the matrix and what is wrong with it.
+    """
+    for k, v in arrays.items():  # the matrices and the parameter values (bounds may be inf)
+        a = np.asarray(v)
+        if a.dtype.kind in "fc" and (a.ndim == 2 or k in ("theta", "theta0")) and \
+                not np.all(np.isfinite(a)):
+            msg = f"{source}: {k} holds {int(np.sum(~np.isfinite(a)))} NaN / Inf entries"
+            raise ModelError(msg)
+    d = np.diag(np.asarray(arrays["M"], dtype=float))
+    if d.size and (d.min() < 0.0 or d.sum() <= 0.0):
+        what = f"a negative mass {d.min():.6g}" if d.min() < 0.0 else "no mass (M = 0)"
+        msg = f"{source}: M has {what} on its diagonal; expected masses >= 0 with a total > 0"
+        raise ModelError(msg)
+    for k in [k for k in arrays if k in ("M", "K") or k.startswith("K_")]:
+        a = np.asarray(arrays[k], dtype=float)
+        scale = float(np.abs(a).max()) if a.size else 0.0
+        asym = float(np.abs(a - a.T).max()) if a.size else 0.0
+        if asym > SYMMETRY_RTOL * scale:
+            msg = (f"{source}: {k} is not symmetric (max |{k} - {k}^T| = {asym:.3g}, "
+                   f"{asym / scale:.2g} of its largest entry)")
+            raise ModelError(msg)
 
 
 def structure_arrays(path: Path) -> dict[str, Any]:
@@ -49,7 +90,7 @@ def structure_arrays(path: Path) -> dict[str, Any]:
     return out
 
 
-def _model(src: Path, out: Path) -> str:
+def _model(src: Path, out: Path, force: bool) -> str:
     from modal_twin.commands.model_matrix import check_model_kind
     from modal_twin.io.matfiles import load_matrix_model
 
@@ -57,23 +98,21 @@ def _model(src: Path, out: Path) -> str:
         arrays = load_matrix_model(src).to_arrays()
     else:
         arrays = structure_arrays(src)
-    _save_npz(out, arrays)
+    check_matrices(arrays, str(src))
+    _save_npz(out, arrays, force)
     return (f"{arrays['M'].shape[0]} DOFs, parameters "
             f"{[str(n) for n in arrays['parameter_names']]}")
 
 
-def _save_npz(out: Path, arrays: dict[str, Any]) -> None:
-    from modal_twin.io.imported import atomic_file
-
+def _save_npz(out: Path, arrays: dict[str, Any], force: bool) -> None:
     if out.suffix.lower() != ".npz":
         msg = f"{out}: expected a .npz output file"
         raise ConfigError(msg)
-    with atomic_file(out) as tmp, tmp.open("wb") as fh:
+    with atomic_file(out, force=force) as tmp, tmp.open("wb") as fh:
         np.savez(fh, **arrays)
 
 
-def _modes(src: Path, out: Path) -> str:
-    from modal_twin.io.imported import atomic_file
+def _modes(src: Path, out: Path, force: bool) -> str:
     from modal_twin.io.modes_file import read_modes
     from modal_twin.io.uff import AXIS_CODES, write_uff55
 
@@ -81,16 +120,16 @@ def _modes(src: Path, out: Path) -> str:
         msg = f"{src}: expected a modes JSON written by `modal-twin identify`"
         raise ConfigError(msg)
     m = read_modes(src)
-    with atomic_file(out) as tmp:
+    with atomic_file(out, force=force) as tmp:
         tmp.unlink()
         write_uff55(tmp, m.f_hz, m.zeta, m.shapes, [int(d["node"]) for d in m.dofs],
                     [AXIS_CODES.get(d["direction"], 1) for d in m.dofs])
     return f"{m.f_hz.size} modes at {len(m.dofs)} DOFs"
 
 
-def _frf(src: Path, out: Path) -> str:
+def _frf(src: Path, out: Path, force: bool) -> str:
     from modal_twin.acquisition.frf import frf
-    from modal_twin.io.imported import atomic_file, read_imported
+    from modal_twin.io.imported import read_imported
     from modal_twin.io.uff import AXIS_CODES, write_uff58_frf
 
     block, chans = read_imported(src)
@@ -107,7 +146,7 @@ def _frf(src: Path, out: Path) -> str:
         return nodes.index(c.node or c.name) + 1, AXIS_CODES.get(c.direction, 1)
 
     H = np.nan_to_num(est.H1)
-    with atomic_file(out) as tmp:
+    with atomic_file(out, force=force) as tmp:
         tmp.unlink()
         write_uff58_frf(tmp, est.f_hz, H, [dof(c) for c in outs], [dof(c) for c in ins])
     return f"{len(outs)} x {len(ins)} FRFs, {est.f_hz.size} lines"
@@ -118,6 +157,7 @@ def run(a: argparse.Namespace) -> int:
     if not a.src.exists():
         msg = f"{a.src}: no such file or bag"
         raise ConfigError(msg)
-    what = {"modes": _modes, "frf": _frf, "model": _model}[a.what](a.src, a.out)
+    check_new(a.out, a.force)  # before the work
+    what = {"modes": _modes, "frf": _frf, "model": _model}[a.what](a.src, a.out, a.force)
     print(f"export: wrote {a.out} ({what})")
     return ExitCode.OK

@@ -4,7 +4,9 @@ A run folder (what ``modal-twin demo`` writes) holds sub-runs ``<name>/bag`` (tw
 metrics, channel map, measurement frames), model versions ``models/vNNNN.yaml`` and the
 PNGs of the diagnosis. Each present kind of data gives its section
 (:func:`modal_twin.viz.report.render_report`); the default output is
-``RUN_DIR/report.html``.
+``RUN_DIR/report.html`` (an existing one is kept unless ``--force``). Only what the project
+wrote is embedded: the figures by their known names (:data:`FIGURES`) as regular PNG files,
+never a symbolic link or a FIFO; bags inside the run folder.
 """
 
 from __future__ import annotations
@@ -19,9 +21,12 @@ import numpy as np
 
 from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import check_new, open_regular
 from modal_twin.progress import track
+from modal_twin.validation import check_name
 
-__all__ = ["load_run", "make_report", "model_loops", "register", "run"]
+__all__ = ["FIGURES", "load_run", "make_report", "model_loops", "own_bags", "own_figures",
+           "register", "run"]
 
 _DEVICE_SUFFIX = ("_dx", "_dy")
 
@@ -32,6 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("run_dir", type=Path, help="run folder (e.g. runs/demo_...)")
     p.add_argument("--out", type=Path, default=None, help="HTML file (RUN_DIR/report.html)")
     p.add_argument("--n-modes", type=int, default=4, help="model modes in the 3D scene")
+    p.add_argument("--force", action="store_true", help="overwrite an existing report")
     p.set_defaults(func=run)
 
 
@@ -192,7 +198,8 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
     blamed = {e.component: e.law for e in versions[-1].effects} if versions else {}
     records = []
     devices = _model_devices(versions[-1] if versions else None)
-    bags = sorted(p for p in run_dir.glob("*/bag") if p.is_dir())
+    notes = [f"run folder: {run_dir.resolve()}"]
+    bags = own_bags(run_dir, notes)
     for bag in track(bags, "report: records", unit="bag"):
         m, meta = _metrics(bag)
         loops, states, model = (({}, {}, {}) if "replay" in bag.parent.name else
@@ -202,8 +209,7 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
             tuple(m.channel_names) if m is not None else (),
             np.asarray(m.rms_error, dtype=float) if m is not None else np.zeros(0),
             str(m.model_version) if m is not None else "", meta, loops, states, model))
-    images = [(p.stem.replace("_", " "), p.read_bytes())
-              for p in sorted(run_dir.glob("*.png")) if p.name != "error_history.png"]
+    images = [(p.stem.replace("_", " "), data) for p, data in own_figures(run_dir, notes)]
     scene = None
     if versions:
         from modal_twin.commands.view import model_scene
@@ -215,10 +221,9 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
             raise OptionError(msg)
         cmds, caption = model_scene(path, n_modes)
         scene = static_html(cmds, caption=caption)
-    notes = [f"run folder: {run_dir.resolve()}"]
     record_scene = _record_scene(run_dir, versions, notes)
     ident: dict[str, Any] = {}
-    low = sorted(run_dir.glob("*low*/bag"))
+    low = [b for b in bags if "low" in b.parent.name]
     if low and versions:
         try:
             ident = _identification(low[0], versions[0].structure)
@@ -235,7 +240,7 @@ def _record_scene(run_dir: Path, versions: list[Any], notes: list[str]) -> str |
     from modal_twin.commands.view import bag_scene
     from modal_twin.viz.scene import static_html
 
-    held = sorted(run_dir.glob("*heldout*/bag"))
+    held = [b for b in own_bags(run_dir, []) if "heldout" in b.parent.name]
     if len(versions) < 2 or not held or versions[0].path is None or versions[-1].path is None:
         return None
     try:
@@ -247,13 +252,74 @@ def _record_scene(run_dir: Path, versions: list[Any], notes: list[str]) -> str |
     return static_html(cmds, caption=caption)
 
 
-def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: int = 4
-                ) -> Path:
-    """Write the report of ``run_dir`` (default ``run_dir/report.html``); return its path."""
+def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: int = 4,
+                force: bool = True) -> Path:
+    """Write the report of ``run_dir`` (default ``run_dir/report.html``); return its path.
+
+    Without ``force`` an existing file is refused before any work.
+    """
     from modal_twin.viz.report import write_report
 
     rd = Path(run_dir)
-    return write_report(load_run(rd, n_modes=n_modes), out or rd / "report.html")
+    target = check_new(out or rd / "report.html", force)
+    return write_report(load_run(rd, n_modes=n_modes), target)
+
+
+FIGURES = "force_state_*.png"
+"""The figures of a run folder the report embeds: those the diagnosis writes
+(:func:`modal_twin.viz.force_state.force_state_plots`), nothing else."""
+FIGURE_MAX_BYTES = 32 * 2**20
+_PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def own_figures(run_dir: Path, notes: list[str]) -> list[tuple[Path, bytes]]:
+    """Return the project's figures in ``run_dir``: known names, regular PNGs, not links.
+
+    Anything else under such a name (a symbolic link, a FIFO, a file that is not a PNG, a
+    name that is not plain) is left out with a note; nothing is followed or waited on.
+    """
+    out = []
+    for p in sorted(run_dir.glob(FIGURES)):
+        try:
+            check_name(p.name, "figure")
+            with open_regular(p, "figure", follow=False) as fh:
+                data = fh.read(FIGURE_MAX_BYTES + 1)
+        except (ModalTwinError, OSError) as err:
+            notes.append(f"left out {p.name}: not a figure of this run ({_reason(err)})")
+            continue
+        if len(data) > FIGURE_MAX_BYTES or not data.startswith(_PNG):
+            notes.append(f"left out {p.name}: not a PNG figure of at most "
+                         f"{FIGURE_MAX_BYTES >> 20} MiB")
+            continue
+        out.append((p, data))
+    return out
+
+
+def own_bags(run_dir: Path, notes: list[str]) -> list[Path]:
+    """Return the bag folders ``run_dir/*/bag`` inside it that hold only regular files.
+
+    A bag behind a symbolic link, or with a link, FIFO or device in it, is left out with a
+    note (it would read outside the run folder or block the reader).
+    """
+    root = run_dir.resolve()
+    out = []
+    for bag in sorted(run_dir.glob("*/bag")):
+        if not bag.is_dir():
+            continue
+        bad = [] if bag.resolve().is_relative_to(root) and not bag.is_symlink() and \
+            not bag.parent.is_symlink() else [bag]
+        bad += [f for f in bag.rglob("*") if f.is_symlink() or not (f.is_file() or f.is_dir())]
+        if bad:
+            notes.append(f"left out {bag.relative_to(run_dir)}: {bad[0].name} is a link, "
+                         "FIFO or device, or lies outside the run folder")
+            continue
+        out.append(bag)
+    return out
+
+
+def _reason(err: BaseException) -> str:
+    text = str(err)
+    return text.rpartition(": ")[2] if ": " in text else text
 
 
 def run(args: argparse.Namespace) -> int:
@@ -261,5 +327,5 @@ def run(args: argparse.Namespace) -> int:
     if not args.run_dir.is_dir():
         print(f"modal-twin report: run folder {args.run_dir} not found", file=sys.stderr)
         return ExitCode.USAGE
-    print(f"report: {make_report(args.run_dir, args.out, n_modes=args.n_modes)}")
+    print(f"report: {make_report(args.run_dir, args.out, n_modes=args.n_modes, force=args.force)}")
     return ExitCode.OK

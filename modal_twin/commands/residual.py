@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ import numpy as np
 
 from modal_twin.errors import SignalError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import atomic_file, check_new
 
 __all__ = ["last_metrics", "metrics_consistent", "register", "run"]
 
@@ -38,6 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("bag", type=Path, help="bag of /measurement/frames (e.g. an imported one)")
     p.add_argument("--top", type=int, default=0, help="print only the N worst channels")
     p.add_argument("--json", type=Path, default=None, help="also write the table as JSON")
+    p.add_argument("--force", action="store_true", help="--json: overwrite an existing file")
     p.add_argument("--live", action="store_true",
                    help="replay the bag into a twin node (ROS) instead of simulating offline")
     p.add_argument("--rate", type=float, default=4.0, help="--live: replay rate (x real time)")
@@ -112,9 +115,12 @@ def live(a: argparse.Namespace) -> int:
              NodeSpec("twin", "twin_node", {"model_file": str(a.model.resolve()),
                                             "fs_hz": fs,
                                             "window_s": min(86_400.0, seconds)}))
-    sc = Scenario(a.bag, f"twin_{a.bag.name}", f"{a.model.name} on {a.bag}", nodes,
+    plain = re.sub(r"[^A-Za-z0-9._-]", "_", a.bag.resolve().name)[:40]  # a name of the run
+    sc = Scenario(a.bag, f"twin_{plain}", f"{a.model.name} on {a.bag}", nodes,
                   seconds / a.rate + 15.0, 60.0, ("/twin/metrics",), {}, {})
     res = Launcher(sc, run_dir=a.run_dir).run()
+    if res.exit_code == ExitCode.INTERRUPTED:
+        return ExitCode.INTERRUPTED
     if res.exit_code != 0 or res.bag is None:
         print(f"modal-twin residual: the twin run failed: {res.message} (logs in "
               f"{res.run_dir / 'logs'})", file=sys.stderr)
@@ -137,6 +143,8 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.io.records import records_from_bag, settling_samples
     from modal_twin.models.loading import load_model
 
+    if a.json is not None:
+        check_new(a.json, a.force)  # before the work
     plant = load_model(a.model).plant()
     recs, frames = records_from_bag(a.bag, plant=plant)
     if not recs:  # a run after a gap is scored after the model's settling time
@@ -171,9 +179,10 @@ def run(a: argparse.Namespace) -> int:
           f"{100 * float(np.median(fig.noise)):.2f} % (x{fig.median_over_noise:.2f}); "
           f"Eq. (8) of [004] median {100 * float(np.median(fig.eq8)):.2f} %")
     if a.json is not None:
-        a.json.write_text(json.dumps({c: {"nrmse": float(fig.nrmse[i]),
-                                          "noise": float(fig.noise[i]),
-                                          "eq8": float(fig.eq8[i])}
-                                      for i, c in enumerate(fig.channels)}, indent=1))
+        with atomic_file(a.json, force=a.force) as tmp:
+            tmp.write_text(json.dumps({c: {"nrmse": float(fig.nrmse[i]),
+                                           "noise": float(fig.noise[i]),
+                                           "eq8": float(fig.eq8[i])}
+                                       for i, c in enumerate(fig.channels)}, indent=1))
         print(f"wrote {a.json}")
     return ExitCode.OK

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import atomic_file, check_new
 
 __all__ = ["register", "run"]
 
@@ -54,6 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="--bag: seconds shown (default three periods of the first mode)")
     p.add_argument("--html", type=Path, default=None,
                    help="write a static HTML page instead of starting a server")
+    p.add_argument("--force", action="store_true", help="--html: overwrite an existing file")
     p.add_argument("--web-port", type=int, default=7000)
     p.add_argument("--zmq-port", type=int, default=6000)
     p.set_defaults(func=run)
@@ -317,10 +319,27 @@ def _is_geometry(path: Path) -> bool:
     return path.is_dir() or path.suffix.lower() in (".uff", ".unv")
 
 
+def _check_drawable(model: Path) -> None:
+    """Refuse a matrix model (or a version of one): it carries no geometry to draw."""
+    from modal_twin.errors import ConfigError
+    from modal_twin.models.matrix_model import MATRIX_SUFFIXES
+    from modal_twin.models.versions import read_version
+
+    if _is_geometry(model):
+        return
+    structure = model if model.suffix.lower() in MATRIX_SUFFIXES else read_version(model).structure
+    if structure.suffix.lower() in MATRIX_SUFFIXES:
+        msg = (f"{model}: a matrix model ({structure.suffix}) has no geometry to draw; view "
+               "takes a structure or vehicle YAML, a model version of one, a UFF geometry or an "
+               "imported bag (`modal-twin model info` lists a matrix model's modes)")
+        raise ConfigError(msg)
+
+
 def _scene(args: argparse.Namespace) -> tuple[list[object], str]:
     """Return the scene the arguments ask for (module docstring)."""
     from modal_twin.errors import ConfigError
 
+    _check_drawable(args.model)
     if args.modes is not None and args.model.is_file() and _is_vehicle(args.model):
         msg = (f"{args.model}: --modes draws on a building or a test geometry; a vehicle "
                "shows its model modes (and a record's motion with --bag)")
@@ -349,10 +368,12 @@ def run(args: argparse.Namespace) -> int:
     if args.modes is not None and args.bag is not None:
         print("modal-twin view: give --modes or --bag, not both", file=sys.stderr)
         return ExitCode.USAGE
+    if args.html is not None:
+        check_new(args.html, args.force)  # before the work
     cmds, caption = _scene(args)
     if args.html is not None:
-        args.html.parent.mkdir(parents=True, exist_ok=True)
-        args.html.write_text(static_html(cmds, caption=caption, title=args.model.name))
+        with atomic_file(args.html, force=args.force) as tmp:
+            tmp.write_text(static_html(cmds, caption=caption, title=args.model.name))
         print(f"scene: {args.html}")
         return ExitCode.OK
     def _terminate(*_: object) -> None:  # SIGTERM ends the view like Ctrl-C (server stopped)

@@ -8,7 +8,6 @@ the running drive and the settings as they were.
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 from modal_twin_msgs.msg import ExcitationCommand
 from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
@@ -21,7 +20,7 @@ from modal_twin.io.command_convert import config_from_command
 from modal_twin.io.convert import block_to_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import guarded, guarded_service, qos_for, run_node
-from modal_twin.paths import config_roots
+from modal_twin.paths import request_roots
 
 __all__ = ["ExcitationNode", "main"]
 
@@ -32,7 +31,7 @@ class ExcitationNode(Node):
     def __init__(self) -> None:
         super().__init__("excitation")
         self.cfg = declare_config(self, ExcitationConfig)
-        self.record_roots = [Path.cwd(), *config_roots()]
+        self.record_roots = request_roots()
         self.pub = self.create_publisher(SignalBlockMsg, "/excitation/signal",
                                          qos_for("/excitation/signal"))
         self.create_subscription(ExcitationCommand, "/excitation/command",

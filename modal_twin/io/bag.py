@@ -22,10 +22,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from modal_twin.errors import BagError
+from modal_twin.errors import BagError, ModalTwinError
 from modal_twin.io.bag_migrate import migrator
 from modal_twin.io.topics import bag_qos
 from modal_twin.io.typestore import known_types, typestore
+from modal_twin.paths import open_regular
 from modal_twin.signal_block import SignalBlock
 
 __all__ = [
@@ -279,9 +280,34 @@ def bag_parts(path: str | Path) -> list[Path]:
     return [p]
 
 
+def _check_part(part: Path) -> None:
+    """Refuse a bag part whose files are not regular files inside it.
+
+    The metadata and every file it names (``relative_file_paths``) are checked after
+    symbolic links, without opening them: a FIFO would block the reader, a link or a
+    ``..`` would read outside the bag.
+    """
+    from modal_twin.paths import check_regular
+    from modal_twin.yaml_files import read_yaml
+
+    root = part.resolve()
+    try:
+        doc = read_yaml(part / "metadata.yaml", "bag metadata")
+        info = doc.get("rosbag2_bagfile_information") or {}
+        for name in info.get("relative_file_paths") or []:
+            f = check_regular(part / str(name), "bag file")
+            if not f.resolve().is_relative_to(root):
+                msg = f"{f}: expected a file inside the bag {part}"
+                raise BagError(msg)
+    except ModalTwinError as err:
+        msg = f"cannot read bag {part}: {err}"
+        raise BagError(msg) from err
+
+
 def _open_reader(part: Path) -> Any:
     from rosbags.rosbag2 import Reader
 
+    _check_part(part)
     reader = Reader(part)
     try:
         reader.open()
@@ -628,7 +654,7 @@ def scan_mcap(f: Path) -> McapScan:  # noqa: C901
     scan = McapScan({}, {}, [])
     size = f.stat().st_size
     last_bad = summary = False
-    with f.open("rb") as fh:
+    with open_regular(f, "bag file") as fh:  # a FIFO is refused, never waited on
         if fh.read(8) != MCAP_MAGIC:
             msg = f"{f} is not an MCAP file (wrong magic bytes)"
             raise BagError(msg)

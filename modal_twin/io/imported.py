@@ -12,11 +12,7 @@ from __future__ import annotations
 
 import json
 import logging
-import os
-import shutil
-import tempfile
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +24,7 @@ from modal_twin.io.bag import BagWriter
 from modal_twin.io.channel_map import MAP_FILE, write_channel_map
 from modal_twin.io.convert import block_to_rosbags
 from modal_twin.io.typestore import typestore
+from modal_twin.paths import atomic_dir, atomic_file
 from modal_twin.signal_block import SignalBlock
 
 __all__ = [
@@ -42,38 +39,6 @@ log = logging.getLogger(__name__)
 
 FRAMES = "/measurement/frames"
 CHANNELS = "/measurement/channels"
-
-
-@contextmanager
-def atomic_dir(target: str | Path) -> Iterator[Path]:
-    """Return a temporary folder renamed to ``target`` on success, removed on failure."""
-    t = Path(target)
-    if t.exists():
-        msg = f"{t} exists already; choose a new path"
-        raise BagError(msg)
-    t.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{t.name}.", dir=t.parent))
-    work = tmp / t.name
-    try:
-        yield work
-        os.replace(work, t)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-
-@contextmanager
-def atomic_file(target: str | Path) -> Iterator[Path]:
-    """Return a temporary file path renamed to ``target`` on success, removed on failure."""
-    t = Path(target)
-    t.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{t.name}.", suffix=t.suffix, dir=t.parent)
-    os.close(fd)
-    tmp = Path(name)
-    try:
-        yield tmp
-        os.replace(tmp, t)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def _map_msg(channels: list[ChannelSpec], source: str, store: Any) -> Any:

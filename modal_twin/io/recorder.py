@@ -16,6 +16,7 @@ from modal_twin.io.bag import BagWriter
 from modal_twin.io.ros import message_class, qos_for, run_node, split_ros_args
 from modal_twin.io.topics import TOPICS
 from modal_twin.io.typestore import known_types
+from modal_twin.paths import private_files
 
 __all__ = ["RecorderNode", "main", "resolve_topics"]
 
@@ -122,6 +123,7 @@ class RecorderNode(Node):
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: ``recorder_node -o BAG /topic [/topic:pkg/msg/Type ...]``."""
+    private_files()  # the bag is private to its user (README: file modes)
     p = argparse.ArgumentParser(prog="modal-twin record", description=__doc__)
     p.add_argument("topics", nargs="+", help="topics, optionally /topic:pkg/msg/Type")
     p.add_argument("-o", "--output", required=True, type=Path, help="bag folder to create")

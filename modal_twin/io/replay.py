@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -33,8 +34,8 @@ def replay(
     readers first (DDS discovery takes seconds and matches readers one by one; a reader
     matched late loses the head of the stream). Returns the number of messages published.
     """
-    if rate <= 0:
-        msg = f"rate: expected > 0, got {rate}"
+    if not (rate > 0 and math.isfinite(rate)):  # nan / inf would never (or at once) publish
+        msg = f"--rate: expected a finite number > 0, got {rate}"
         raise BagError(msg)
     info = bag_info(path)
     wanted = [t for t in info.topics if topics is None or t.name in topics]

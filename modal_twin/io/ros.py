@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import importlib
 import os
+import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, MutableMapping
 from pathlib import Path
 from typing import Any
 
@@ -16,9 +17,12 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from modal_twin.errors import ConfigError
 from modal_twin.io.topics import BURST_LIMIT_BLOCKS, DEPTH, TOPICS, QosKind
+from modal_twin.paths import private_files
 
 __all__ = [
     "BURST_LIMIT_BLOCKS",
+    "FASTDDS_PROFILES",
+    "dds_env",
     "guarded",
     "guarded_service",
     "message_class",
@@ -33,10 +37,52 @@ __all__ = [
 
 
 FASTDDS_PROFILES = Path(__file__).with_name("fastdds_profiles.xml")
-"""Fast DDS defaults (history resource limits above :data:`BURST_LIMIT_BLOCKS`)."""
+"""Fast DDS defaults: UDP on 127.0.0.1 only, unicast discovery on this host, shared memory;
+history resource limits above :data:`BURST_LIMIT_BLOCKS`."""
+FASTDDS_PROFILES_NETWORK = Path(__file__).with_name("fastdds_profiles_network.xml")
+"""The same history limits with Fast DDS's own transports (every interface)."""
+_PROFILES_VAR, _RANGE_VAR = "FASTRTPS_DEFAULT_PROFILES_FILE", "ROS_AUTOMATIC_DISCOVERY_RANGE"
+_TRANSPORT_VAR = "MODAL_TWIN_TRANSPORT"  # "loopback" / "network", inherited by child processes
+
+
+def dds_env(env: MutableMapping[str, str], *, network: bool | None = None,
+            shared_memory: bool = True, folder: Path | None = None) -> MutableMapping[str, str]:
+    """Set the Fast DDS transports of ``env`` (and of the processes started with it).
+
+    Loopback only unless ``network`` (or ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` in ``env``
+    when ``network`` is None): :data:`FASTDDS_PROFILES` with the discovery range
+    ``SYSTEM_DEFAULT``, because rmw_fastrtps's ``LOCALHOST`` range adds a UDP transport of its
+    own bound to every interface. On a network: :data:`FASTDDS_PROFILES_NETWORK` and
+    ``SUBNET``. A profiles file the user set is left alone (the range then defaults to
+    ``LOCALHOST``). ``shared_memory=False`` writes the loopback profile without the
+    shared-memory transport into ``folder`` (Fast DDS gives its segments mode 0644).
+    """
+    rng = env.get(_RANGE_VAR, "")
+    if network is None:
+        network = rng == "SUBNET" or (rng == "SYSTEM_DEFAULT"
+                                      and env.get(_TRANSPORT_VAR) != "loopback")
+    if env.get(_PROFILES_VAR, "") not in ("", str(FASTDDS_PROFILES),
+                                          str(FASTDDS_PROFILES_NETWORK)):
+        env.setdefault(_RANGE_VAR, "SUBNET" if network else "LOCALHOST")
+        return env
+    if network:
+        users_own = rng == "SYSTEM_DEFAULT" and env.get(_TRANSPORT_VAR) != "loopback"
+        env[_RANGE_VAR] = rng if users_own else "SUBNET"
+        env[_PROFILES_VAR], env[_TRANSPORT_VAR] = str(FASTDDS_PROFILES_NETWORK), "network"
+        return env
+    profile = FASTDDS_PROFILES
+    if not shared_memory and folder is not None:
+        text = re.sub(r"\s*<transport_id>modal_twin_shm</transport_id>\s*</userTransports>",
+                      "\n        </userTransports>", FASTDDS_PROFILES.read_text())
+        profile = folder / FASTDDS_PROFILES.name
+        profile.write_text(text)
+    env[_RANGE_VAR], env[_PROFILES_VAR], env[_TRANSPORT_VAR] = (
+        "SYSTEM_DEFAULT", str(profile), "loopback")
+    return env
+
 
 # read when a participant is created (rclpy.init / the first node), so set on import
-os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
+dds_env(os.environ)
 
 
 
@@ -215,6 +261,7 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """
     node: Node | None = None
     code = 0
+    private_files()  # what a node writes is private to its user (README: file modes)
     try:
         rclpy.init(args=args if args is not None else sys.argv)
         node = factory()

@@ -27,6 +27,7 @@ import yaml
 
 from modal_twin.errors import ConfigError
 from modal_twin.models.effects import EffectSpec
+from modal_twin.paths import check_regular
 from modal_twin.yaml_files import read_yaml
 
 __all__ = ["ModelVersion", "history", "latest_version", "read_version", "write_version"]
@@ -95,16 +96,19 @@ def read_version(path: str | Path) -> ModelVersion:
 
     p = Path(path)
     if p.suffix.lower() in MATRIX_SUFFIXES:  # a matrix model of the user's FE tool
-        return ModelVersion(structure=p.resolve(), path=p)
+        return ModelVersion(structure=check_regular(p.resolve(), "matrix model",
+                                                    missing_ok=True), path=p)
     doc = read_yaml(p, "model file")
     if "structure" not in doc:  # a structure file itself
         return ModelVersion(structure=p.resolve(), path=p)
+    structure = check_regular((p.parent / str(doc["structure"])).resolve(),
+                              f"structure named by {p}", missing_ok=True)
     try:
         effects = tuple(EffectSpec(str(e["component"]), str(e["law"]),
                                    {str(k): float(v) for k, v in (e.get("params") or {}).items()})
                         for e in doc.get("effects") or [])
         return ModelVersion(
-            structure=(p.parent / str(doc["structure"])).resolve(),
+            structure=structure,
             version=int(doc.get("version", 0)),
             parent=None if doc.get("parent") is None else int(doc["parent"]),
             theta={str(k): float(v) for k, v in (doc.get("theta") or {}).items()},
@@ -126,5 +130,14 @@ def latest_version(folder: str | Path) -> ModelVersion | None:
 
 
 def history(folder: str | Path) -> list[ModelVersion]:
-    """All versions in order."""
+    """All versions in order.
+
+    Raises
+    ------
+    ConfigError
+        ``folder`` is not a folder.
+    """
+    if not Path(folder).is_dir():
+        msg = f"{folder}: no such model folder"
+        raise ConfigError(msg)
     return [read_version(f) for f in sorted(Path(folder).glob("v[0-9][0-9][0-9][0-9].yaml"))]

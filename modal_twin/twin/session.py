@@ -13,7 +13,8 @@ from modal_twin.acquisition.continuity import BlockVerdict, StreamMonitor, Verdi
 from modal_twin.channels import ChannelSpec
 from modal_twin.models.loading import load_model
 from modal_twin.models.plant import Plant
-from modal_twin.paths import config_roots, resolve_config
+from modal_twin.models.versions import read_version
+from modal_twin.paths import request_roots, resolve_config
 from modal_twin.signal_block import SignalBlock
 from modal_twin.twin.runner import TwinRunner, TwinStep
 from modal_twin.validation import check_request_path
@@ -33,8 +34,10 @@ class TwinSession:
     window_s : float
         Metrics window, s.
     versions_dir : path
-        Folder of the model versions a parameter message may name (besides the working
-        folder, the model's folder and the configuration roots).
+        Folder of the model versions a parameter message may name (besides ``runs/``, the
+        model's folder and the model folders of the configuration,
+        :func:`modal_twin.paths.request_roots`); a version names its structure, which must
+        lie inside them too.
 
     The stream's channel map (roles) comes with :meth:`set_channels`; until then the
     ``table_<input>`` naming rule routes the frames.
@@ -47,9 +50,8 @@ class TwinSession:
         self.fs_hz, self.window_s = float(fs_hz), float(window_s)
         self.plant = load_model(resolve_config(model_file)).plant()
         self.version = self.plant.name
-        self.roots: Sequence[Path] = [Path.cwd(), Path(versions_dir),
-                                      resolve_config(model_file).resolve().parent,
-                                      *config_roots()]
+        self.roots: Sequence[Path] = request_roots(
+            versions_dir, resolve_config(model_file).resolve().parent)
         self.runner = self._runner(self.plant)
         self.monitor = StreamMonitor()
 
@@ -93,6 +95,8 @@ class TwinSession:
         if model_file:
             path = str(check_request_path(model_file, "ModelParameters.model_file",
                                           self.roots))
+            check_request_path(str(read_version(path).structure),  # the file it names too
+                               "ModelParameters.model_file: structure", self.roots)
         plant = load_model(resolve_config(path), theta=dict(theta)).plant()
         self.plant, self.version = plant, label or plant.name
         self.runner = self._runner(plant)

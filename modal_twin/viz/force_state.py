@@ -15,6 +15,7 @@ from modal_twin.diagnosis.pipeline import Diagnosis
 from modal_twin.diagnosis.record import Record
 from modal_twin.models.loading import load_model
 from modal_twin.models.versions import read_version
+from modal_twin.validation import check_name
 
 __all__ = ["plot_force_state"]
 
@@ -90,7 +91,7 @@ def force_state_plots(model_file: str | Path, diag: Diagnosis, rec: Record,
         spec = factory.sites[comp]
         out.append(plot_force_state(
             rec.channels(cols[0]), rec.channels(cols[1]), spec.k, spec.c, rec.fs_hz,
-            folder / f"force_state_{comp}_{f.effect.law}.png",
+            folder / check_name(f"force_state_{comp}_{f.effect.law}.png", "figure name"),
             title=f"{comp}: residual of the nominal law and with {f.effect.law}",
             fitted_force=fitted))
     return out

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from modal_twin._types import FloatArray
+from modal_twin.paths import atomic_file
 from modal_twin.viz._figure import png_data_uri
 
 __all__ = ["RecordData", "RunData", "render_report", "write_report"]
@@ -230,8 +231,10 @@ def render_report(d: RunData) -> str:
 
 
 def write_report(d: RunData, out: str | Path) -> Path:
-    """Write :func:`render_report` to ``out``."""
-    p = Path(out)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(render_report(d), encoding="utf-8")
-    return p
+    """Write :func:`render_report` to ``out``.
+
+    Renamed into place: a link there is replaced, never written through.
+    """
+    with atomic_file(out) as tmp:
+        tmp.write_text(render_report(d), encoding="utf-8")
+    return Path(out)

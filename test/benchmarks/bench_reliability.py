@@ -17,8 +17,14 @@ Figures:
 - damaged records (issue 21): a 64-byte flip in the middle chunk salvaged (kept, reported
   lost, silent loss), residual on a record with one malformed frame, report's metrics
   with one malformed message.
+- paths (issue 21): symbolic links to files outside, FIFOs where a file is expected,
+  names that would move the run folder, outputs that exist already, each through the
+  command line or the twin's model loading in a sandbox: cases, hangs (no answer in 60 s),
+  links followed, bytes written outside the sandbox's run folder, files overwritten,
+  tracebacks and multi-line errors.
 
 usage: python test/benchmarks/bench_reliability.py [--minutes 10] [--launches 10]
+       [--only paths,burst,...]
 Last line: one JSON object.
 """
 
@@ -311,10 +317,119 @@ def damaged_figures(tmp: Path) -> dict[str, object]:
     return fig
 
 
+def _cli(args: list[str], cwd: Path, guard_s: float = 60.0) -> tuple[int | None, str]:
+    """Run ``modal-twin args`` in ``cwd``; (exit code or None on a hang, stderr)."""
+    env = {**os.environ, "PYTHONPATH": str(TEST.parent)}
+    try:
+        r = subprocess.run([PY, "-m", "modal_twin.cli", *args], cwd=cwd, env=env,
+                           capture_output=True, text=True, timeout=guard_s, check=False)
+    except subprocess.TimeoutExpired:
+        return None, ""
+    return r.returncode, r.stderr
+
+
+def _tree(root: Path, skip: Path) -> dict[str, int]:
+    """Every file under ``root`` but ``skip`` (the run folder): path -> size."""
+    return {str(p): p.lstat().st_size for p in root.rglob("*")
+            if not p.is_relative_to(skip) and not p.is_dir()}
+
+
+def paths_figures(tmp: Path) -> dict[str, int]:
+    """Issue 21: links, FIFOs, escaping names and existing outputs (module docstring)."""
+    import base64
+
+    box = tmp / "paths"
+    work = box / "work"  # the working folder; its runs/ is the run folder
+    run = work / "runs" / "r1"
+    run.mkdir(parents=True)
+    building = TEST.parent / "config" / "structures" / "building.yaml"
+    secret = b"\x89PNG\r\n\x1a\nSECRET-MARKER-21"
+    (box / "secret.png").write_bytes(secret)
+    (box / "outside.yaml").write_text(building.read_text())  # a valid structure, outside
+    before = _tree(box, work / "runs")
+    counts = {"cases": 0, "hangs": 0, "symlink_cases": 0, "symlinks_followed": 0,
+              "fifo_cases": 0, "fifo_hangs": 0, "escaped_name_cases": 0,
+              "overwrite_cases": 0, "files_overwritten": 0, "tracebacks": 0,
+              "multi_line_errors": 0}
+
+    def case(kind: str, args: list[str]) -> None:
+        code, err = _cli(args, work)
+        counts["cases"] += 1
+        counts[f"{kind}_cases"] += 1
+        counts["hangs"] += code is None
+        if kind == "fifo":
+            counts["fifo_hangs"] += code is None
+        counts["tracebacks"] += "Traceback" in err
+        counts["multi_line_errors"] += code not in (0, None) and len(err.strip().splitlines()) > 1
+
+    # symbolic links: a report figure, a request path, a version's structure
+    (run / "leak.png").symlink_to(box / "secret.png")
+    (run / "force_state_leak_x.png").symlink_to(box / "secret.png")
+    case("symlink", ["--quiet", "report", "runs/r1"])
+    page = (run / "report.html").read_text() if (run / "report.html").is_file() else ""
+    counts["symlinks_followed"] += base64.b64encode(secret).decode() in page
+    (run / "models").mkdir()  # a version naming a link inside to a structure outside
+    (run / "models" / "structure.yaml").symlink_to(box / "outside.yaml")
+    (run / "models" / "v0001.yaml").write_text("structure: structure.yaml\nversion: 1\n")
+    code = (f"from modal_twin.twin.session import TwinSession\n"
+            f"t = TwinSession({str(building)!r}, 1000.0, 2.0, 'runs/r1/models')\n"
+            f"try:\n    t.load_version('runs/r1/models/v0001.yaml', {{}}, 'v1')\n"
+            f"except Exception as e:\n    print('refused')\n")
+    counts["cases"] += 1
+    counts["symlink_cases"] += 1
+    try:
+        r = subprocess.run([PY, "-c", code], cwd=work, capture_output=True, text=True,
+                           timeout=60, env={**os.environ, "PYTHONPATH": str(TEST.parent)})
+        counts["symlinks_followed"] += "refused" not in r.stdout
+    except subprocess.TimeoutExpired:
+        counts["hangs"] += 1
+    # FIFOs where a file is expected
+    fifo_dir = work / "runs" / "fifo"
+    fifo_dir.mkdir()
+    for name in ("x.png", "force_state_fifo_x.png", "m.yaml", "structure.yaml", "s.yaml"):
+        os.mkfifo(fifo_dir / name)
+    (fifo_dir / "v0001.yaml").write_text(f"structure: {fifo_dir / 'structure.yaml'}\n")
+    (fifo_dir / "bag").mkdir()
+    (fifo_dir / "bag" / "metadata.yaml").write_text(
+        "rosbag2_bagfile_information:\n  version: 8\n  storage_identifier: mcap\n"
+        "  relative_file_paths: [part.mcap]\n  files: []\n  message_count: 0\n")
+    os.mkfifo(fifo_dir / "bag" / "part.mcap")
+    for args in (["report", "runs/fifo"], ["model", "info", "runs/fifo/m.yaml"],
+                 ["view", "runs/fifo/m.yaml", "--html", "runs/fifo/v.html"],
+                 ["view", "runs/fifo/v0001.yaml", "--html", "runs/fifo/v2.html"],
+                 ["export", "model", "runs/fifo/m.yaml", "--out", "runs/fifo/o.npz"],
+                 ["residual", "runs/fifo/v0001.yaml", "runs/fifo"],
+                 ["launch", "runs/fifo/s.yaml"], ["bag", "info", "runs/fifo/bag"],
+                 ["identify", "runs/fifo/bag", "--out", "runs/fifo/id"],
+                 ["bag", "salvage", "runs/fifo/bag", "--out", "runs/fifo/s"]):
+        case("fifo", ["--quiet", *args])
+    # names that would move the run folder
+    for i, name in enumerate(("x/../../../escaped", "a\\nb", ".hidden", "/abs/x", "..")):
+        scen = work / "runs" / f"name{i}.yaml"
+        scen.write_text(f'launch: {{name: "{name}", duration_s: 1, '
+                        "nodes: [{name: e, executable: excitation_node}]}\n")
+        case("escaped_name", ["launch", str(scen)])
+    # outputs that exist already
+    for args, out in ((["export", "model", str(building), "--out", "runs/o.npz"], "runs/o.npz"),
+                      (["report", "runs/r1", "--out", "runs/o.html"], "runs/o.html"),
+                      (["view", str(building), "--n-modes", "1", "--html", "runs/v.html"],
+                       "runs/v.html"),
+                      (["residual", str(building), "runs/none", "--json", "runs/o.json"],
+                       "runs/o.json")):
+        (work / out).write_text("KEEP")
+        case("overwrite", ["--quiet", *args])
+        counts["files_overwritten"] += (work / out).read_text(errors="replace") != "KEEP"
+    after = _tree(box, work / "runs")
+    outside = sum(size for p, size in after.items() if before.get(p) != size)
+    return {**{f"paths_{k}": v for k, v in counts.items()},
+            "paths_bytes_outside_run_folder": outside}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--minutes", type=float, default=10.0, help="64 ch at 2 kHz run length")
     ap.add_argument("--launches", type=int, default=10)
+    ap.add_argument("--only", default="", help="comma-separated parts to run (default all)")
     a = ap.parse_args()
     domain = int(os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(150, 200) % 101 + 1)))
     tmp = Path(tempfile.mkdtemp(prefix="bench_reliability_"))
@@ -326,7 +441,10 @@ def main() -> int:
                        ("orphans", lambda: orphan_figures(tmp)),
                        ("long", lambda: long_run_figures(a.minutes)),
                        ("bombs", lambda: bomb_figures(tmp)),
-                       ("damaged", lambda: damaged_figures(tmp))):
+                       ("damaged", lambda: damaged_figures(tmp)),
+                       ("paths", lambda: paths_figures(tmp))):
+        if a.only and name not in a.only.split(","):
+            continue
         t0 = time.monotonic()
         part = step()
         fig.update(part)
