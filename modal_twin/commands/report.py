@@ -135,15 +135,15 @@ def _identification(bag: Path, structure: Path) -> dict[str, Any]:
     import scipy.signal as ss
 
     from modal_twin.identification.metrics import mac
-    from modal_twin.identification.node import IdentificationConfig, identify_window
+    from modal_twin.identification.window import IdentificationConfig, identify_window
     from modal_twin.io.bag import read_blocks
     from modal_twin.models.building import build_building, modal_reduction
     from modal_twin.signal_block import concatenate_blocks
 
     blk = concatenate_blocks(read_blocks(bag, "/measurement/frames"))
-    cfg = IdentificationConfig(method="n4sid", fs_target_hz=100.0, max_order=40,
-                               outputs="[FR]*_[xyz]")
-    modes, diagram, outs = identify_window(blk, cfg)
+    rec = identify_window(blk, IdentificationConfig(method="n4sid", fs_target_hz=100.0,
+                                                    max_order=40))  # outputs: role output
+    modes, diagram, outs = rec.modes, rec.diagram, rec.output_names
     bld = build_building(structure)
     red = modal_reduction(bld, 12)
     rows = [bld.channel_names.index(n) for n in outs]

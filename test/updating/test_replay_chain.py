@@ -25,7 +25,7 @@ launch:
     - {{name: twin, executable: twin_node}}
 identification:
   ros__parameters: {{window_s: 200.0, fs_target_hz: 50.0, f_min_hz: 4.0, max_order: 60,
-                    order_step: 4, outputs: "*_[xyz]"}}
+                    order_step: 4}}
 updating:
   ros__parameters: {{model_file: {BUILDING}, versions_dir: VERSIONS, auto: true}}
 twin:
