@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from modal_twin.exit_codes import ExitCode
-from modal_twin.identification.record import METHODS, polymax_orders
+from modal_twin.identification.record import METHODS
 
 __all__ = ["register", "run"]
 
@@ -53,9 +53,10 @@ def run(a: argparse.Namespace) -> int:
     s = rec.settings
     print(f"identify: {rec.method} on {len(rec.inputs)} inputs, {len(rec.outputs)} outputs, "
           f"{block.n_samples / block.fs_hz:.1f} s at {block.fs_hz:g} Hz")
-    print(f"identify: {s.describe()} (from the record; --f-max to change the band)"
-          + (f"; PolyMAX polynomial orders 2..{polymax_orders(s, len(rec.inputs))}, the "
-             f"block rows unused" if rec.method == "polymax" else ""))
+    sw = rec.sweep.orders
+    print(f"identify: {s.describe()} ({s.band_rule}; --f-max to change the band)"
+          + (f"; PolyMAX polynomial orders {sw[0]}..{sw[-1]}, the block rows unused"
+             if rec.method == "polymax" else ""))
     for w in rec.warnings:
         print(f"warning: {w}", file=sys.stderr)
     for n in rec.notes:
@@ -68,9 +69,12 @@ def _report(a: argparse.Namespace, rec: Any) -> int:
     from modal_twin.identification.auto import drifting_modes
 
     mm, s, diag = rec.modes, rec.settings, rec.diagram
+    for d_col in rec.dropped:
+        print(f"not reported: {d_col.describe()}")
     if mm.f_hz.size == 0:
         print(f"warning: no mode found in {s.band_hz[0]:.3g}-{s.band_hz[1]:.3g} Hz: no "
-              f"cluster of poles stayed stable over {len(s.orders)} orders. Try a "
+              f"cluster of poles stayed stable over orders {rec.sweep.orders[0]}.."
+              f"{rec.sweep.orders[-1]}. Try a "
               f"narrower band (--f-max), another method (ssi-cov / n4sid with inputs), "
               f"or a longer record", file=sys.stderr)
         return ExitCode.FAILED
@@ -99,7 +103,7 @@ def _write(out: Path, rec: Any) -> None:
     mm = rec.modes
     write_modes(out, rec)
     save_figure(plot_stabilization(rec.diagram, selected_f_hz=mm.f_hz,
-                                   f_max_hz=rec.settings.band_hz[1],
+                                   f_max_hz=rec.settings.band_hz[1], spectrum=rec.spectrum,
                                    title=f"stabilization diagram ({rec.method})"),
                 out / "stabilization.png")
     labels = [f"{f:.2f} Hz" for f in mm.f_hz]

@@ -141,8 +141,8 @@ def _identification(bag: Path, structure: Path) -> dict[str, Any]:
     from modal_twin.signal_block import concatenate_blocks
 
     blk = concatenate_blocks(read_blocks(bag, "/measurement/frames"))
-    rec = identify_window(blk, IdentificationConfig(method="n4sid", fs_target_hz=100.0,
-                                                    max_order=40))  # outputs: role output
+    rec = identify_window(blk, IdentificationConfig(  # outputs: the channels of role output
+        method="n4sid", fs_target_hz=100.0, max_order=40, f_max_hz=40.0))
     modes, diagram, outs = rec.modes, rec.diagram, rec.output_names
     bld = build_building(structure)
     red = modal_reduction(bld, 12)

@@ -5,9 +5,10 @@ anti-alias / band-pass corners the file states), the horizon from the lowest fre
 of that band, the orders from the number of outputs and the horizon.
 
 - **Band** ``(f_lo, f_hi)``: ``f_hi`` is ``margin`` (1.25) x the frequency below which
-  ``energy`` (80 %) of the summed, channel-normalised output PSD (Welch, mean removed)
-  lies (a weaker mode just above it stays in), at most 0.8 x Nyquist and the
-  stated low-pass corner; ``f_lo`` is the larger of the stated high-pass corner and
+  ``energy`` (99 %) of the summed, channel-normalised output PSD (Welch, mean removed)
+  lies (weak higher modes stay in; two events of one structure, whose spectra differ in
+  their strong part, get nearly the same edge), at most 0.8 x Nyquist and the stated
+  low-pass corner; ``f_lo`` is the larger of the stated high-pass corner and
   ``n_cycles / T`` (20 cycles of the lowest mode in the record, so that its correlations
   are estimated at all).
 - **Decimation** ``q = floor(fs / (2.5 f_hi))``: the new Nyquist is 1.25 f_hi, inside
@@ -15,7 +16,7 @@ of that band, the orders from the number of outputs and the horizon.
 - **Block rows** ``i = ceil(fs_q / (4 f_lo))`` (the past horizon spans a quarter period
   of the lowest mode, as the default of :func:`~modal_twin.identification.n4sid.n4sid`
   with ``f_min``), at least ``ceil((n_max + 1) / n_out) + 1`` and at most what keeps
-  ``i (n_in + n_out) <= 600`` and twice as many Hankel columns as rows
+  ``i (n_in + n_out) <= 1200`` (:data:`HANKEL_ROWS`) and twice as many Hankel columns as rows
   (``n_samples >= 2 i (1 + 2 (n_in + n_out))``).
 - **Orders** ``2, 4, ..., n_max`` with ``n_max = min(60, n_out (i - 1))``.
 """
@@ -32,7 +33,10 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
 from modal_twin.identification.modal_model import ModalModel, StabilizationDiagram
 
-__all__ = ["AutoSettings", "choose_settings", "drifting_modes", "rms_spread"]
+__all__ = ["HANKEL_ROWS", "AutoSettings", "choose_settings", "drifting_modes", "rms_spread"]
+
+HANKEL_ROWS = 1200
+"""Most block rows x channels of a Hankel matrix (its SVD / QR stays a few seconds)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,6 +53,8 @@ class AutoSettings:
         Sample rate after decimation.
     block_rows : int
     orders : tuple of int
+    band_rule : str
+        Where each band edge comes from (printed by the command).
     """
 
     band_hz: tuple[float, float]
@@ -56,6 +62,7 @@ class AutoSettings:
     fs_hz: float
     block_rows: int
     orders: tuple[int, ...]
+    band_rule: str = ""
 
     def describe(self) -> str:
         """One line for the command's output."""
@@ -91,8 +98,8 @@ def choose_settings(y: FloatArray, fs_hz: float, n_in: int, *,
                     f_max_hz: float | None = None, f_min_hz: float | None = None,
                     factor: int | None = None, block_rows: int | None = None,
                     orders: tuple[int, ...] | None = None,
-                    corners_hz: tuple[float, float] | None = None, energy: float = 0.8,
-                    margin: float = 1.25, n_cycles: float = 20.0) -> AutoSettings:
+                    corners_hz: tuple[float, float] | None = None, energy: float = 0.99,
+                    margin: float = 1.0, n_cycles: float = 20.0) -> AutoSettings:
     """Band, decimation, block rows and orders for a record (module docstring).
 
     Every setting given replaces the one chosen from the record; a given band edge the
@@ -127,11 +134,16 @@ def choose_settings(y: FloatArray, fs_hz: float, n_in: int, *,
     if math.isfinite(hi_c) and hi_c < limit:
         limit, why = hi_c, "the low-pass corner the file states"
     _check_band(f_max_hz, f_min_hz, limit, why)
-    f_hi = min(margin * _energy_band(y, fs_hz, energy), limit) if f_max_hz is None else f_max_hz
+    f_e = margin * _energy_band(y, fs_hz, energy)
+    f_hi = min(f_e, limit) if f_max_hz is None else f_max_hz
+    hi_why = ("given" if f_max_hz is not None else
+              f"{100 * energy:g} % of the output energy below it" if f_e <= limit else why)
     if f_min_hz is not None:
-        f_lo = f_min_hz
+        f_lo, lo_why = f_min_hz, "given"
     else:
         f_lo = max(n_cycles / T, lo_c if math.isfinite(lo_c) else 0.0)
+        lo_why = (f"{n_cycles:g} cycles in the record" if f_lo == n_cycles / T
+                  else "the high-pass corner the file states")
         if n_cycles / T >= limit:
             msg = (f"record: expected at least {n_cycles / limit:.3g} s ({n_cycles:g} cycles "
                    f"below the {limit:.4g} Hz limit), got {T:.3g} s")
@@ -151,7 +163,7 @@ def choose_settings(y: FloatArray, fs_hz: float, n_in: int, *,
     fs_q = fs_hz / q
     n_q = n // q
     n_ch = max(n_in + n_out, 1)
-    i_max = max(2, min(600 // n_ch, (n_q - 2) // (4 * n_ch + 2)))
+    i_max = max(2, min(HANKEL_ROWS // n_ch, (n_q - 2) // (4 * n_ch + 2)))
     i = max(math.ceil(fs_q / (4.0 * max(f_lo, 1e-300))), 4)
     i = min(i, i_max)
     n_max = max(2, min(60, n_out * (i - 1)))
@@ -163,7 +175,8 @@ def choose_settings(y: FloatArray, fs_hz: float, n_in: int, *,
     if orders is None:
         n_max = 2 * max(1, min(n_max, n_out * (i - 1)) // 2)
         orders = tuple(range(2, n_max + 1, 2))
-    return AutoSettings((f_lo, f_hi), q, fs_q, i, tuple(orders))
+    return AutoSettings((f_lo, f_hi), q, fs_q, i, tuple(orders),
+                        f"lower edge: {lo_why}; upper edge: {hi_why}")
 
 
 def rms_spread(y: FloatArray, n_windows: int = 8) -> float:

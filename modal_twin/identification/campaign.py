@@ -152,7 +152,7 @@ class WindowIdentifier:
     def __call__(self, w: CampaignWindow) -> WindowModes:
         """Identify ``w``; a window that cannot be identified gives no modes and its error."""
         try:
-            if self.method not in OUTPUT_ONLY and w.u is None:
+            if self.method == "n4sid" and w.u is None:
                 msg = f"window {w.index} of {w.source}: {self.method} needs inputs, got none"
                 raise OptionError(msg)
             u = w.u if w.u is not None and self.method not in OUTPUT_ONLY else None

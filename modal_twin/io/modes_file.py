@@ -148,7 +148,10 @@ def modes_document(rec: RecordModes) -> dict[str, Any]:
                          "orders": list(s.orders)},
             "thresholds": {"rel_tol_f": diag.rel_tol_f, "rel_tol_zeta": diag.rel_tol_zeta,
                            "mac_min": diag.mac_min},
-            "inputs": [c.name for c in rec.inputs], "dofs": dofs,
+            "inputs": [c.name for c in rec.inputs], "dofs": dofs, "notes": list(rec.notes),
+            "not_reported": [{"f_hz": d.f_hz, "zeta": d.zeta, "n_poles": d.n_poles,
+                              "orders": list(d.orders), "reason": d.reason}
+                             for d in rec.dropped],
             "modes": [{"f_hz": float(mm.f_hz[k]), "std_f_hz": float(mm.std_f_hz[k]),
                        "zeta": float(mm.zeta[k]), "std_zeta": float(mm.std_zeta[k]),
                        "mpc": float(mp[k]), "complexity": float(cx[k]),
