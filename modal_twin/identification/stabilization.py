@@ -271,7 +271,7 @@ class DroppedColumn:
     f_hz, zeta : float
         Median frequency and damping of its poles.
     n_poles : int
-        Stable poles in it.
+        Poles stable in frequency in it.
     orders : (int, int)
         First and last model order it spans.
     reason : str
@@ -285,8 +285,8 @@ class DroppedColumn:
 
     def describe(self) -> str:
         """One line: where it is and why it is not a mode."""
-        return (f"{self.f_hz:.3f} Hz (zeta {100 * self.zeta:.1f} %, {self.n_poles} stable "
-                f"poles, orders {self.orders[0]}-{self.orders[1]}): {self.reason}")
+        return (f"{self.f_hz:.3f} Hz (zeta {100 * self.zeta:.1f} %, orders {self.orders[0]}-"
+                f"{self.orders[1]}): {self.reason}")
 
 
 def dropped_columns(diagram: StabilizationDiagram, modes: ModalModel, *,
@@ -296,33 +296,40 @@ def dropped_columns(diagram: StabilizationDiagram, modes: ModalModel, *,
                     ) -> list[DroppedColumn]:
     """Columns of stable poles that :func:`select_modes` did not report, with the reason.
 
-    Every stable pole that is not in a reported mode's cluster is clustered as in
-    :func:`select_modes`; each cluster of at least ``min_poles`` poles is one column. The
-    reason is the first of: the frequency of a reported mode (another shape or damping),
-    outside the band, damping not in (0, ``zeta_max``), fewer poles than the selection's
-    minimum support.
+    The poles stable in frequency (the columns an engineer sees in the diagram) that are
+    not in a reported mode's cluster are clustered as in :func:`select_modes`; a cluster
+    is a column when it holds at least ``min_poles`` fully stable poles or as many poles
+    stable in frequency as a mode needs. The reason is the first of: the frequency of a
+    reported mode (another shape or damping), outside the band, damping not in
+    (0, ``zeta_max``), too few fully stable poles (damping or MAC unstable at the others),
+    too few poles at all.
     """
     ms = _min_support(diagram, min_support)
     if modes.n_support.size:
         ms = max(ms, int(np.ceil(rel_support * modes.n_support.max())))
-    fl, zl, Sl, ol = [], [], [], []
-    for order, p, st in zip(diagram.orders, diagram.poles, diagram.stable, strict=True):
-        q = np.nonzero(st)[0]
+    fl, zl, Sl, ol, fs = [], [], [], [], []
+    for order, p, sf, st in zip(diagram.orders, diagram.poles, diagram.stable_f,
+                                diagram.stable, strict=True):
+        q = np.nonzero(sf)[0]
         fl.append(p.f_hz[q])
         zl.append(p.zeta[q])
         Sl.append(p.shapes[:, q])
         ol.append(np.full(q.size, int(order)))
+        fs.append(st[q])
     if not fl or sum(x.size for x in fl) == 0:
         return []
     f, z = np.concatenate(fl).astype(float), np.concatenate(zl).astype(float)
-    S, o = np.concatenate(Sl, axis=1), np.concatenate(ol)
-    lab = _clusters(f, S, diagram)
+    S, o, full = np.concatenate(Sl, axis=1), np.concatenate(ol), np.concatenate(fs)
+    lab = _clusters(f, np.nan_to_num(S), diagram)
     lo, hi = f_range_hz if f_range_hz is not None else (-np.inf, np.inf)
     reported = {(int(o_), float(f_)) for o_, f_ in zip(modes.mode_orders, modes.f_hz,
                                                       strict=True)}
     out = []
     for c in np.unique(lab):
         idx = np.nonzero(lab == c)[0]
+        n_full = int(full[idx].sum())
+        if n_full < min_poles and idx.size < ms:
+            continue  # scattered poles, not a column
         fm, zm = float(np.median(f[idx])), float(np.median(z[idx]))
         if any((int(o[k]), float(f[k])) in reported for k in idx):
             continue  # the reported mode's own column
@@ -337,13 +344,14 @@ def dropped_columns(diagram: StabilizationDiagram, modes: ModalModel, *,
             if idx.size < ms:
                 continue  # a few poles of negative or large damping: noise, not a column
             reason = f"damping {100 * zm:.1f} % outside (0, {100 * zeta_max:g} %)"
-        elif idx.size < ms:
-            reason = (f"{idx.size} stable poles, fewer than the {ms} a mode needs (20 % of "
-                      f"the orders, {100 * rel_support:g} % of the largest column)")
+        elif n_full < ms:
+            reason = (f"stable in frequency at {idx.size} orders, in damping and MAC > "
+                      f"{diagram.mac_min:g} too at {n_full}: fewer than the {ms} a mode "
+                      f"needs (20 % of the orders, {100 * rel_support:g} % of the largest "
+                      f"column)")
         else:
             reason = (f"its poles scatter in damping or shape: no cluster of {ms} among "
                       f"those damped in (0, {100 * zeta_max:g} %)")
-        if idx.size >= min_poles:
-            out.append(DroppedColumn(fm, zm, int(idx.size), (int(o[idx].min()),
-                                                            int(o[idx].max())), reason))
+        out.append(DroppedColumn(fm, zm, int(idx.size), (int(o[idx].min()),
+                                                        int(o[idx].max())), reason))
     return sorted(out, key=lambda d: d.f_hz)
