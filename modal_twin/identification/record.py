@@ -46,6 +46,7 @@ from modal_twin.identification.n4sid import n4sid
 from modal_twin.identification.polymax import polymax
 from modal_twin.identification.ssi_cov import correlations, ssi_cov
 from modal_twin.identification.stabilization import (
+    REL_SUPPORT,
     DroppedColumn,
     dropped_columns,
     select_modes,
@@ -407,7 +408,8 @@ def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float]
                                  else [])
     for k, th in enumerate(tries):
         diag = stabilization_diagram(sweep, **th)
-        mm = select_modes(diag, zeta_max=opts.zeta_max, f_range_hz=band)
+        mm = select_modes(diag, zeta_max=opts.zeta_max, f_range_hz=band,
+                          rel_support=REL_SUPPORT)
         if mm.f_hz.size:
             return diag, mm, k > 0
     return diag, mm, len(tries) > 1

@@ -8,11 +8,11 @@ Selection: stable poles with damping in (0, ``zeta_max``) are clustered by the d
 :math:`d = \max(|\Delta f| / \bar f / \mathrm{tol}_f, (1 - \mathrm{MAC}) / (1 -
 \mathrm{MAC}_{min}))` (average linkage, cut at 1), so that close modes with distinct
 shapes stay apart. Clusters supported by fewer than ``min_support`` poles (isolated poles)
-are rejected, and so are clusters with fewer than ``rel_support`` (25 %) of the largest
-cluster's poles (spurious poles scatter into small clusters; Magalhaes et al. 2009,
-Reynders et al. 2012); each remaining cluster is one mode, represented by the pole nearest
-the cluster's median frequency and damping. :func:`dropped_columns` lists the clusters
-not reported, with the reason.
+are rejected, and (``rel_support``, 25 % in ``identify``) so are clusters with fewer than
+that fraction of the largest cluster's poles (spurious poles scatter into small clusters;
+Magalhaes et al. 2009, Reynders et al. 2012); each remaining cluster is one mode,
+represented by the pole nearest the cluster's median frequency and damping.
+:func:`dropped_columns` lists the clusters not reported, with the reason.
 """
 
 from __future__ import annotations
@@ -155,7 +155,7 @@ def select_modes(
     zeta_max: float = 0.2,
     min_support: int | None = None,
     f_range_hz: tuple[float, float] | None = None,
-    rel_support: float = REL_SUPPORT,
+    rel_support: float = 0.0,
 ) -> ModalModel:
     """Pick physical modes from the stable poles of a diagram.
 
@@ -168,7 +168,9 @@ def select_modes(
         Minimum number of stable poles in a cluster; default
         ``max(3, ceil(0.2 * n_orders))``.
     rel_support : float
-        A cluster also needs this fraction of the largest cluster's poles (0.25): physical
+        A cluster also needs this fraction of the largest cluster's poles (0: off;
+        :func:`~modal_twin.identification.record.identify_record` uses
+        :data:`REL_SUPPORT`, 0.25): physical
         modes form the large clusters, spurious poles the small ones (the size-based
         split of Reynders et al. 2012 after the clustering of Magalhaes et al. 2009).
     f_range_hz : (float, float), optional
@@ -302,7 +304,8 @@ def dropped_columns(diagram: StabilizationDiagram, modes: ModalModel, *,
     stable in frequency as a mode needs. The reason is the first of: the frequency of a
     reported mode (another shape or damping), outside the band, damping not in
     (0, ``zeta_max``), too few fully stable poles (damping or MAC unstable at the others),
-    too few poles at all.
+    too few poles at all. ``min_support`` and ``rel_support`` are those the modes were
+    selected with.
     """
     ms = _min_support(diagram, min_support)
     if modes.n_support.size:
