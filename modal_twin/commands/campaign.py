@@ -37,7 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--inputs", default=None,
                    help="measured inputs, name,name,... (then N4SID; default SSI-cov)")
     p.add_argument("--orders", default="8:40:2", help="model orders first:last:step")
-    p.add_argument("--f-range", default="0.3,20", help="band of modes kept, Hz: low,high")
+    p.add_argument("--f-range", default=None,
+                   help="analysis band, Hz: low,high (default: from each window, as identify)")
     p.add_argument("--executor", default=None,
                    help="dask://HOST:PORT for a cluster (default: local processes)")
     p.add_argument("--jobs", default=None, help="local processes (1 = serial; default auto)")
@@ -99,10 +100,11 @@ def run(a: argparse.Namespace) -> int:
     if a.executor and a.jobs:
         msg = "give --executor or --jobs, not both"
         raise OptionError(msg)
-    lo, hi = _floats(a.f_range, "--f-range", 2)
+    band = _floats(a.f_range, "--f-range", 2) if a.f_range else None
     first, last, step = (int(v) for v in _floats(a.orders, "--orders", 3))
-    ident = WindowIdentifier(method="n4sid" if a.inputs else "ssi_cov",
-                             orders=tuple(range(first, last + 1, step)), f_range_hz=(lo, hi))
+    ident = WindowIdentifier(method="n4sid" if a.inputs else "ssi-cov",
+                             orders=tuple(range(first, last + 1, step)),
+                             f_range_hz=None if band is None else (band[0], band[1]))
     with make_executor(a.executor or a.jobs) as ex:  # a bad spec fails before the reading
         windows, outputs = _windows(a)
         res = run_campaign(windows, outputs, identifier=ident, executor=ex,

@@ -153,7 +153,7 @@ def _identification(bag: Path, structure: Path) -> dict[str, Any]:
     import scipy.signal as ss
 
     from modal_twin.identification.metrics import mac
-    from modal_twin.identification.node import IdentificationConfig, identify_window
+    from modal_twin.identification.window import IdentificationConfig, identify_window
     from modal_twin.io.bag import read_frames
     from modal_twin.models.building import build_building, modal_reduction
 
@@ -161,9 +161,9 @@ def _identification(bag: Path, structure: Path) -> dict[str, Any]:
     blk = frames.longest  # a damaged record: its longest contiguous run
     if frames.skipped or frames.gaps:
         print(f"report: {bag}: {frames.note(blk)}", file=sys.stderr)
-    cfg = IdentificationConfig(method="n4sid", fs_target_hz=100.0, max_order=40,
-                               outputs="[FR]*_[xyz]")
-    modes, diagram, outs = identify_window(blk, cfg)
+    rec = identify_window(blk, IdentificationConfig(  # outputs: the channels of role output
+        method="n4sid", fs_target_hz=100.0, max_order=40, f_max_hz=40.0))
+    modes, diagram, outs = rec.modes, rec.diagram, rec.output_names
     bld = build_building(structure)
     red = modal_reduction(bld, 12)
     rows = [bld.channel_names.index(n) for n in outs]

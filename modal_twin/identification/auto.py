@@ -5,9 +5,10 @@ anti-alias / band-pass corners the file states), the horizon from the lowest fre
 of that band, the orders from the number of outputs and the horizon.
 
 - **Band** ``(f_lo, f_hi)``: ``f_hi`` is ``margin`` (1.25) x the frequency below which
-  ``energy`` (80 %) of the summed, channel-normalised output PSD (Welch, mean removed)
-  lies (a weaker mode just above it stays in), at most 0.8 x Nyquist and the
-  stated low-pass corner; ``f_lo`` is the larger of the stated high-pass corner and
+  ``energy`` (99 %) of the summed, channel-normalised output PSD (Welch, mean removed)
+  lies (weak higher modes stay in; two events of one structure, whose spectra differ in
+  their strong part, get nearly the same edge), at most 0.8 x Nyquist and the stated
+  low-pass corner; ``f_lo`` is the larger of the stated high-pass corner and
   ``n_cycles / T`` (20 cycles of the lowest mode in the record, so that its correlations
   are estimated at all).
 - **Decimation** ``q = floor(fs / (2.5 f_hi))``: the new Nyquist is 1.25 f_hi, inside
@@ -15,7 +16,7 @@ of that band, the orders from the number of outputs and the horizon.
 - **Block rows** ``i = ceil(fs_q / (4 f_lo))`` (the past horizon spans a quarter period
   of the lowest mode, as the default of :func:`~modal_twin.identification.n4sid.n4sid`
   with ``f_min``), at least ``ceil((n_max + 1) / n_out) + 1`` and at most what keeps
-  ``i (n_in + n_out) <= 600`` and twice as many Hankel columns as rows
+  ``i (n_in + n_out) <= 1200`` (:data:`HANKEL_ROWS`) and twice as many Hankel columns as rows
   (``n_samples >= 2 i (1 + 2 (n_in + n_out))``).
 - **Orders** ``2, 4, ..., n_max`` with ``n_max = min(60, n_out (i - 1))``.
 """
@@ -29,9 +30,13 @@ import numpy as np
 import scipy.signal as sig
 
 from modal_twin._types import FloatArray
+from modal_twin.errors import OptionError
 from modal_twin.identification.modal_model import ModalModel, StabilizationDiagram
 
-__all__ = ["AutoSettings", "choose_settings", "drifting_modes", "rms_spread"]
+__all__ = ["HANKEL_ROWS", "AutoSettings", "choose_settings", "drifting_modes", "rms_spread"]
+
+HANKEL_ROWS = 1200
+"""Most block rows x channels of a Hankel matrix (its SVD / QR stays a few seconds)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,6 +53,8 @@ class AutoSettings:
         Sample rate after decimation.
     block_rows : int
     orders : tuple of int
+    band_rule : str
+        Where each band edge comes from (printed by the command).
     """
 
     band_hz: tuple[float, float]
@@ -55,6 +62,7 @@ class AutoSettings:
     fs_hz: float
     block_rows: int
     orders: tuple[int, ...]
+    band_rule: str = ""
 
     def describe(self) -> str:
         """One line for the command's output."""
@@ -68,15 +76,34 @@ def _energy_band(y: FloatArray, fs_hz: float, energy: float) -> float:
     nper = min(y.shape[1], max(256, 2 ** int(np.log2(max(y.shape[1] // 8, 2)))))
     f, P = sig.welch(y - y.mean(axis=1, keepdims=True), fs=fs_hz, nperseg=nper, axis=-1)
     p = (P / np.maximum(P.sum(axis=1, keepdims=True), 1e-300)).sum(axis=0)
+    if not p.sum() > 0:  # constant channels: no band from the spectrum
+        return float(f[-1])
     c = np.cumsum(p) / p.sum()
     return float(f[min(int(np.searchsorted(c, energy)), f.size - 1)])
 
 
+def _check_band(f_max_hz: float | None, f_min_hz: float | None, limit_hz: float,
+                limit_why: str) -> None:
+    """Refuse a given band edge the record cannot support (the limit named)."""
+    if f_max_hz is not None and not (math.isfinite(f_max_hz) and 0 < f_max_hz <= limit_hz):
+        msg = (f"--f-max: expected a frequency in (0, {limit_hz:.4g}] Hz ({limit_why}), "
+               f"got {f_max_hz!r}")
+        raise OptionError(msg)
+    if f_min_hz is not None and not (math.isfinite(f_min_hz) and f_min_hz >= 0):
+        msg = f"--f-min: expected a frequency >= 0 Hz, got {f_min_hz!r}"
+        raise OptionError(msg)
+
+
 def choose_settings(y: FloatArray, fs_hz: float, n_in: int, *,
-                    f_max_hz: float | None = None, corners_hz: tuple[float, float] | None
-                    = None, energy: float = 0.8, margin: float = 1.25, n_cycles: float = 20.0
-                    ) -> AutoSettings:
+                    f_max_hz: float | None = None, f_min_hz: float | None = None,
+                    factor: int | None = None, block_rows: int | None = None,
+                    orders: tuple[int, ...] | None = None,
+                    corners_hz: tuple[float, float] | None = None, energy: float = 0.99,
+                    margin: float = 1.0, n_cycles: float = 20.0) -> AutoSettings:
     """Band, decimation, block rows and orders for a record (module docstring).
+
+    Every setting given replaces the one chosen from the record; a given band edge the
+    record cannot support is an error naming the limit, never clamped.
 
     Parameters
     ----------
@@ -84,29 +111,72 @@ def choose_settings(y: FloatArray, fs_hz: float, n_in: int, *,
         Outputs at ``fs_hz``.
     n_in : int
         Number of inputs (0 for output-only).
-    f_max_hz : float, optional
-        Upper band edge given by the user (replaces the spectral one).
+    f_max_hz, f_min_hz : float, optional
+        Band edges given by the user (replace the spectral / record-length ones).
+    factor, block_rows : int, optional
+        Decimation factor and Hankel block rows given by the user.
+    orders : tuple of int, optional
+        Model orders given by the user.
     corners_hz : (float, float), optional
         Band-pass corners stated by the data file (NaN when not stated).
+
+    Raises
+    ------
+    OptionError
+        ``f_max_hz`` outside (0, limit] (0.8 x Nyquist or the file's low-pass corner),
+        ``f_min_hz`` negative or not below the upper edge, a factor or block rows < 1.
     """
     n_out, n = y.shape
     T = n / fs_hz
     lo_c, hi_c = corners_hz if corners_hz is not None else (math.nan, math.nan)
-    f_hi = f_max_hz if f_max_hz is not None else margin * _energy_band(y, fs_hz, energy)
-    f_hi = min(f_hi, 0.8 * fs_hz / 2, hi_c if math.isfinite(hi_c) else math.inf)
-    f_lo = max(n_cycles / T, lo_c if math.isfinite(lo_c) else 0.0)
-    f_hi = max(f_hi, 2.0 * f_lo)
-    q = max(1, int(fs_hz // (2.5 * f_hi)))
+    nyq_lim = 0.8 * fs_hz / 2
+    limit, why = nyq_lim, f"0.8 x the Nyquist frequency of {fs_hz:g} Hz"
+    if math.isfinite(hi_c) and hi_c < limit:
+        limit, why = hi_c, "the low-pass corner the file states"
+    _check_band(f_max_hz, f_min_hz, limit, why)
+    f_e = margin * _energy_band(y, fs_hz, energy)
+    f_hi = min(f_e, limit) if f_max_hz is None else f_max_hz
+    hi_why = ("given" if f_max_hz is not None else
+              f"{100 * energy:g} % of the output energy below it" if f_e <= limit else why)
+    if f_min_hz is not None:
+        f_lo, lo_why = f_min_hz, "given"
+    else:
+        f_lo = max(n_cycles / T, lo_c if math.isfinite(lo_c) else 0.0)
+        lo_why = (f"{n_cycles:g} cycles in the record" if f_lo == n_cycles / T
+                  else "the high-pass corner the file states")
+        if n_cycles / T >= limit:
+            msg = (f"record: expected at least {n_cycles / limit:.3g} s ({n_cycles:g} cycles "
+                   f"below the {limit:.4g} Hz limit), got {T:.3g} s")
+            raise OptionError(msg)
+    if f_max_hz is None:
+        f_hi = min(max(f_hi, 2.0 * f_lo), limit)
+    if not f_lo < f_hi:
+        why_lo = "given" if f_min_hz is not None else "from the record's length / corners"
+        msg = (f"band: expected the lower edge {f_lo:.4g} Hz ({why_lo}) below the upper "
+               f"{f_hi:.4g} Hz")
+        raise OptionError(msg)
+    for val, name in ((factor, "decimation factor"), (block_rows, "block rows")):
+        if val is not None and val < 1:
+            msg = f"{name}: expected an integer >= 1, got {val!r}"
+            raise OptionError(msg)
+    q = factor if factor is not None else max(1, int(fs_hz // (2.5 * f_hi)))
     fs_q = fs_hz / q
     n_q = n // q
     n_ch = max(n_in + n_out, 1)
-    i_max = max(2, min(600 // n_ch, (n_q - 2) // (4 * n_ch + 2)))
-    i = max(math.ceil(fs_q / (4.0 * f_lo)), 4)
+    i_max = max(2, min(HANKEL_ROWS // n_ch, (n_q - 2) // (4 * n_ch + 2)))
+    i = max(math.ceil(fs_q / (4.0 * max(f_lo, 1e-300))), 4)
     i = min(i, i_max)
     n_max = max(2, min(60, n_out * (i - 1)))
+    if orders is not None:
+        n_max = max(orders)
     i = max(i, min(math.ceil((n_max + 1) / n_out) + 1, i_max))
-    n_max = 2 * max(1, min(n_max, n_out * (i - 1)) // 2)
-    return AutoSettings((f_lo, f_hi), q, fs_q, i, tuple(range(2, n_max + 1, 2)))
+    if block_rows is not None:
+        i = block_rows
+    if orders is None:
+        n_max = 2 * max(1, min(n_max, n_out * (i - 1)) // 2)
+        orders = tuple(range(2, n_max + 1, 2))
+    return AutoSettings((f_lo, f_hi), q, fs_q, i, tuple(orders),
+                        f"lower edge: {lo_why}; upper edge: {hi_why}")
 
 
 def rms_spread(y: FloatArray, n_windows: int = 8) -> float:

@@ -2,8 +2,9 @@
 
 A structure in service is watched for months; its records arrive as many bags (or rotated
 parts of one). Each record is cut into windows of ``window_s`` seconds; every window is
-identified on its own (output-only SSI-cov, or N4SID when inputs are measured), its modes
-picked from the stabilization diagram (sec. 3 of [004]); the windows are independent
+identified on its own by :func:`~modal_twin.identification.record.identify_record`
+(output-only SSI-cov, or N4SID when inputs are measured), its modes picked from the
+stabilization diagram (sec. 3 of [004]); the windows are independent
 tasks and run on any executor (:mod:`modal_twin.executors`: serial, a process pool, a Dask
 cluster). The modes of successive windows are then joined into *tracks*: a window's mode
 continues the track whose last frequency and shape it is closest to, within a relative
@@ -23,12 +24,11 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from modal_twin._types import ComplexArray, FloatArray, IntArray
+from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError, ShapeError, SignalError
 from modal_twin.executors import ExecutorSpec, make_executor, map_ordered
 from modal_twin.identification.metrics import mac
-from modal_twin.identification.n4sid import n4sid
-from modal_twin.identification.ssi_cov import ssi_cov
-from modal_twin.identification.stabilization import select_modes, stabilization_diagram
+from modal_twin.identification.record import OUTPUT_ONLY, IdentifyOptions, identify_record
 from modal_twin.signal_block import SignalBlock
 
 __all__ = [
@@ -42,7 +42,6 @@ __all__ = [
 ]
 
 _log = logging.getLogger(__name__)
-METHODS = ("ssi_cov", "n4sid")
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,42 +118,53 @@ def split_windows(block: SignalBlock, window_s: float, *, outputs: Sequence[str]
 class WindowIdentifier:
     """Picklable ``CampaignWindow -> WindowModes``: one identification per window.
 
+    Each window goes through :func:`~modal_twin.identification.record.identify_record`
+    (as ``modal-twin identify`` and the node), its outputs of role ``output`` and its
+    inputs of role ``input``.
+
     Attributes
     ----------
-    method : {"ssi_cov", "n4sid"}
-    orders : tuple of int
-        Model orders of the stabilization diagram.
-    f_range_hz : (float, float)
-        Band of the modes kept; its lower end sets the lag horizon (``f_min_hz``).
+    method : {"ssi-cov", "n4sid", "polymax"}
+    orders : tuple of int, optional
+        Model orders of the stabilization diagram (None: from the window).
+    f_range_hz : (float, float), optional
+        Band of the analysis and of the modes kept (None: from the window).
     zeta_max : float
         Damping above this is not a physical mode.
     """
 
-    method: str = "ssi_cov"
-    orders: tuple[int, ...] = tuple(range(8, 41, 2))
-    f_range_hz: tuple[float, float] = (0.1, np.inf)
+    method: str = "ssi-cov"
+    orders: tuple[int, ...] | None = tuple(range(8, 41, 2))
+    f_range_hz: tuple[float, float] | None = None
     zeta_max: float = 0.2
 
     def __post_init__(self) -> None:
-        if self.method not in METHODS:
-            msg = f"method: expected one of {list(METHODS)}, got {self.method!r}"
-            raise OptionError(msg)
+        self.options()  # a bad method or band fails here, before any window
+
+    def options(self) -> IdentifyOptions:
+        """Return the options of every window's :func:`identify_record`."""
+        lo, hi = self.f_range_hz if self.f_range_hz is not None else (None, None)
+        return IdentifyOptions(method=self.method, orders=self.orders,
+                               f_min_hz=lo if lo else None,
+                               f_max_hz=hi if hi is not None and np.isfinite(hi) else None,
+                               zeta_max=self.zeta_max, n_blocks_std=0)
 
     def __call__(self, w: CampaignWindow) -> WindowModes:
         """Identify ``w``; a window that cannot be identified gives no modes and its error."""
-        f_min = self.f_range_hz[0] if self.f_range_hz[0] > 0 else None
         try:
-            if self.method == "n4sid":
-                if w.u is None:
-                    msg = f"window {w.index} of {w.source}: N4SID needs inputs, got none"
-                    raise OptionError(msg)
-                sw = n4sid(w.u, w.y, w.fs_hz, orders=list(self.orders), f_min_hz=f_min)
-            else:
-                sw = ssi_cov(w.y, w.fs_hz, orders=list(self.orders), f_min_hz=f_min,
-                             n_blocks_std=0)
-            mm = select_modes(stabilization_diagram(sw), zeta_max=self.zeta_max,
-                              f_range_hz=self.f_range_hz)
-        except (SignalError, OptionError, np.linalg.LinAlgError) as err:
+            if self.method == "n4sid" and w.u is None:
+                msg = f"window {w.index} of {w.source}: {self.method} needs inputs, got none"
+                raise OptionError(msg)
+            u = w.u if w.u is not None and self.method not in OUTPUT_ONLY else None
+            n_in = 0 if u is None else u.shape[0]
+            names = tuple(f"u{k}" for k in range(n_in)) + tuple(
+                f"y{k}" for k in range(w.y.shape[0]))
+            chans = [ChannelSpec(n, "acceleration", role="input" if n[0] == "u" else "output")
+                     for n in names]
+            data = w.y if u is None else np.vstack([u, w.y])
+            blk = SignalBlock(names, w.fs_hz, 0, data, source=w.source)
+            mm = identify_record(blk, chans, self.options()).modes
+        except (SignalError, OptionError, ShapeError, np.linalg.LinAlgError) as err:
             _log.warning("window %d of %s: %s", w.index, w.source, err)
             e = np.zeros(0)
             return WindowModes(w.source, w.index, w.t_start_s, w.y.shape[1] / w.fs_hz, e, e,

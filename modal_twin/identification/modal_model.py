@@ -70,7 +70,7 @@ class PoleSweep:
     Attributes
     ----------
     method : str
-        ``"n4sid"``, ``"ssi_cov"`` or ``"polymax"``.
+        ``"n4sid"``, ``"ssi-cov"`` or ``"polymax"``.
     orders : ndarray of int, shape (n_orders,)
     poles : tuple of PoleSet, length n_orders
     singular_values : ndarray, shape (n_sv,)

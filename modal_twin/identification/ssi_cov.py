@@ -123,7 +123,7 @@ def ssi_cov(
     Returns
     -------
     PoleSweep
-        ``method="ssi_cov"``.
+        ``method="ssi-cov"``.
 
     Raises
     ------
@@ -174,7 +174,7 @@ def ssi_cov(
     TtG = T.T @ G
     G_blocks = [(Tk @ TtG) * s2_inv for Tk in Tb]  # O_b = T_b V S^-1 with V = T^T U S^-1
     poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=scale)
-    return PoleSweep("ssi_cov", o, poles, s, len(G_blocks))
+    return PoleSweep("ssi-cov", o, poles, s, len(G_blocks))
 
 
 def _toeplitz_blocks(Ys: FloatArray, ref: IntArray, i: int, nb: int

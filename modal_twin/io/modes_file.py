@@ -1,6 +1,9 @@
-"""Identified modes from a file: ``identify`` JSON, UFF 55, or a MATLAB ``.mat``.
+"""Identified modes in files: written here (``identify`` JSON and UFF 55) and read here.
 
-All readers return :class:`ModesFile`. ``.mat`` variables (Structural-Model-Updating
+:func:`write_modes` writes the modes of
+:func:`~modal_twin.identification.record.identify_record` as ``modes.json`` and
+``modes.uff`` (UFF 55); :func:`read_modes` reads those, or a MATLAB ``.mat``, into a
+:class:`ModesFile`. ``.mat`` variables (Structural-Model-Updating
 conventions): frequencies from ``lambdaExp`` (``(2 pi f)^2``), ``freqExp`` or
 ``test_frequency`` (Hz); shapes ``psiExp_m`` / ``psiExp`` / ``test_mode`` (channels x
 modes); optional ``std_lambdaExp``, ``std_psiExp``, ``dampExp`` and ``measDOFs``
@@ -19,8 +22,10 @@ import numpy as np
 from modal_twin._types import ComplexArray, FloatArray, IntArray
 from modal_twin.array_files import mat_arrays
 from modal_twin.errors import ConfigError
+from modal_twin.identification.metrics import complexity, mpc
+from modal_twin.identification.record import RecordModes
 
-__all__ = ["ModesFile", "read_modes"]
+__all__ = ["ModesFile", "read_modes", "write_modes"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -123,3 +128,53 @@ def read_modes(path: str | Path) -> ModesFile:
         msg = f"{p}: unknown modes file kind {p.suffix!r}; expected one of {sorted(readers)}"
         raise ConfigError(msg)
     return reader(p)
+
+
+def modes_document(rec: RecordModes) -> dict[str, Any]:
+    """Return the ``modes.json`` content of an identification (what :func:`read_modes` reads)."""
+    mm, s, diag = rec.modes, rec.settings, rec.diagram
+    mp, cx = mpc(mm.shapes), complexity(mm.shapes)
+    nodes = sorted({c.node or c.location or c.name for c in rec.outputs})
+    dofs = [{"channel": c.name, "node": nodes.index(c.node or c.location or c.name) + 1,
+             "node_label": c.node or c.location, "direction": c.direction}
+            for c in rec.outputs]
+    return {"method": rec.method,
+            "settings": {"band_hz": list(s.band_hz), "decimation": s.factor,
+                         "fs_hz": s.fs_hz, "block_rows": s.block_rows,
+                         "orders": list(s.orders)},
+            "thresholds": {"rel_tol_f": diag.rel_tol_f, "rel_tol_zeta": diag.rel_tol_zeta,
+                           "mac_min": diag.mac_min},
+            "inputs": [c.name for c in rec.inputs], "dofs": dofs, "notes": list(rec.notes),
+            "not_reported": [{"f_hz": d.f_hz, "zeta": d.zeta, "n_poles": d.n_poles,
+                              "orders": list(d.orders), "reason": d.reason}
+                             for d in rec.dropped],
+            "modes": [{"f_hz": float(mm.f_hz[k]), "std_f_hz": float(mm.std_f_hz[k]),
+                       "zeta": float(mm.zeta[k]), "std_zeta": float(mm.std_zeta[k]),
+                       "mpc": float(mp[k]), "complexity": float(cx[k]),
+                       "order": int(mm.mode_orders[k]), "support": int(mm.n_support[k]),
+                       "shape_re": mm.shapes[:, k].real.tolist(),
+                       "shape_im": mm.shapes[:, k].imag.tolist()}
+                      for k in range(mm.f_hz.size)]}
+
+
+def write_modes(folder: str | Path, rec: RecordModes) -> list[Path]:
+    """Write ``modes.json`` and ``modes.uff`` (UFF 55) of ``rec`` into ``folder``.
+
+    Each file is written to a temporary name and renamed: an interrupted write leaves the
+    previous file or none.
+    """
+    from modal_twin.io.imported import atomic_file
+    from modal_twin.io.uff import AXIS_CODES, write_uff55
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    doc = modes_document(rec)
+    text = json.dumps(doc, indent=1).replace("NaN", "null")
+    with atomic_file(out / "modes.json") as tmp:
+        tmp.write_text(text)
+    mm = rec.modes
+    with atomic_file(out / "modes.uff") as tmp:
+        tmp.unlink()
+        write_uff55(tmp, mm.f_hz, mm.zeta, mm.shapes, [int(d["node"]) for d in doc["dofs"]],
+                    [AXIS_CODES.get(str(d["direction"]), 1) for d in doc["dofs"]])
+    return [out / "modes.json", out / "modes.uff"]

@@ -64,7 +64,7 @@ NODE_ENDPOINTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "excitation_node": (("/excitation/command",), ("/excitation/signal",)),
     "rig_node": (("/excitation/signal",), ("/rig/raw",)),
     "acquisition_node": (("/rig/raw",), ("/measurement/frames", "/measurement/channels")),
-    "identification_node": (("/measurement/frames",),
+    "identification_node": (("/measurement/frames", "/measurement/channels"),
                             ("/identification/modes", "/identification/stabilization")),
     "updating_node": (("/identification/modes",), ("/model/parameters", "/updating/report")),
     "twin_node": (("/measurement/frames", "/measurement/channels", "/model/parameters"),

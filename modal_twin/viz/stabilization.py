@@ -18,7 +18,8 @@ __all__ = ["plot_stabilization"]
 
 
 def plot_stabilization(diagram: Any, *, selected_f_hz: Any = None,
-                       f_max_hz: float | None = None, title: str = "") -> Figure:
+                       f_max_hz: float | None = None, title: str = "",
+                       spectrum: tuple[Any, Any] | None = None) -> Figure:
     """Plot a :class:`~modal_twin.identification.modal_model.StabilizationDiagram`.
 
     Parameters
@@ -31,6 +32,9 @@ def plot_stabilization(diagram: Any, *, selected_f_hz: Any = None,
         Upper frequency of the axis (default: highest pole).
     title : str
         Figure title (default: the method's name).
+    spectrum : (f_hz, s) arrays, optional
+        Singular values of the output PSD matrix (``s`` (k, n_f)), drawn in grey behind
+        the poles on a log axis of their own (right).
 
     Returns
     -------
@@ -63,5 +67,15 @@ def plot_stabilization(diagram: Any, *, selected_f_hz: Any = None,
     ax.set_ylabel("model order")
     ax.grid(True, alpha=0.3)
     ax.set_title(title or f"stabilization diagram ({diagram.method})")
+    if spectrum is not None:
+        f_s, sv = np.asarray(spectrum[0]), np.atleast_2d(np.asarray(spectrum[1]))
+        sel = (f_s > 0) & (f_s <= top)
+        ax2 = ax.twinx()
+        for k, row in enumerate(sv):
+            ax2.semilogy(f_s[sel], row[sel], color="0.45" if k == 0 else "0.75", lw=0.8,
+                         zorder=0)
+        ax2.set_ylabel("singular values of the PSD matrix")
+        ax.set_zorder(ax2.get_zorder() + 1)
+        ax.patch.set_visible(False)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     return fig

@@ -111,7 +111,7 @@ def test_bad_input_raises(step_record):
     with pytest.raises(ShapeError, match="windows: expected 4 outputs each, got \\[3\\]"):
         run_campaign([w], CH)
     with pytest.raises(OptionError, match="method: expected one of"):
-        WindowIdentifier(method="polymax")
+        WindowIdentifier(method="ssi_cov")
 
 
 def test_a_window_that_fails_gives_no_modes_and_its_error():
@@ -122,4 +122,4 @@ def test_a_window_that_fails_gives_no_modes_and_its_error():
     n4 = WindowIdentifier(method="n4sid")(CampaignWindow("s", 0, 0.0, FS,
                                                          np.random.default_rng(0).
                                                          standard_normal((4, 400))))
-    assert "N4SID needs inputs" in n4.error
+    assert "n4sid needs inputs" in n4.error

@@ -38,7 +38,7 @@ def data() -> tuple:
 def test_chain_20db_output_only(data: tuple) -> None:
     y, fs, f, z, Phi = data
     sweep = ssi_cov(y, fs, orders=range(2, 41, 2))
-    assert sweep.method == "ssi_cov"
+    assert sweep.method == "ssi-cov"
     assert sweep.n_blocks_std == 8
     mm = select_modes(stabilization_diagram(sweep))
     assert mm.f_hz.size == 5

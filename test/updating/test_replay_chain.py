@@ -24,8 +24,8 @@ launch:
     - {{name: updating, executable: updating_node}}
     - {{name: twin, executable: twin_node}}
 identification:
-  ros__parameters: {{window_s: 200.0, fs_target_hz: 50.0, f_min_hz: 4.0, max_order: 60,
-                    order_step: 4, outputs: "*_[xyz]"}}
+  ros__parameters: {{window_s: 200.0, fs_target_hz: 50.0, max_order: 60,
+                    order_step: 4, f_max_hz: 20.0}}
 updating:
   ros__parameters: {{model_file: {BUILDING}, versions_dir: VERSIONS, auto: true}}
 twin:

@@ -1,0 +1,503 @@
+"""Modes of a record: the one call of the ``identify`` command, the node and a campaign.
+
+:func:`identify_record` takes a :class:`~modal_twin.signal_block.SignalBlock` and its
+channel map and does, in this order and for every caller alike:
+
+1. **Channels by role** (:mod:`modal_twin.channels`): inputs are the channels of role
+   ``input``, outputs those of role ``output`` (a map's role, else the one the name
+   implies); ``inputs`` / ``outputs`` name channels instead, ``directions`` keeps the
+   channels of those directions only. An input that never moves (an undriven table axis)
+   is left out, and said.
+2. **Method**: ``n4sid`` (input-output, Eqs. (1)-(4) of [004]), ``ssi-cov``
+   (output-only) or ``polymax`` (pLSCF, Eqs. (1)-(4) of [002]: on H1 FRFs when inputs are
+   known, else on the outputs' positive half-spectra from their correlation functions;
+   LSFD shapes, Eq. (5), for the selected modes). By default ``n4sid`` when the record has
+   driven inputs whose mean multiple coherence with the outputs in the band is at least
+   :data:`COHERENT`, else ``ssi-cov``; the choice and its reason are said.
+3. **Settings** (:func:`~modal_twin.identification.auto.choose_settings`): band,
+   decimation, block rows and orders from the record, each one replaced by a given
+   option; a given option the record cannot support is an error naming the limit. The
+   H1 segments (PolyMAX) are the longest power of two with ``2 n_in + 2`` averages.
+4. **Selection** (:mod:`~modal_twin.identification.stabilization`): stability with the
+   default thresholds of [004] (1 % frequency, 5 % damping, MAC 0.95); when they give no
+   mode, once more with relaxed ones (2 %, 20 %, 0.9; short or weak records), and said.
+   Every column of stable poles not reported comes back with its reason
+   (:func:`~modal_twin.identification.stabilization.dropped_columns`), and the singular
+   values of the output PSD matrix (CMIF) with the diagram.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import scipy.signal as sig
+
+from modal_twin._types import ComplexArray, FloatArray
+from modal_twin.acquisition.decimation import decimate
+from modal_twin.channels import ChannelSpec
+from modal_twin.errors import OptionError, SignalError
+from modal_twin.identification.auto import AutoSettings, choose_settings, rms_spread
+from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
+from modal_twin.identification.n4sid import n4sid
+from modal_twin.identification.polymax import polymax
+from modal_twin.identification.ssi_cov import correlations, ssi_cov
+from modal_twin.identification.stabilization import (
+    REL_SUPPORT,
+    DroppedColumn,
+    dropped_columns,
+    select_modes,
+    stabilization_diagram,
+)
+from modal_twin.signal_block import SignalBlock
+
+__all__ = [
+    "METHODS",
+    "OUTPUT_ONLY",
+    "RELAXED",
+    "STRICT",
+    "IdentifyOptions",
+    "RecordModes",
+    "cmif",
+    "half_spectra",
+    "identify_record",
+    "polymax_orders",
+    "record_channels",
+    "welch_segment",
+]
+
+METHODS = ("n4sid", "ssi-cov", "polymax")
+"""The methods, as every caller spells them."""
+OUTPUT_ONLY = ("ssi-cov",)
+"""The methods that use no input."""
+STRICT = {"rel_tol_f": 0.01, "rel_tol_zeta": 0.05, "mac_min": 0.95}
+"""Stability thresholds of sec. 3 of [004]."""
+RELAXED = {"rel_tol_f": 0.02, "rel_tol_zeta": 0.2, "mac_min": 0.9}
+"""Thresholds of the second try when the default ones give no mode."""
+NONSTATIONARY = 4.0
+"""Largest / smallest window RMS above which output-only SSI is warned about."""
+COHERENT = 0.5
+"""Mean multiple coherence of the outputs with the inputs in the band above which the
+inputs explain the response and the default method is input-output (N4SID)."""
+
+
+@dataclass(frozen=True, slots=True)
+class IdentifyOptions:
+    """What a caller may choose; ``None`` means "from the record" (module docstring).
+
+    Attributes
+    ----------
+    method : str, optional
+        One of :data:`METHODS`; default from the record.
+    inputs, outputs : tuple of str, optional
+        Channel names replacing the roles.
+    directions : tuple of str, optional
+        Keep only channels of these directions.
+    f_max_hz, f_min_hz : float, optional
+        Band edges.
+    fs_target_hz : float, optional
+        Decimate to about this rate (factor ``round(fs / fs_target)`` when
+        ``fs > 1.5 fs_target``).
+    block_rows : int, optional
+    orders : tuple of int, optional
+    thresholds : dict, optional
+        ``rel_tol_f``, ``rel_tol_zeta``, ``mac_min`` of the first try (default
+        :data:`STRICT`).
+    relax : bool
+        Try :data:`RELAXED` thresholds when the first ones give no mode.
+    zeta_max : float
+        Poles damped above this are not physical.
+    n_blocks_std : int
+        Blocks of the subspace methods' standard deviations (0: none).
+    """
+
+    method: str | None = None
+    inputs: tuple[str, ...] | None = None
+    outputs: tuple[str, ...] | None = None
+    directions: tuple[str, ...] | None = None
+    f_max_hz: float | None = None
+    f_min_hz: float | None = None
+    fs_target_hz: float | None = None
+    block_rows: int | None = None
+    orders: tuple[int, ...] | None = None
+    thresholds: dict[str, float] = field(default_factory=lambda: dict(STRICT))
+    relax: bool = True
+    zeta_max: float = 0.2
+    n_blocks_std: int = 4
+
+    def __post_init__(self) -> None:
+        if self.method is not None and self.method not in METHODS:
+            msg = f"method: expected one of {list(METHODS)}, got {self.method!r}"
+            raise OptionError(msg)
+        if self.fs_target_hz is not None and not (math.isfinite(self.fs_target_hz)
+                                                  and self.fs_target_hz > 0):
+            msg = f"fs_target_hz: expected a positive rate, got {self.fs_target_hz!r}"
+            raise OptionError(msg)
+        if self.orders is not None and (len(self.orders) < 2 or min(self.orders) < 1):
+            msg = f"orders: expected at least two orders >= 1, got {list(self.orders)}"
+            raise OptionError(msg)
+        unknown = sorted(set(self.thresholds) - set(STRICT))
+        if unknown:
+            msg = f"thresholds: unknown keys {unknown}; expected {sorted(STRICT)}"
+            raise OptionError(msg)
+
+
+@dataclass(frozen=True, slots=True)
+class RecordModes:
+    """What :func:`identify_record` found and how.
+
+    Attributes
+    ----------
+    method : str
+    inputs, outputs : tuple of ChannelSpec
+        The channels used (the shapes' rows are ``outputs``).
+    settings : AutoSettings
+        Band, decimation, block rows and orders.
+    sweep : PoleSweep
+    diagram : StabilizationDiagram
+    modes : ModalModel
+    relaxed : bool
+        The relaxed thresholds were needed.
+    notes : tuple of str
+        What was chosen for the caller, one line each (printed or logged).
+    warnings : tuple of str
+        What the caller should be warned about.
+    dropped : tuple of DroppedColumn
+        Columns of stable poles not reported, each with its reason.
+    spectrum : (f_hz, s) arrays, optional
+        Singular values of the output PSD matrix (CMIF; ``s`` (n_out, n_f)), drawn behind
+        the stabilization diagram.
+    """
+
+    method: str
+    inputs: tuple[ChannelSpec, ...]
+    outputs: tuple[ChannelSpec, ...]
+    settings: AutoSettings
+    sweep: PoleSweep
+    diagram: StabilizationDiagram
+    modes: ModalModel
+    relaxed: bool
+    notes: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+    dropped: tuple[DroppedColumn, ...] = ()
+    spectrum: tuple[FloatArray, FloatArray] | None = None
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        """Names of the shapes' rows."""
+        return tuple(c.name for c in self.outputs)
+
+
+def _pick(channels: Sequence[ChannelSpec], role: str, names: tuple[str, ...] | None,
+          dirs: tuple[str, ...] | None) -> list[ChannelSpec]:
+    if names is not None:
+        by = {c.name: c for c in channels}
+        missing = [n for n in names if n not in by]
+        if missing:
+            msg = f"{role}s: channels {missing} not in the record (it has {sorted(by)})"
+            raise OptionError(msg)
+        return [by[n] for n in names]
+    out = [c for c in channels if c.effective_role == role]
+    return [c for c in out if dirs is None or c.direction in dirs]
+
+
+def record_channels(block: SignalBlock, channels: Sequence[ChannelSpec] | None
+                    ) -> list[ChannelSpec]:
+    """Return the record's channel map, or one from the names (roles by name) if none.
+
+    Raises
+    ------
+    SignalError
+        A map that does not list the block's channels.
+    """
+    if channels is None:
+        return [ChannelSpec(n, "acceleration") for n in block.channel_names]
+    by = {c.name: c for c in channels}
+    missing = [n for n in block.channel_names if n not in by]
+    if missing:
+        msg = f"channel map: expected every channel of the record, missing {missing}"
+        raise SignalError(msg)
+    return [by[n] for n in block.channel_names]
+
+
+def _corners(channels: Sequence[ChannelSpec]) -> tuple[float, float]:
+    """Highest stated high-pass and lowest stated low-pass corner (NaN when none)."""
+    lo, hi = [], []
+    for c in channels:
+        f = dict(c.meta).get("filter_hz")
+        if f and len(f) == 2:
+            lo.append(f[0] if f[0] is not None else math.nan)
+            hi.append(f[1] if f[1] is not None else math.nan)
+    lo_v = max((v for v in lo if math.isfinite(v)), default=math.nan)
+    hi_v = min((v for v in hi if math.isfinite(v)), default=math.nan)
+    return lo_v, hi_v
+
+
+def _settings(y: FloatArray, fs: float, n_in: int, opts: IdentifyOptions,
+              corners: tuple[float, float]) -> AutoSettings:
+    factor = None
+    if opts.fs_target_hz is not None:
+        factor = round(fs / opts.fs_target_hz) if fs > 1.5 * opts.fs_target_hz else 1
+    return choose_settings(y, fs, n_in, f_max_hz=opts.f_max_hz, f_min_hz=opts.f_min_hz,
+                           factor=factor, block_rows=opts.block_rows, orders=opts.orders,
+                           corners_hz=corners)
+
+
+def welch_segment(n: int, n_in: int, min_averages: int = 8) -> int:
+    """Return the Welch segment length of a record of ``n`` samples.
+
+    The longest power of two that still gives ``max(2 n_in + 2, min_averages)``
+    half-overlapping averages (H1 needs more averages than inputs, and its variance falls
+    with their number).
+    """
+    need = max(2 * n_in + 2, min_averages)
+    seg = 2 ** math.floor(math.log2(max(2 * n / (need + 1), 16)))
+    return min(seg, n)
+
+
+def half_spectra(y: FloatArray, fs_hz: float, n_lags: int, *, decay: float = 0.01
+                 ) -> tuple[FloatArray, ComplexArray, float]:
+    r"""Positive half-spectra of the outputs from their correlation functions.
+
+    :math:`S^+_{or}(\omega) = \tfrac12 R_0 + \sum_{k=1}^{L-1} w_k R_k e^{-j\omega k
+    \Delta t}` with :math:`R_k = E[y_{s+k} y_{r,s}^T]` (every output a reference) and the
+    exponential window :math:`w_k = e^{-\beta k}`, :math:`w_{L-1}` = ``decay``. Like an FRF
+    :math:`S^+` is a sum of first-order modal terms (Peeters et al. 2004, sec. 3 of
+    [002] for PolyMAX), each pole shifted by :math:`-\beta f_s` in its real part by the
+    window; the caller adds it back.
+
+    Returns
+    -------
+    f_hz : (n_f,) array
+    S : (n_out, n_out, n_f) complex array
+    sigma_w : float
+        The window's added decay rate :math:`\beta f_s` (1/s).
+    """
+    R = correlations(y, y, n_lags)  # (L, out, ref)
+    beta = -math.log(decay) / max(n_lags - 1, 1)
+    w = np.exp(-beta * np.arange(n_lags))
+    w[0] = 0.5
+    Rw = R * w[:, None, None]
+    S = np.fft.rfft(Rw, n=2 * n_lags, axis=0)  # sum_k R_k w_k e^{-j w k dt}
+    f = np.asarray(np.fft.rfftfreq(2 * n_lags, 1.0 / fs_hz), dtype=np.float64)
+    return f, np.ascontiguousarray(np.moveaxis(S, 0, -1)), beta * fs_hz
+
+
+def _undo_window(sweep: PoleSweep, sigma_w: float) -> PoleSweep:
+    """Poles of a windowed half-spectrum with the window's decay added back."""
+    sets = []
+    for p in sweep.poles:
+        w = 2 * np.pi * p.f_hz
+        lam = w * (-p.zeta + 1j * np.sqrt(np.clip(1 - p.zeta**2, 0.0, None))) + sigma_w
+        wn = np.abs(lam)
+        sets.append(replace(p, f_hz=wn / (2 * np.pi),
+                            zeta=-lam.real / np.where(wn > 0, wn, 1.0)))
+    return replace(sweep, poles=tuple(sets))
+
+
+def polymax_orders(s: AutoSettings, n_ref: int, n_lines: int, n_out: int) -> int:
+    """Highest PolyMAX polynomial order for the record.
+
+    At least 16 and as many poles as the subspace methods' top order
+    (``ceil(n_max / n_ref)``), at most what the lines in the band determine
+    (``n_lines >= 2 p + 2`` and ``n_lines n_out >= (p + 1)(n_ref + 1)``).
+    """
+    want = max(16, math.ceil(s.orders[-1] / max(n_ref, 1)))
+    cap = min((n_lines - 2) // 2, (n_lines * n_out) // (n_ref + 1) - 2)
+    if cap < 2:
+        msg = (f"polymax: {n_lines} spectral lines in the band {s.band_hz[0]:.3g}-"
+               f"{s.band_hz[1]:.3g} Hz are too few for a polynomial of order 2 with "
+               f"{n_ref} references; use a longer record or a wider band")
+        raise SignalError(msg)
+    return min(want, cap)
+
+
+_Spectra = tuple[ComplexArray, FloatArray, float]
+
+
+def _polymax(u: FloatArray, y: FloatArray, s: AutoSettings, notes: list[str],
+             keep: list[_Spectra]) -> PoleSweep:
+    from modal_twin.acquisition.frf import frf
+
+    n = y.shape[1]
+    if u.shape[0]:
+        seg = welch_segment(n, u.shape[0])
+        est = frf(u, y, s.fs_hz, nperseg=seg)
+        H, f, m = est.H1, est.f_hz, u.shape[0]
+        notes.append(f"PolyMAX on H1: {seg}-sample segments ({s.fs_hz / seg:.3g} Hz lines), "
+                     f"{est.n_averages} averages (>= 2 x {m} inputs + 2)")
+        shift = 0.0
+    else:
+        lags = max(16, n // 4)
+        f, H, shift = half_spectra(y, s.fs_hz, lags)
+        m = y.shape[0]
+        notes.append(f"PolyMAX on positive half-spectra: {lags} correlation lags "
+                     f"({s.fs_hz / (2 * lags):.3g} Hz lines), {m} references, exponential "
+                     f"window to 1 % (its damping {shift:.3g} 1/s added back)")
+    lines = int(np.count_nonzero((f >= s.band_hz[0]) & (f <= s.band_hz[1]) & (f > 0)))
+    p_max = polymax_orders(s, m, lines, y.shape[0])
+    sweep = polymax(H, f, orders=range(2, p_max + 1), band_hz=s.band_hz, shapes="numerator")
+    keep.append((H, f, shift))
+    sweep = replace(sweep, poles=tuple(replace(p, shapes=np.nan_to_num(p.shapes))
+                                       for p in sweep.poles))  # no numerator: MAC 0
+    return _undo_window(sweep, shift) if shift else sweep
+
+
+def _lsfd_shapes(mm: ModalModel, spectra: _Spectra, band: tuple[float, float]) -> ModalModel:
+    """Return the selected PolyMAX modes with LSFD shapes (Eq. (5) of [002]) in the band.
+
+    The poles are those of the fitted spectra: for half-spectra, with the window's decay.
+    """
+    from modal_twin.identification.lsfd import lsfd
+
+    if mm.f_hz.size == 0:
+        return mm
+    H, f, shift = spectra
+    sel = (f >= band[0]) & (f <= band[1]) & (f > 0) & np.all(np.isfinite(H), axis=(0, 1))
+    w = 2 * np.pi * mm.f_hz
+    lam = w * (-mm.zeta + 1j * np.sqrt(np.clip(1 - mm.zeta**2, 0.0, None))) - shift
+    return replace(mm, shapes=lsfd(H[..., sel], f[sel], lam).shapes)
+
+
+def _sweep(method: str, u: FloatArray, y: FloatArray, s: AutoSettings, nb: int,
+           notes: list[str], keep: list[_Spectra]) -> PoleSweep:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # fewer std blocks on short records
+        try:
+            if method == "n4sid":
+                return n4sid(u, y, s.fs_hz, orders=s.orders, block_rows=s.block_rows,
+                             n_blocks_std=nb)
+            if method == "ssi-cov":
+                return ssi_cov(y, s.fs_hz, orders=s.orders, block_rows=s.block_rows,
+                               n_blocks_std=nb)
+            return _polymax(u, y, s, notes, keep)
+        except np.linalg.LinAlgError as err:
+            msg = (f"{method}: the data are rank-deficient at these settings ({err}); "
+                   f"noise-free or duplicated channels? Try fewer channels or a lower f_max")
+            raise SignalError(msg) from err
+
+
+def cmif(y: FloatArray, fs_hz: float) -> tuple[FloatArray, FloatArray]:
+    """Singular values of the output PSD matrix per line (CMIF), Welch with Hann windows.
+
+    Returns ``(f_hz, s)`` with ``s`` (min(n_out, 4), n_f), largest first.
+    """
+    seg = welch_segment(y.shape[1], 0, min_averages=16)
+    y0 = y - y.mean(axis=1, keepdims=True)
+    f, G = sig.csd(y0[:, None, :], y0[None, :, :], fs=fs_hz, nperseg=seg, axis=-1)
+    sv = np.linalg.svd(np.moveaxis(G, -1, 0), compute_uv=False)  # (n_f, n_out)
+    return np.asarray(f, dtype=float), np.asarray(sv.T[:4], dtype=float)
+
+
+def _coherence(u: FloatArray, y: FloatArray, fs_hz: float, band: tuple[float, float]
+               ) -> float:
+    """Mean multiple coherence of the outputs with the inputs over the band's lines."""
+    from modal_twin.acquisition.frf import frf
+
+    est = frf(u, y, fs_hz, nperseg=welch_segment(y.shape[1], u.shape[0]))
+    sel = (est.f_hz >= band[0]) & (est.f_hz <= band[1])
+    return float(est.coherence[:, sel].mean()) if sel.any() else 0.0
+
+
+def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float]
+            ) -> tuple[StabilizationDiagram, ModalModel, bool]:
+    tries = [opts.thresholds] + ([RELAXED] if opts.relax and opts.thresholds != RELAXED
+                                 else [])
+    for k, th in enumerate(tries):
+        diag = stabilization_diagram(sweep, **th)
+        mm = select_modes(diag, zeta_max=opts.zeta_max, f_range_hz=band,
+                          rel_support=REL_SUPPORT)
+        if mm.f_hz.size:
+            return diag, mm, k > 0
+    return diag, mm, len(tries) > 1
+
+
+def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None = None,
+                    options: IdentifyOptions | None = None) -> RecordModes:
+    """Modes of a record (module docstring): channels, method, settings, selection.
+
+    Parameters
+    ----------
+    block : SignalBlock
+        The record (all its channels).
+    channels : sequence of ChannelSpec, optional
+        Its channel map (roles); default: roles from the names.
+    options : IdentifyOptions, optional
+
+    Returns
+    -------
+    RecordModes
+        The modes may be empty (no stable cluster); the caller says so.
+
+    Raises
+    ------
+    OptionError
+        Unknown channel names, no outputs, a method that needs inputs on a record
+        without, a band outside what the record allows.
+    SignalError
+        Rank-deficient or otherwise unusable data.
+    """
+    opts = options or IdentifyOptions()
+    chans = record_channels(block, channels)
+    outs = _pick(chans, "output", opts.outputs, opts.directions)
+    if not outs:
+        msg = (f"{block.source or 'record'}: no channel with role 'output' (channels "
+               f"{list(block.channel_names)}); give the outputs or a channel map")
+        raise OptionError(msg)
+    notes: list[str] = []
+    ins = _pick(chans, "input", opts.inputs, opts.directions)
+    if ins:
+        still = [c for c in ins if np.std(block.select((c.name,)).data) == 0]
+        if still:
+            notes.append(f"inputs {[c.name for c in still]} never move; left out")
+            ins = [c for c in ins if c not in still]
+    y = block.select(tuple(c.name for c in outs)).data
+    u = block.select(tuple(c.name for c in ins)).data if ins else np.zeros((0, y.shape[1]))
+    corners = _corners(outs + ins)
+    method = opts.method
+    if method is None and ins:
+        s0 = _settings(y, block.fs_hz, len(ins), opts, corners)
+        coh = _coherence(decimate(u, block.fs_hz, s0.factor).x,
+                         decimate(y, block.fs_hz, s0.factor).x, s0.fs_hz, s0.band_hz)
+        method = "n4sid" if coh >= COHERENT else "ssi-cov"
+        notes.append(f"method {method}: {len(ins)} driven inputs, mean coherence "
+                     f"{coh:.2f} with the outputs in the band "
+                     + ("(>= " if coh >= COHERENT else "(< ") + f"{COHERENT:g}: "
+                     + ("input-output)" if coh >= COHERENT else "the inputs do not explain "
+                        "the response; output-only)"))
+    elif method is None:
+        method = "ssi-cov"
+        notes.append("method ssi-cov: no driven input, output-only")
+    if method in OUTPUT_ONLY:
+        ins, u = [], np.zeros((0, y.shape[1]))
+    elif not ins and method == "n4sid":
+        msg = (f"{block.source or 'record'}: method {method} needs input channels (role "
+               f"'input'), the record has none driven; use ssi-cov or polymax (output-only) "
+               f"or name the inputs")
+        raise OptionError(msg)
+    s = _settings(y, block.fs_hz, len(ins), opts, corners)
+    warn: list[str] = []
+    if not ins and (r := rms_spread(y)) > NONSTATIONARY:
+        name = "SSI" if method == "ssi-cov" else "PolyMAX"
+        warn.append(f"output-only {name} on a non-stationary record: window RMS varies by "
+                    f"x{r:.1f} (> x{NONSTATIONARY:g}); its modes assume stationary "
+                    f"excitation -- use n4sid with the measured inputs if there are any")
+    if s.factor > 1:
+        yq = decimate(y, block.fs_hz, s.factor).x
+        uq = decimate(u, block.fs_hz, s.factor).x if ins else u[:, :: s.factor]
+    else:
+        yq, uq = y, u
+    spectra: list[_Spectra] = []
+    sweep = _sweep(method, uq, yq, s, opts.n_blocks_std, notes, spectra)
+    diag, mm, relaxed = _select(sweep, opts, s.band_hz)
+    if spectra:
+        mm = _lsfd_shapes(mm, spectra[0], s.band_hz)
+    if relaxed:
+        notes.append(f"no mode with the stability thresholds {opts.thresholds}; relaxed "
+                     f"to {RELAXED}")
+    drop = dropped_columns(diag, mm, zeta_max=opts.zeta_max, f_range_hz=s.band_hz)
+    return RecordModes(method, tuple(ins), tuple(outs), s, sweep, diag, mm, relaxed,
+                       tuple(notes), tuple(warn), tuple(drop), cmif(yq, s.fs_hz))
