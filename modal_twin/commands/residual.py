@@ -142,9 +142,10 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
     """Replay the frames (and channel map) of ``bag`` into a twin node running ``model``.
 
     The replay is paced by the twin's answers (``/twin/residual``), so every block is
-    processed in order at any load; the twin scores the whole stream (``window_s`` 0) and
-    the run stops once its metrics span the record's first to last sample (or, when some
-    never arrive, two metrics periods after the replay ended).
+    processed in order at any load; the twin scores the whole stream (``window_s`` 0). The
+    run stops once the replay has ended (every block answered) and the twin's metrics span
+    the record's first to last sample (or, when some never arrive, two metrics periods
+    later).
 
     Raises
     ------
@@ -177,14 +178,15 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
     def supervise() -> None:
         seen_at_exit: int | None = None
         while not ended.wait(0.05):
+            replay = launcher.procs.get("replay")
+            if replay is None or replay.poll() is None:  # ends once every block is answered
+                continue
             m, count = watch.latest()
             if m is not None and metrics_span(m) == record[:2] and int(m.samples) >= record[2]:
                 break
-            replay = launcher.procs.get("replay")
-            if replay is not None and replay.poll() is not None:  # every block answered
-                seen_at_exit = count if seen_at_exit is None else seen_at_exit
-                if count >= seen_at_exit + 2:  # two metrics periods after: all it got
-                    break
+            seen_at_exit = count if seen_at_exit is None else seen_at_exit
+            if count >= seen_at_exit + 2:  # two metrics periods after: all the twin got
+                break
         launcher._stop_requested = True  # as on Ctrl-C: stop the nodes cleanly
 
     thread = threading.Thread(target=supervise, name="residual_live", daemon=True)
