@@ -143,9 +143,9 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
 
     The replay is paced by the twin's answers (``/twin/residual``), so every block is
     processed in order at any load; the twin scores the whole stream (``window_s`` 0). The
-    run stops once the replay has ended (every block answered) and the twin's metrics span
-    the record's first to last sample (or, when some never arrive, two metrics periods
-    later).
+    run stops once the replay has ended (every block answered) and the twin's metrics have
+    spanned the record's first to last sample for one more metrics period (or, when some
+    samples never arrive, two metrics periods after the replay's end).
 
     Raises
     ------
@@ -177,15 +177,19 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
 
     def supervise() -> None:
         seen_at_exit: int | None = None
+        whole_at: int | None = None
         while not ended.wait(0.05):
             replay = launcher.procs.get("replay")
             if replay is None or replay.poll() is None:  # ends once every block is answered
                 continue
             m, count = watch.latest()
-            if m is not None and metrics_span(m) == record[:2] and int(m.samples) >= record[2]:
-                break
+            if whole_at is None and m is not None and metrics_span(m) == record[:2] \
+                    and int(m.samples) >= record[2]:
+                whole_at = count
             seen_at_exit = count if seen_at_exit is None else seen_at_exit
-            if count >= seen_at_exit + 2:  # two metrics periods after: all the twin got
+            # one metrics period more after the whole record (so the recorder has it too),
+            # or two after the replay's end when some samples never came
+            if count >= (seen_at_exit + 2 if whole_at is None else whole_at + 1):
                 break
         launcher._stop_requested = True  # as on Ctrl-C: stop the nodes cleanly
 

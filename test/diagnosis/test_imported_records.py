@@ -179,6 +179,11 @@ def test_a_twin_node_on_the_replayed_imported_record(bags: dict[str, Path], tmp_
     assert rows[head + 1].startswith("ESB1_f")  # the worst channel printed first
     assert "twin node: inputs ground_x -> ax, ground_y -> ay; 66 channels compared" in out
     assert worst <= LIVE_TOLERANCE_PP
+    from modal_twin.commands.residual import last_metrics
+    from modal_twin.io.convert import metrics_span
+
+    m = last_metrics(tmp_path / "live" / "bag")  # the run's record ends on the whole record
+    assert metrics_span(m) == (0, 11999) and m.samples == 12000
     log = (tmp_path / "live" / "logs" / "twin.log").read_text()
     assert "ground_x -> ax, ground_y -> ay" in log and "held at zero: az, arx, ary, arz" in log
 
