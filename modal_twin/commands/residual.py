@@ -87,6 +87,7 @@ class LiveRun:
     record: tuple[int, int, int]  # first and last sample index of the record, samples
     run_dir: Path
     route: str
+    stream: str = ""  # the twin's count of what it compared and dropped, the replay's answers
 
     @property
     def whole(self) -> bool:
@@ -204,13 +205,25 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
     if res.exit_code != 0:
         msg = f"the twin run failed: {res.message} (logs in {res.run_dir / 'logs'})"
         raise LaunchError(msg)
-    log = res.run_dir / "logs" / "twin.log"
-    route = next((ln.split("]: ", 1)[-1] for ln in log.read_text(errors="replace").splitlines()
-                  if "]: inputs " in ln), "") if log.is_file() else ""
+    route = _log_line(res.run_dir / "logs" / "twin.log", "]: inputs ")
+    counts = _log_line(res.run_dir / "logs" / "twin.log", "]: final per-channel error, ")
+    answered = _log_line(res.run_dir / "logs" / "replay.log", "blocks answered on")
+    parts = [counts.removeprefix("final per-channel error, ").rstrip(":")] if counts else []
+    if answered:
+        parts.append(f"replay: {answered.rpartition('; ')[2]}")
+    stream = "; ".join(parts)
     last = watch.latest()[0]
     if last is None and res.bag is not None:
         last = last_metrics(res.bag)
-    return LiveRun(last, record, res.run_dir, route)
+    return LiveRun(last, record, res.run_dir, route, stream)
+
+
+def _log_line(log: Path, marker: str) -> str:
+    """Return the first line of a log holding ``marker``, without its prefix ('' if none)."""
+    if not log.is_file():
+        return ""
+    return next((ln.split("]: ", 1)[-1] for ln in log.read_text(errors="replace").splitlines()
+                 if marker in ln), "")
 
 
 def live(a: argparse.Namespace) -> int:
@@ -239,6 +252,7 @@ def live(a: argparse.Namespace) -> int:
               file=sys.stderr)
         return ExitCode.FAILED
     print("\n".join(([f"twin node: {run.route}"] if run.route else [])
+                    + ([f"twin node: {run.stream}"] if run.stream else [])
                     + [f"live twin over {run.coverage()}",
                        metrics_table(run.metrics, top=a.top or 10_000)]))
     if a.json is not None:

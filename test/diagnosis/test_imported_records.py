@@ -225,7 +225,6 @@ def test_the_live_twin_beside_busy_loops_gives_the_offline_figures(
     assert all(proc.poll() is None for proc in busy_loops)  # they burned throughout
     assert "12000 of the record's 12000 samples (0..11999) compared -- the whole record" in out
     assert worst <= LIVE_TOLERANCE_PP
-    log = (tmp_path / "busy" / "logs" / "twin.log").read_text()
-    assert "samples 0..11999: 12000 compared, 0 missing; blocks dropped 0, gaps 0" in log
-    replay_log = (tmp_path / "busy" / "logs" / "replay.log").read_text()
-    assert "240 of 240 blocks answered on /twin/residual" in replay_log
+    # the twin's own count and the replay's, as the command prints them
+    assert ("twin node: samples 0..11999: 12000 compared, 0 missing; blocks dropped 0, gaps 0, "
+            "trimmed 0, restarts 0; replay: 240 of 240 blocks answered on /twin/residual") in out
