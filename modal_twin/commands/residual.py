@@ -152,7 +152,10 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
     ------
     LaunchError
         When the run fails (a node dies, the graph is not ready).
+    KeyboardInterrupt
+        When the run was stopped by Ctrl-C.
     """
+    import re
     import threading
 
     from modal_twin.errors import LaunchError
@@ -169,8 +172,9 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
                       one_shot=True),
              NodeSpec("twin", "twin_node", {"model_file": str(model.resolve()), "fs_hz": fs_hz,
                                             "window_s": 0.0}))
+    plain = re.sub(r"[^A-Za-z0-9._-]", "_", bag.resolve().name)[:40]  # a name of the run
     # an upper bound only: the run stops when the twin has answered the whole record
-    sc = Scenario(bag, f"twin_{bag.name}", f"{model.name} on {bag}", nodes,
+    sc = Scenario(bag, f"twin_{plain}", f"{model.name} on {bag}", nodes,
                   120.0 + 10.0 * seconds / rate, 60.0, ("/twin/metrics",), {}, {})
     launcher = Launcher(sc, run_dir=run_dir, say=say)
     watch = MetricsWatch(launcher.domain_id)
@@ -202,6 +206,8 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
         ended.set()
         thread.join()
         watch.close()
+    if res.exit_code == ExitCode.INTERRUPTED:  # Ctrl-C: the CLI exits 130
+        raise KeyboardInterrupt
     if res.exit_code != 0:
         msg = f"the twin run failed: {res.message} (logs in {res.run_dir / 'logs'})"
         raise LaunchError(msg)

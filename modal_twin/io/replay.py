@@ -136,8 +136,8 @@ def replay(
     most ``pacing.lead`` blocks await their answer, and the replay ends when every block
     is answered (or the consumer stalls). Returns the number of messages published.
     """
-    if not (rate > 0 and math.isfinite(rate)):
-        msg = f"rate: expected a finite value > 0, got {rate}"
+    if not (rate > 0 and math.isfinite(rate)):  # nan / inf would never (or at once) publish
+        msg = f"--rate: expected a finite number > 0, got {rate}"
         raise BagError(msg)
     info = bag_info(path)
     wanted = [t for t in info.topics if topics is None or t.name in topics]
