@@ -157,6 +157,7 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
     """
     import re
     import threading
+    import time
 
     from modal_twin.errors import LaunchError
     from modal_twin.io.convert import metrics_span
@@ -181,7 +182,7 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
     ended = threading.Event()
 
     def supervise() -> None:
-        seen_at_exit: int | None = None
+        seen_at_exit: tuple[int, float] | None = None
         whole_at: int | None = None
         while not ended.wait(0.05):
             replay = launcher.procs.get("replay")
@@ -191,10 +192,11 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
             if whole_at is None and m is not None and metrics_span(m) == record[:2] \
                     and int(m.samples) >= record[2]:
                 whole_at = count
-            seen_at_exit = count if seen_at_exit is None else seen_at_exit
+            seen_at_exit = seen_at_exit or (count, time.monotonic())
             # one metrics period more after the whole record (so the recorder has it too),
-            # or two after the replay's end when some samples never came
-            if count >= (seen_at_exit + 2 if whole_at is None else whole_at + 1):
+            # or two after the replay's end when some samples never came (10 s if no metrics)
+            if count >= (seen_at_exit[0] + 2 if whole_at is None else whole_at + 1) or \
+                    (count == 0 and time.monotonic() - seen_at_exit[1] > 10.0):
                 break
         launcher._stop_requested = True  # as on Ctrl-C: stop the nodes cleanly
 
@@ -254,8 +256,9 @@ def live(a: argparse.Namespace) -> int:
         print(f"modal-twin residual: {err}", file=sys.stderr)
         return ExitCode.FAILED
     if run.metrics is None:
-        print(f"modal-twin residual: {run.coverage()} (logs in {run.run_dir / 'logs'})",
-              file=sys.stderr)
+        why = _log_line(run.run_dir / "logs" / "twin.log", " refused: ")
+        print(f"modal-twin residual: {run.coverage()}" + (f"; twin node: {why}" if why else "")
+              + f" (logs in {run.run_dir / 'logs'})", file=sys.stderr)
         return ExitCode.FAILED
     print("\n".join(([f"twin node: {run.route}"] if run.route else [])
                     + ([f"twin node: {run.stream}"] if run.stream else [])

@@ -1,6 +1,6 @@
 """Replay: republish a bag's messages with their original timing (or scaled by a rate).
 
-A replay is a measurement: with ``paced_by`` (``--paced-by /twin/residual``) the replay is
+A replay is a measurement: with pacing (``--paced-by /twin/residual``) the replay is
 paced by its consumer, never more than ``lead`` blocks of ``/measurement/frames`` ahead of
 the blocks the consumer has answered on that topic (each answer carries the sample indices
 of the block it answers), so however slow the consumer (a loaded machine), no block

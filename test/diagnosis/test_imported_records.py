@@ -228,3 +228,18 @@ def test_the_live_twin_beside_busy_loops_gives_the_offline_figures(
     # the twin's own count and the replay's, as the command prints them
     assert ("twin node: samples 0..11999: 12000 compared, 0 missing; blocks dropped 0, gaps 0, "
             "trimmed 0, restarts 0; replay: 240 of 240 blocks answered on /twin/residual") in out
+
+
+def test_a_live_twin_that_refuses_the_record_is_said_not_hidden(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """A model none of the record's inputs drives (the trailer car): the twin refuses every
+    frame; the replay waits for answers, says the consumer stalled, and the command exits 1
+    naming the twin's refusal instead of printing figures."""
+    car = ROOT / "config" / "vehicles" / "trailer_car.yaml"
+    assert main(["residual", str(car), str(bags["test"]), "--live",
+                 "--run-dir", str(tmp_path / "refused")]) == 1
+    err = capsys.readouterr().err
+    assert "no metrics from the twin for the record's samples 0..11999 (12000)" in err
+    assert "drives none of the model's inputs" in err
+    replay_log = (tmp_path / "refused" / "logs" / "replay.log").read_text()
+    assert "0 of 12 blocks answered on /twin/residual (the consumer stalled)" in replay_log
