@@ -6,10 +6,13 @@ zero) and compared with every response it has: per channel the NRMSE, RMS(measur
 model) / RMS(measured), against the noise floor estimated from the record itself, and
 Eq. (8) of [004] (a difference of RMS values) beside it, labelled.
 
-With ``--live`` the bag is instead replayed (``replay_node``, every topic: the latched
-channel map tells the twin the channels' roles) into a twin node (``twin_node``) running the
-model, as it would run beside a structure in service; the run is recorded in ``--run-dir``
-and the twin's last ``/twin/metrics`` (over the whole record) is printed per channel.
+With ``--live`` the bag is instead replayed (``replay_node``: its frames, and the latched
+channel map that tells the twin the channels' roles) into a twin node (``twin_node``)
+running the model, as it would run beside a structure in service. The replay is paced by
+the twin's answers, so the twin processes every block in order at any load, and its
+metrics span the whole record (first to last sample index): the same figures as offline,
+to round-off. The run is recorded in ``--run-dir``; a comparison that does not cover the
+whole record says how much is missing and exits 1.
 """
 
 from __future__ import annotations
@@ -17,8 +20,8 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import re
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -79,14 +82,16 @@ def last_metrics(bag: Path) -> Any:
     return last
 
 
-def error_report(bag: Path, top: int = 12) -> str:
-    """Worst channels of the last /twin/metrics of a bag, and the errors by place."""
-    m = last_metrics(bag)
-    if m is None:
-        return "no /twin/metrics in the bag"
+def metrics_table(m: Any, top: int = 12) -> str:
+    """Worst channels of a ``ComparisonMetrics`` message (by NRMSE), with what it spans."""
+    from modal_twin.io.convert import metrics_span
+
     names = list(m.channel_names)
     err, res = np.asarray(m.rms_error), np.asarray(m.residual_rms)
-    lines = [f"model {m.model_version}, window {m.window_s:.0f} s, {m.samples} samples",
+    span = metrics_span(m)
+    where = (f"samples {span[0]}..{span[1]}" if span is not None
+             else f"window {m.window_s:.0f} s")
+    lines = [f"model {m.model_version}, {where}, {m.samples} samples",
              f"{'channel':<12}{'RMS meas':>12}{'RMS model':>12}{'Eq.8 err %':>12}"
              f"{'resid %':>10}"]
     for i in np.argsort(-np.nan_to_num(res, nan=-1.0))[:top]:
@@ -95,41 +100,207 @@ def error_report(bag: Path, top: int = 12) -> str:
     return "\n".join(lines)
 
 
-def live(a: argparse.Namespace) -> int:
-    """Replay the bag into a twin node running the model; print its per-channel error."""
-    from modal_twin.io.bag import bag_info, read_messages
+def error_report(bag: Path, top: int = 12) -> str:
+    """Worst channels of the last /twin/metrics of a bag, and the errors by place."""
+    m = last_metrics(bag)
+    return "no /twin/metrics in the bag" if m is None else metrics_table(m, top)
+
+
+@dataclass(frozen=True)
+class LiveRun:
+    """A record replayed into a twin node: its last metrics and what they cover."""
+
+    metrics: Any  # ComparisonMetrics (None when the twin published none)
+    record: tuple[int, int, int]  # first and last sample index of the record, samples
+    run_dir: Path
+    route: str
+    stream: str = ""  # the twin's count of what it compared and dropped, the replay's answers
+
+    @property
+    def whole(self) -> bool:
+        """True when the metrics span the record's first to last sample, every one compared."""
+        from modal_twin.io.convert import metrics_span
+
+        first, last, n = self.record
+        m = self.metrics
+        return m is not None and metrics_span(m) == (first, last) and int(m.samples) == n
+
+    def coverage(self) -> str:
+        """One line: the samples compared against the record's."""
+        from modal_twin.io.convert import metrics_span
+
+        first, last, n = self.record
+        if self.metrics is None:
+            return f"no metrics from the twin for the record's samples {first}..{last} ({n})"
+        span = metrics_span(self.metrics)
+        got = "an unknown span" if span is None else f"samples {span[0]}..{span[1]}"
+        return (f"{got}: {int(self.metrics.samples)} of the record's {n} samples "
+                f"({first}..{last}) compared" + (" -- the whole record" if self.whole
+                                                  else f", {n - int(self.metrics.samples)} "
+                                                       f"not compared"))
+
+    def figures(self) -> dict[str, dict[str, float]]:
+        """Per channel NRMSE and Eq. (8) of [004] as fractions (as ``residual --json``)."""
+        m = self.metrics
+        return {c: {"nrmse": float(r) / 100.0, "eq8": float(e) / 100.0}
+                for c, r, e in zip(m.channel_names, m.residual_rms, m.rms_error, strict=True)}
+
+
+def record_span(bag: Path) -> tuple[int, int, int]:
+    """First and last sample index of the bag's frames and the samples a twin compares.
+
+    The frames go through the twin's own stream monitor (repeats dropped, overlaps trimmed).
+    """
+    from modal_twin.acquisition.continuity import StreamMonitor
+    from modal_twin.io.bag import read_blocks
+
+    mon, first, n = StreamMonitor(), None, 0
+    for blk in read_blocks(bag, "/measurement/frames"):
+        v = mon.check(blk)
+        if v.block is not None:
+            first = v.block.first_index if first is None else first
+            n += v.block.n_samples
+    if first is None or mon.next_index is None:
+        return 0, -1, 0
+    return first, mon.next_index - 1, n
+
+
+def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | None,
+                     fs_hz: float, say: Any = print) -> LiveRun:
+    """Replay the frames (and channel map) of ``bag`` into a twin node running ``model``.
+
+    The replay is paced by the twin's answers (``/twin/residual``), so every block is
+    processed in order at any load; the twin scores the whole stream (``window_s`` 0). The
+    run stops once the replay has ended (every block answered) and the twin's metrics have
+    spanned the record's first to last sample for one more metrics period (or, when some
+    samples never arrive, two metrics periods after the replay's end).
+
+    Raises
+    ------
+    LaunchError
+        When the run fails (a node dies, the graph is not ready).
+    KeyboardInterrupt
+        When the run was stopped by Ctrl-C.
+    """
+    import re
+    import threading
+    import time
+
+    from modal_twin.errors import LaunchError
+    from modal_twin.io.convert import metrics_span
+    from modal_twin.io.replay import MetricsWatch
     from modal_twin.launch import Launcher
     from modal_twin.scenario import NodeSpec, Scenario
 
-    if not 0.05 <= a.rate <= 100.0:
+    record = record_span(bag)
+    seconds = record[2] / fs_hz
+    nodes = (NodeSpec("replay", "replay_node", {},
+                      (str(bag), "--rate", str(rate), "--topics", "/measurement/frames",
+                       "/measurement/channels", "--paced-by", "/twin/residual"),
+                      one_shot=True),
+             NodeSpec("twin", "twin_node", {"model_file": str(model.resolve()), "fs_hz": fs_hz,
+                                            "window_s": 0.0}))
+    plain = re.sub(r"[^A-Za-z0-9._-]", "_", bag.resolve().name)[:40]  # a name of the run
+    # an upper bound only: the run stops when the twin has answered the whole record
+    sc = Scenario(bag, f"twin_{plain}", f"{model.name} on {bag}", nodes,
+                  120.0 + 10.0 * seconds / rate, 60.0, ("/twin/metrics",), {}, {})
+    launcher = Launcher(sc, run_dir=run_dir, say=say)
+    watch = MetricsWatch(launcher.domain_id)
+    ended = threading.Event()
+
+    def supervise() -> None:
+        seen_at_exit: tuple[int, float] | None = None
+        whole_at: int | None = None
+        while not ended.wait(0.05):
+            replay = launcher.procs.get("replay")
+            if replay is None or replay.poll() is None:  # ends once every block is answered
+                continue
+            m, count = watch.latest()
+            if whole_at is None and m is not None and metrics_span(m) == record[:2] \
+                    and int(m.samples) >= record[2]:
+                whole_at = count
+            seen_at_exit = seen_at_exit or (count, time.monotonic())
+            # one metrics period more after the whole record (so the recorder has it too),
+            # or two after the replay's end when some samples never came (10 s if no metrics)
+            if count >= (seen_at_exit[0] + 2 if whole_at is None else whole_at + 1) or \
+                    (count == 0 and time.monotonic() - seen_at_exit[1] > 10.0):
+                break
+        launcher._stop_requested = True  # as on Ctrl-C: stop the nodes cleanly
+
+    thread = threading.Thread(target=supervise, name="residual_live", daemon=True)
+    thread.start()
+    try:
+        res = launcher.run()
+    finally:
+        ended.set()
+        thread.join()
+        watch.close()
+    if res.exit_code == ExitCode.INTERRUPTED:  # Ctrl-C: the CLI exits 130
+        raise KeyboardInterrupt
+    if res.exit_code != 0:
+        msg = f"the twin run failed: {res.message} (logs in {res.run_dir / 'logs'})"
+        raise LaunchError(msg)
+    route = _log_line(res.run_dir / "logs" / "twin.log", "]: inputs ")
+    counts = _log_line(res.run_dir / "logs" / "twin.log", "]: final per-channel error, ")
+    answered = _log_line(res.run_dir / "logs" / "replay.log", "blocks answered on")
+    parts = [counts.removeprefix("final per-channel error, ").rstrip(":")] if counts else []
+    if answered:
+        parts.append(f"replay: {answered.rpartition('; ')[2]}")
+    stream = "; ".join(parts)
+    last = watch.latest()[0]
+    if last is None and res.bag is not None:
+        last = last_metrics(res.bag)
+    return LiveRun(last, record, res.run_dir, route, stream)
+
+
+def _log_line(log: Path, marker: str) -> str:
+    """Return the first line of a log holding ``marker``, without its prefix ('' if none)."""
+    if not log.is_file():
+        return ""
+    return next((ln.split("]: ", 1)[-1] for ln in log.read_text(errors="replace").splitlines()
+                 if marker in ln), "")
+
+
+def live(a: argparse.Namespace) -> int:
+    """Replay the bag into a twin node running the model; print its per-channel error."""
+    import math
+    import sys
+
+    from modal_twin.errors import ModalTwinError
+    from modal_twin.io.bag import read_messages
+
+    if not (math.isfinite(a.rate) and 0.05 <= a.rate <= 100.0):
         print(f"modal-twin residual: --rate {a.rate} outside [0.05, 100]", file=sys.stderr)
         return ExitCode.USAGE
+    if a.json is not None:
+        check_new(a.json, a.force)  # before the work
     first = next((m for _, _, m in read_messages(a.bag, ["/measurement/frames"])), None)
     if first is None or not first.sample_rate_hz > 0:
         print(f"modal-twin residual: {a.bag} holds no /measurement/frames", file=sys.stderr)
         return ExitCode.USAGE
-    fs = float(first.sample_rate_hz)
-    seconds = bag_info(a.bag).duration_s + int(first.n_samples) / fs
-    nodes = (NodeSpec("replay", "replay_node", {}, (str(a.bag), "--rate", str(a.rate)),
-                      one_shot=True),
-             NodeSpec("twin", "twin_node", {"model_file": str(a.model.resolve()),
-                                            "fs_hz": fs,
-                                            "window_s": min(86_400.0, seconds)}))
-    plain = re.sub(r"[^A-Za-z0-9._-]", "_", a.bag.resolve().name)[:40]  # a name of the run
-    sc = Scenario(a.bag, f"twin_{plain}", f"{a.model.name} on {a.bag}", nodes,
-                  seconds / a.rate + 15.0, 60.0, ("/twin/metrics",), {}, {})
-    res = Launcher(sc, run_dir=a.run_dir).run()
-    if res.exit_code == ExitCode.INTERRUPTED:
-        return ExitCode.INTERRUPTED
-    if res.exit_code != 0 or res.bag is None:
-        print(f"modal-twin residual: the twin run failed: {res.message} (logs in "
-              f"{res.run_dir / 'logs'})", file=sys.stderr)
+    try:
+        run = replay_into_twin(a.model, a.bag, rate=a.rate, run_dir=a.run_dir,
+                               fs_hz=float(first.sample_rate_hz))
+    except ModalTwinError as err:
+        print(f"modal-twin residual: {err}", file=sys.stderr)
         return ExitCode.FAILED
-    log = res.run_dir / "logs" / "twin.log"
-    route = [ln.split("]: ", 1)[-1] for ln in log.read_text(errors="replace").splitlines()
-             if "]: inputs " in ln] if log.is_file() else []
-    print("\n".join(["twin node: " + r for r in route[:1]] + [error_report(
-        res.bag, top=a.top or 10_000)]))
+    if run.metrics is None:
+        why = _log_line(run.run_dir / "logs" / "twin.log", " refused: ")
+        print(f"modal-twin residual: {run.coverage()}" + (f"; twin node: {why}" if why else "")
+              + f" (logs in {run.run_dir / 'logs'})", file=sys.stderr)
+        return ExitCode.FAILED
+    print("\n".join(([f"twin node: {run.route}"] if run.route else [])
+                    + ([f"twin node: {run.stream}"] if run.stream else [])
+                    + [f"live twin over {run.coverage()}",
+                       metrics_table(run.metrics, top=a.top or 10_000)]))
+    if a.json is not None:
+        with atomic_file(a.json, force=a.force) as tmp:
+            tmp.write_text(json.dumps(run.figures(), indent=1))
+        print(f"wrote {a.json}")
+    if not run.whole:
+        print(f"modal-twin residual: the live twin did not compare the whole record: "
+              f"{run.coverage()} (logs in {run.run_dir / 'logs'})", file=sys.stderr)
+        return ExitCode.FAILED
     return ExitCode.OK
 
 

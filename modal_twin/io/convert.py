@@ -17,11 +17,13 @@ from modal_twin.signal_block import SignalBlock
 from modal_twin.validation import check_field
 
 __all__ = [
+    "SPAN_PREFIX",
     "block_from_msg",
     "block_to_msg",
     "block_to_rosbags",
     "channel_map_from_msg",
     "channel_map_to_msg",
+    "metrics_span",
     "metrics_to_msg",
     "ns_to_stamp",
     "stamp_to_ns",
@@ -149,10 +151,22 @@ def channel_map_from_msg(msg: Any) -> list[Any]:
             for c in msg.channels]
 
 
+SPAN_PREFIX = "samples "
+"""``ComparisonMetrics.header.frame_id`` = ``samples <first>..<last>``: the sample indices
+of the stream the metrics span (a replayed record is whole when they are its first and last
+and ``samples`` counts them all)."""
+
+
 def metrics_to_msg(names: list[str], m: Any, window_s: float, version: str,
-                   msg_cls: Any) -> Any:
-    """:class:`~modal_twin.twin.metrics.ChannelMetrics` -> ``ComparisonMetrics``."""
+                   msg_cls: Any, span: tuple[int, int] | None = None) -> Any:
+    """:class:`~modal_twin.twin.metrics.ChannelMetrics` -> ``ComparisonMetrics``.
+
+    ``span`` (first, last sample index of the window) goes into ``header.frame_id``
+    (:data:`SPAN_PREFIX`).
+    """
     msg = msg_cls()
+    if span is not None:
+        msg.header.frame_id = f"{SPAN_PREFIX}{int(span[0])}..{int(span[1])}"
     msg.model_version = version
     msg.window_s = float(window_s)
     msg.channel_names = list(names)
@@ -164,6 +178,18 @@ def metrics_to_msg(names: list[str], m: Any, window_s: float, version: str,
     msg.overall_rms_error = float(finite.max()) if finite.size else float("nan")
     msg.samples = int(m.samples)
     return msg
+
+
+def metrics_span(msg: Any) -> tuple[int, int] | None:
+    """(first, last) sample index a ``ComparisonMetrics`` spans (None when it does not say)."""
+    text = str(msg.header.frame_id)
+    first, sep, last = text.removeprefix(SPAN_PREFIX).partition("..")
+    if not text.startswith(SPAN_PREFIX) or not sep:
+        return None
+    try:
+        return int(first), int(last)
+    except ValueError:
+        return None
 
 
 def theta_from_msg(msg: Any) -> dict[str, float]:

@@ -1,7 +1,9 @@
 """Twin node: the nominal model run on measured inputs beside the measurements.
 
 Publishes /twin/prediction and /twin/residual (prediction - measurement) per frame and
-/twin/metrics (Eq. (8) of [004] per channel over a sliding window) every ``metrics_period_s``.
+/twin/metrics (Eq. (8) of [004] per channel over a sliding window, or with ``window_s`` 0 over
+the whole stream) every ``metrics_period_s``; each metrics message names the sample indices
+it spans (``header.frame_id`` = ``samples <first>..<last>``).
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ class TwinConfig:
     model_file: str = field(default="config/structures/building.yaml",
                             metadata={"doc": "structure file or model version file"})
     fs_hz: float = field(default=1000.0, metadata={"doc": "frame rate the twin runs at"})
-    window_s: float = field(default=10.0, metadata={"doc": "metrics window"})
+    window_s: float = field(default=10.0, metadata={
+        "doc": "metrics window, s; 0 = the whole stream from its first sample"})
     metrics_period_s: float = field(default=1.0, metadata={"doc": "metrics publish period"})
     versions_dir: str = field(default="runs/models",
                               metadata={"doc": "folder of the model versions /model/parameters "
@@ -58,15 +61,17 @@ class TwinNode(Node):
             for t in ("/twin/prediction", "/twin/residual"))
         self.met_pub = self.create_publisher(ComparisonMetrics, "/twin/metrics",
                                              qos_for("/twin/metrics"))
-        self.create_subscription(SignalBlockMsg, "/measurement/frames",
-                                 guarded(self, "frame", self._on_frame),
-                                 qos_for("/measurement/frames"))
-        self.create_subscription(ModelParameters, "/model/parameters",
-                                 guarded(self, "/model/parameters", self._on_parameters),
-                                 qos_for("/model/parameters"))
+        # the executor takes ready messages in the order the subscriptions were made: a map
+        # or a model version that arrived before a frame is applied before that frame
         self.create_subscription(ChannelMap, "/measurement/channels",
                                  guarded(self, "/measurement/channels", self._on_channels),
                                  qos_for("/measurement/channels"))
+        self.create_subscription(ModelParameters, "/model/parameters",
+                                 guarded(self, "/model/parameters", self._on_parameters),
+                                 qos_for("/model/parameters"))
+        self.create_subscription(SignalBlockMsg, "/measurement/frames",
+                                 guarded(self, "frame", self._on_frame),
+                                 qos_for("/measurement/frames"))
         self.create_timer(self.cfg.metrics_period_s,
                           guarded(self, "metrics", self._publish_metrics))
         plant = self.twin.plant
@@ -99,13 +104,16 @@ class TwinNode(Node):
         runner = self.twin.runner
         m = runner.metrics()
         if m is not None and runner.compare is not None:
-            self.met_pub.publish(cv.metrics_to_msg(runner.compare, m, self.cfg.window_s,
-                                                self.twin.version, ComparisonMetrics))
+            msg = cv.metrics_to_msg(runner.compare, m, self.cfg.window_s, self.twin.version,
+                                    ComparisonMetrics, span=runner.window_range())
+            msg.header.stamp = self.get_clock().now().to_msg()
+            self.met_pub.publish(msg)
 
     def close(self) -> None:
-        """Log the final error table."""
+        """Log the final error table and what it covers."""
         table = self.twin.runner.error_table(top=12)
-        rclpy.logging.get_logger(self.get_name()).info(f"final per-channel error:\n{table}")
+        rclpy.logging.get_logger(self.get_name()).info(
+            f"final per-channel error, {self.twin.coverage()}:\n{table}")
 
 
 def main() -> int:

@@ -12,7 +12,7 @@ from modal_twin.errors import SignalError
 from modal_twin.models.plant import Plant
 from modal_twin.models.sensors import ChannelRoute, route_channels
 from modal_twin.signal_block import SignalBlock
-from modal_twin.twin.metrics import ChannelMetrics, SlidingMetrics
+from modal_twin.twin.metrics import ChannelMetrics, SlidingMetrics, StreamMetrics
 from modal_twin.twin.simulator import Simulator
 
 __all__ = ["TwinRunner", "TwinStep"]
@@ -35,7 +35,9 @@ class TwinRunner:
     with a channel map (an imported record's, or the ``/measurement/channels`` of the
     acquisition) by the roles, else ``table_<input>`` drives ``<input>``. Any subset of the
     model's inputs may be measured; the others are zero (:attr:`zero_inputs`). The metrics
-    are over a sliding window; prediction and residual carry the model's channel names.
+    are over a sliding window, or (``window_s`` 0) over every sample since the stream's
+    first; :attr:`first_index` / :attr:`next_index` say which samples were compared.
+    Prediction and residual carry the model's channel names.
 
     Parameters
     ----------
@@ -44,7 +46,7 @@ class TwinRunner:
     fs_hz : float
         Frame sample rate.
     window_s : float
-        Metrics window.
+        Metrics window, s; 0 = the whole stream (a replayed record: first to last sample).
     channels : sequence of ChannelSpec, optional
         The channel map of the measured stream.
     """
@@ -58,8 +60,10 @@ class TwinRunner:
         self.compare: list[str] | None = None
         self.route = ChannelRoute((), ())
         self.zero_inputs: tuple[str, ...] = ()
-        self.metrics_window = SlidingMetrics(0, 1)
+        self.metrics_window: SlidingMetrics | StreamMetrics = StreamMetrics(0)
         self.window_s = window_s
+        self.first_index: int | None = None  # first sample compared
+        self.next_index: int | None = None  # one past the last sample compared
 
     def _setup(self, frame: SignalBlock) -> None:
         p = self.plant
@@ -84,8 +88,9 @@ class TwinRunner:
         self._out_frame = [n for n, _ in outs]
         self.compare = [m for _, m in outs]
         self._rows = [model[m] for m in self.compare]
-        self.metrics_window = SlidingMetrics(len(self.compare),
-                                             max(1, round(self.window_s * self.fs_hz)))
+        n = len(self.compare)
+        self.metrics_window = (StreamMetrics(n) if self.window_s <= 0 else
+                               SlidingMetrics(n, max(1, round(self.window_s * self.fs_hz))))
 
     def step(self, frame: SignalBlock) -> TwinStep:
         """Simulate the frame's inputs and compare with its response channels."""
@@ -101,6 +106,9 @@ class TwinRunner:
         pred = self.plant.measure(res)[self._rows]
         meas = frame.select(self._out_frame).data
         self.metrics_window.push(pred, meas)
+        if self.first_index is None:
+            self.first_index = frame.first_index
+        self.next_index = frame.next_index
         names = tuple(self.compare)
         return TwinStep(
             SignalBlock(names, frame.fs_hz, frame.first_index, pred, frame.stamp_ns, "twin"),
@@ -121,6 +129,20 @@ class TwinRunner:
     def metrics(self) -> ChannelMetrics | None:
         """Eq. (8) metrics over the window (None before the first frame)."""
         return self.metrics_window.metrics()
+
+    def window_range(self) -> tuple[int, int] | None:
+        """Sample indices (first, last) the metrics span (None before the first frame).
+
+        With a whole-stream window, from the stream's first sample compared; with a
+        sliding one, the last ``samples`` before :attr:`next_index`. Samples missing in
+        between (gaps) make the span longer than the metrics' ``samples``.
+        """
+        m = self.metrics()
+        if m is None or self.first_index is None or self.next_index is None:
+            return None
+        if isinstance(self.metrics_window, StreamMetrics):
+            return self.first_index, self.next_index - 1
+        return self.next_index - m.samples, self.next_index - 1
 
     def error_table(self, top: int | None = None) -> str:
         """Per-channel table sorted by Eq. (8) error, largest first."""

@@ -82,6 +82,25 @@ class TwinSession:
             self.runner = self._runner(self.plant)
         return v, self.runner.step(v.block)
 
+    def coverage(self) -> str:
+        """One line: the samples the metrics span, and every block dropped or cut on the way.
+
+        A block the stream monitor dropped (a repeat, a layout change, non-finite samples)
+        or a gap is counted here and never shifts the span silently.
+        """
+        span = self.runner.window_range()
+        m = self.runner.metrics()
+        if span is None or m is None:
+            return "no samples compared yet"
+        c = self.monitor.counts
+        dropped = {v.value: c[v] for v in (Verdict.REPEAT, Verdict.LAYOUT, Verdict.NONFINITE,
+                                           Verdict.EMPTY) if c[v]}
+        return (f"samples {span[0]}..{span[1]}: {m.samples} compared, "
+                f"{span[1] - span[0] + 1 - m.samples} missing; blocks dropped "
+                f"{sum(dropped.values())}" + (f" ({dropped})" if dropped else "")
+                + f", gaps {c[Verdict.GAP]}, trimmed {c[Verdict.OVERLAP]}, "
+                f"restarts {c[Verdict.RESTART]}")
+
     def load_version(self, model_file: str, theta: Mapping[str, float], label: str) -> str:
         """Run another model version from now on; return its label.
 

@@ -22,6 +22,9 @@ Figures:
   command line or the twin's model loading in a sandbox: cases, hangs (no answer in 60 s),
   links followed, bytes written outside the sandbox's run folder, files overwritten,
   tracebacks and multi-line errors.
+- replay under load: a 240-block record replayed into the twin (``residual --live``, rate
+  100, paced by the twin) beside two busy loops: blocks processed / dropped, samples
+  missing, max |live - offline| per channel in percentage points.
 
 usage: python test/benchmarks/bench_reliability.py [--minutes 10] [--launches 10]
        [--only paths,burst,...]
@@ -425,6 +428,61 @@ def paths_figures(tmp: Path) -> dict[str, int]:
             "paths_bytes_outside_run_folder": outside}
 
 
+def replay_load_figures(tmp: Path, busy: int = 2) -> dict[str, object]:
+    """A record replayed into the twin (``residual --live``) beside ``busy`` CPU-burning loops.
+
+    The S1 truth's 12 s record in 240 blocks at rate 100 (the replay paced by the twin's
+    answers); blocks processed and dropped, samples missing, and max |live - offline| over
+    every channel's NRMSE and Eq. (8), in percentage points.
+    """
+    import contextlib
+    import io
+    import re
+
+    sys.path.insert(0, str(TEST / "diagnosis"))
+    from test_imported_records import BUILDING, _own_npz, reblocked
+
+    from modal_twin.cli import main as cli
+
+    roles = tmp / "map.yaml"
+    roles.write_text(
+        "channels:\n"
+        "  - {name: ground_x, role: input, quantity: acceleration, direction: x}\n"
+        "  - {name: ground_y, role: input, quantity: acceleration, direction: y}\n"
+        "  - {name: roof_corner_x, role: output, quantity: acceleration, location: R_P1,"
+        " direction: x}\n")
+    say = io.StringIO()
+    with contextlib.redirect_stdout(say), contextlib.redirect_stderr(say):
+        cli(["import", str(_own_npz(tmp / "quake.npz", "quake", 2, 3.5)), "--map", str(roles),
+             "--out", str(tmp / "quake_1s")])
+        bag = reblocked(tmp / "quake_1s", tmp / "quake", 0.05)
+        cli(["residual", str(BUILDING), str(bag), "--json", str(tmp / "offline.json")])
+        loops = [subprocess.Popen([PY, "-c", "while True: pass"]) for _ in range(busy)]
+        try:
+            code = cli(["residual", str(BUILDING), str(bag), "--live", "--rate", "100",
+                        "--run-dir", str(tmp / "replay_load"), "--json",
+                        str(tmp / "live.json")])
+        finally:
+            for proc in loops:
+                proc.kill()
+                proc.wait()
+    off = json.loads((tmp / "offline.json").read_text())
+    live = json.loads((tmp / "live.json").read_text()) if code == 0 else {}
+    diff = [100 * abs(live[c][k] - off[c][k]) for c in off if c in live for k in ("nrmse", "eq8")]
+    logs = tmp / "replay_load" / "logs"
+    answered = re.search(r"(\d+) of (\d+) blocks answered", (logs / "replay.log").read_text())
+    twin = re.search(r": (\d+) compared, (\d+) missing; blocks dropped (\d+)",
+                     (logs / "twin.log").read_text())
+    return {"replay_load_busy_loops": busy, "replay_load_exit_code": code,
+            "replay_load_channels": len(off), "replay_load_channels_live": len(live),
+            "replay_load_blocks": int(answered[2]) if answered else None,
+            "replay_load_blocks_processed": int(answered[1]) if answered else None,
+            "replay_load_blocks_dropped": int(twin[3]) if twin else None,
+            "replay_load_samples_compared": int(twin[1]) if twin else None,
+            "replay_load_samples_missing": int(twin[2]) if twin else None,
+            "replay_load_max_abs_live_minus_offline_pp": max(diff) if diff else None}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--minutes", type=float, default=10.0, help="64 ch at 2 kHz run length")
@@ -442,7 +500,8 @@ def main() -> int:
                        ("long", lambda: long_run_figures(a.minutes)),
                        ("bombs", lambda: bomb_figures(tmp)),
                        ("damaged", lambda: damaged_figures(tmp)),
-                       ("paths", lambda: paths_figures(tmp))):
+                       ("paths", lambda: paths_figures(tmp)),
+                       ("replay_load", lambda: replay_load_figures(tmp))):
         if a.only and name not in a.only.split(","):
             continue
         t0 = time.monotonic()

@@ -55,3 +55,27 @@ def test_a_model_version_outside_the_allowed_folders_changes_nothing(tmp_path: P
     # the model itself with a changed parameter: loaded, labelled
     assert twin.load_version("", {"kcol_1A": 0.9}, "v1") == "v1"
     assert twin.plant is not before[0]
+
+
+def test_a_whole_stream_window_spans_every_sample_and_counts_what_it_lost(
+        tmp_path: Path) -> None:
+    frames = _frames(2.0)  # 10 blocks of 200 samples, samples 0..1999
+    twin = TwinSession(BUILDING, 1000.0, 0.0, tmp_path)  # window 0: the whole stream
+    for b in frames:
+        twin.frame(b)
+    m = twin.runner.metrics()
+    assert m is not None and m.samples == 2000
+    assert twin.runner.window_range() == (0, 1999)
+    assert "samples 0..1999: 2000 compared, 0 missing; blocks dropped 0" in twin.coverage()
+    # a lost block is a gap, a repeated one is dropped: both counted, the span stays exact
+    twin = TwinSession(BUILDING, 1000.0, 0.0, tmp_path)
+    for b in [*frames[:3], *frames[4:6], frames[5], *frames[6:]]:
+        twin.frame(b)
+    assert twin.runner.window_range() == (0, 1999)
+    line = twin.coverage()
+    assert "1800 compared, 200 missing; blocks dropped 1 ({'repeat': 1}), gaps 1" in line
+    # a sliding window spans its last samples
+    twin = TwinSession(BUILDING, 1000.0, 0.5, tmp_path)
+    for b in frames:
+        twin.frame(b)
+    assert twin.runner.window_range() == (1500, 1999)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from modal_twin.errors import ShapeError
-from modal_twin.twin.metrics import SlidingMetrics, channel_metrics, rms
+from modal_twin.twin.metrics import SlidingMetrics, StreamMetrics, channel_metrics, rms
 
 
 def test_eq8_known_values() -> None:
@@ -36,5 +36,23 @@ def test_sliding_window_equals_batch() -> None:
     want = channel_metrics(pred[:, -300:], meas[:, -300:])
     assert got is not None and got.samples == 300
     np.testing.assert_allclose(got.rms_error_pct, want.rms_error_pct, rtol=1e-12)
+    with pytest.raises(ShapeError, match="push: expected two"):
+        s.push(pred[:2, :5], meas[:2, :5])
+
+
+def test_whole_stream_metrics_equal_batch_over_every_sample() -> None:
+    # known answer: the batch Eq. (8) / NRMSE of the concatenated record, whatever the blocks
+    rng = np.random.default_rng(2)
+    meas = rng.normal(size=(3, 5003)) * np.array([[1.0], [1e-3], [1e4]])
+    pred = 1.07 * meas + 0.1 * rng.normal(size=meas.shape) * meas.std(axis=1, keepdims=True)
+    s = StreamMetrics(3)
+    assert s.metrics() is None
+    for k in range(0, 5003, 61):  # uneven blocks, a short last one
+        s.push(pred[:, k:k + 61], meas[:, k:k + 61])
+    got, want = s.metrics(), channel_metrics(pred, meas)
+    assert got is not None and got.samples == 5003
+    for a, b in ((got.rms_error_pct, want.rms_error_pct), (got.residual_pct, want.residual_pct),
+                 (got.rms_measured, want.rms_measured)):
+        np.testing.assert_allclose(a, b, rtol=1e-11)
     with pytest.raises(ShapeError, match="push: expected two"):
         s.push(pred[:2, :5], meas[:2, :5])

@@ -80,7 +80,9 @@ def test_replayed_bag_identify_update_twin(domain_id: int, tmp_path: Path) -> No
     def replay() -> float:
         rep = subprocess.Popen([sys.executable, "-m", "modal_twin.cli", "replay",
                                 str(tmp_path / "bag"), "--rate", "10",
-                                "--subscribers", "2"],  # identification and twin
+                                "--subscribers", "2",  # identification and twin
+                                # ends when the twin has answered every block, at any load
+                                "--paced-by", "/twin/residual"],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         while rep.poll() is None:
             spin(0.2)
