@@ -340,6 +340,10 @@ class Launcher:
         return ""
 
     # -- the whole run -----------------------------------------------------------------
+    def request_stop(self) -> None:
+        """Stop the run cleanly, as the end of its duration does (callable from a thread)."""
+        self._stop_requested = True
+
     def run(self) -> LaunchResult:
         """Start, wait ready, supervise until the duration ends or a signal / death."""
         interrupted: list[int] = []

@@ -225,7 +225,7 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
             if count >= (seen_at_exit[0] + 2 if whole_at is None else whole_at + 1) or \
                     (count == 0 and time.monotonic() - seen_at_exit[1] > 10.0):
                 break
-        launcher._stop_requested = True  # as on Ctrl-C: stop the nodes cleanly
+        launcher.request_stop()  # as at the end of the duration: stop the nodes cleanly
 
     thread = threading.Thread(target=supervise, name="residual_live", daemon=True)
     thread.start()
