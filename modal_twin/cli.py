@@ -111,10 +111,13 @@ def _cmd_model(a: argparse.Namespace) -> int:
 
     from modal_twin.models.building import build_building, modal_reduction
     from modal_twin.models.model_info import model_info
+    from modal_twin.models.vehicle3d_spec import is_vehicle3d_file
     from modal_twin.models.vehicle_spec import is_vehicle_file
 
     if check_model_kind(a.file) == "matrix":  # .mat / .npz from the user's FE tool
         return matrix_info(a)
+    if is_vehicle3d_file(a.file):  # config/vehicles/*_3d.yaml (kind: vehicle3d)
+        return ride.vehicle3d_info(a)
     if is_vehicle_file(a.file):  # config/vehicles
         return _vehicle_info(a)
     bld = build_building(a.file)

@@ -20,7 +20,7 @@ import numpy as np
 from modal_twin.errors import OptionError
 from modal_twin.exit_codes import ExitCode
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "vehicle3d_info"]
 
 MAX_SWEEP = 60
 
@@ -93,6 +93,39 @@ def run(a: argparse.Namespace) -> int:
         _print_sweep(runs)
     else:
         _print_run(runs[0])
+    return ExitCode.OK
+
+
+def vehicle3d_info(a: argparse.Namespace) -> int:
+    """``modal-twin model info`` of a 3D vehicle file: DOFs, carbody modes, hunting speed."""
+    from modal_twin.models.vehicle3d import build_vehicle3d, critical_speed
+    from modal_twin.models.vehicle3d_ride import carbody_modes
+    from modal_twin.models.vehicle3d_spec import load_vehicle3d
+
+    spec = load_vehicle3d(a.file)
+    veh = build_vehicle3d(spec)
+    hunt = critical_speed(veh, np.arange(10.0, 300.01, 5.0))
+    modes = carbody_modes(veh, spec.speed)
+    mass = float(np.trace(veh.M[:3, :3]) / 3 + 2 * spec.v("bogie", "mass")
+                 + 4 * spec.v("wheelset", "mass"))
+    info = {"name": spec.name, "n_dof": veh.n_dof, "n_state": veh.n_state,
+            "maxwell_elements": list(veh.maxwell_names), "total_mass_kg": mass,
+            "speed_kmh": spec.speed_kmh, "critical_speed_kmh": _finite(3.6 * hunt.v_critical),
+            "hunting_f_hz": _finite(hunt.f_critical_hz),
+            "carbody_modes": [{"label": m.label, "f_hz": m.f_hz, "zeta": m.zeta}
+                              for m in modes]}
+    if a.json:
+        print(json.dumps(info, indent=1))
+        return ExitCode.OK
+    print(f"{spec.name}: 3D vehicle, {veh.n_dof} DOFs + {len(veh.maxwell_names)} Maxwell "
+          f"states ({veh.carbody.name} carbody), total mass {mass / 1e3:.2f} t; hunting "
+          f"critical speed " + (f"{3.6 * hunt.v_critical:.0f} km/h "
+                                f"({hunt.f_critical_hz:.2f} Hz)" if math.isfinite(
+                                    hunt.v_critical) else "above 1080 km/h"))
+    print(f"carbody modes at {spec.speed_kmh:g} km/h:")
+    print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>8}  part")
+    for k, m in enumerate(modes, 1):
+        print(f"{k:>4d} {m.f_hz:9.4f} {100 * m.zeta:8.2f}  carbody {m.label}")
     return ExitCode.OK
 
 

@@ -154,3 +154,15 @@ def test_ride_command_errors_are_one_line(argv, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith("modal-twin ride: ") and err.count("\n") == 1
+
+
+def test_model_info_lists_the_3d_car(capsys):
+    from modal_twin.models.vehicle3d_spec import DEFAULT_VEHICLE3D_YAML
+
+    assert main(["model", "info", str(DEFAULT_VEHICLE3D_YAML), "--json"]) == 0
+    import json
+
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["n_dof"] == 6 + 12 + 8 and len(doc["maxwell_elements"]) == 10
+    assert doc["total_mass_kg"] == pytest.approx(41030 + 2 * 2600 + 4 * 1900)
+    assert "bounce" in [m["label"] for m in doc["carbody_modes"]]
