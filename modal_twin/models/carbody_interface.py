@@ -17,6 +17,19 @@ node's translations from the reduced basis. The rigid carbody of :func:`rigid_ca
 has ``q_c`` = the six motions of its centre of gravity ``G``::
 
     M = diag(m, m, m, I_xx, I_yy, I_zz),  K = C = 0,  T_s = [[I, -skew(p_s - G)], [0, I]]
+
+Until the shell carbody is in, :func:`with_bending_mode` adds one flexible coordinate
+``eta`` to a carbody: the first free-free vertical bending of a uniform beam of length
+``L`` and the carbody's mass ``m`` (Blevins, *Formulas for Natural Frequency and Mode
+Shape*, 1979, Table 8-1, free-free: ``beta L = 4.73004``)::
+
+    phi(s) = cosh(beta s) + cos(beta s) - sigma (sinh(beta s) + sin(beta s)),
+    sigma = 0.982502,  s = x + L / 2,  int_0^L phi^2 ds = L
+
+mass-normalised as ``phi / sqrt(m)`` (uniform line mass ``m / L``), so ``M_eta = 1``,
+``K_eta = omega^2``, ``C_eta = 2 zeta omega``; it is orthogonal to the rigid translation
+and (being symmetric) to the rigid pitch. A seat at ``x`` moves ``u_z = phi(x) eta`` and
+pitches ``theta_y = -phi'(x) eta``; a floor point moves ``u_z = phi(x) eta``.
 """
 
 from __future__ import annotations
@@ -30,12 +43,17 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError, ShapeError
 
 __all__ = [
+    "RIGID_COORDINATES",
     "SEAT_NAMES",
     "ReducedCarbody",
     "offset_matrix",
     "rigid_carbody",
     "skew",
+    "with_bending_mode",
 ]
+
+RIGID_COORDINATES: tuple[str, ...] = ("x", "y", "z", "roll", "pitch", "yaw")
+"""Coordinates of the rigid carbody (motions of ``G``)."""
 
 SEAT_NAMES: tuple[str, ...] = ("seat_1L", "seat_1R", "seat_2L", "seat_2R")
 """Interface names: secondary-suspension seats of bogie 1 (leading) and 2, left and right."""
@@ -65,6 +83,8 @@ class ReducedCarbody:
         Seat positions (m, from the carbody centre at rail level) and motion matrices.
     points : mapping str -> ((3,) position, (3, n) P)
         Floor points and their displacement matrices.
+    coordinates : tuple of str
+        Names of the n coordinates (default ``q0 .. q<n-1>``).
     """
 
     name: str
@@ -73,6 +93,7 @@ class ReducedCarbody:
     C: FloatArray
     seats: Mapping[str, tuple[FloatArray, FloatArray]]
     points: Mapping[str, tuple[FloatArray, FloatArray]]
+    coordinates: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         n = self.M.shape[0]
@@ -92,6 +113,14 @@ class ReducedCarbody:
             if P.shape != (3, n):
                 msg = f"points[{name!r}]: expected P of shape (3, {n}), got {P.shape}"
                 raise ShapeError(msg)
+        if self.coordinates and len(self.coordinates) != n:
+            msg = f"coordinates: expected {n} names, got {len(self.coordinates)}"
+            raise ShapeError(msg)
+
+    @property
+    def coordinate_names(self) -> tuple[str, ...]:
+        """The coordinates' names (``q0 ..`` when none were given)."""
+        return self.coordinates or tuple(f"q{k}" for k in range(self.n))
 
     @property
     def n(self) -> int:
@@ -140,4 +169,74 @@ def rigid_carbody(mass: float, inertia: Sequence[float], cg: Sequence[float],
     pt_map = {k: (np.asarray(p, dtype=float), offset_matrix(np.asarray(p, dtype=float) - G))
               for k, p in points.items()}
     z = np.zeros((6, 6))
-    return ReducedCarbody(name=name, M=M, K=z, C=z.copy(), seats=seat_map, points=pt_map)
+    return ReducedCarbody(name=name, M=M, K=z, C=z.copy(), seats=seat_map, points=pt_map,
+                          coordinates=RIGID_COORDINATES)
+
+
+_BETA_L = 4.730040745
+_SIGMA = 0.982502215
+
+
+def _beam_mode(x: float, length: float) -> tuple[float, float]:
+    """Return the first free-free bending shape and slope at ``x`` (``int phi^2 = L``)."""
+    b = _BETA_L / length
+    s = x + 0.5 * length
+    phi = np.cosh(b * s) + np.cos(b * s) - _SIGMA * (np.sinh(b * s) + np.sin(b * s))
+    dphi = b * (np.sinh(b * s) - np.sin(b * s) - _SIGMA * (np.cosh(b * s) + np.cos(b * s)))
+    return float(phi), float(dphi)
+
+
+def with_bending_mode(carbody: ReducedCarbody, *, length: float, f_hz: float, zeta: float,
+                      mass: float) -> ReducedCarbody:
+    """Add the first free-free vertical bending of a uniform beam (module docstring).
+
+    Parameters
+    ----------
+    carbody : ReducedCarbody
+        Whose seats and points lie within ``+-length / 2`` in x.
+    length : float
+        Beam length, m.
+    f_hz, zeta : float
+        Frequency (Hz) and damping ratio of the mode.
+    mass : float
+        Carbody mass spread uniformly over the length, kg.
+
+    Raises
+    ------
+    ModelError
+        Non-positive length, frequency or mass, negative damping, a seat or point off the beam.
+    """
+    if not (length > 0.0 and f_hz > 0.0 and mass > 0.0 and zeta >= 0.0):
+        msg = (f"length, f_hz, mass, zeta: expected positive values (zeta >= 0), got "
+               f"{length!r}, {f_hz!r}, {mass!r}, {zeta!r}")
+        raise ModelError(msg)
+    n = carbody.n + 1
+    w = 2.0 * np.pi * f_hz
+    scale = 1.0 / np.sqrt(mass)
+
+    def grow(A: FloatArray, extra: float) -> FloatArray:
+        out = np.zeros((n, n))
+        out[:-1, :-1] = A
+        out[-1, -1] = extra
+        return out
+
+    seats, points = {}, {}
+    for name, (p, T) in carbody.seats.items():
+        if abs(p[0]) > 0.5 * length:
+            msg = f"seats[{name!r}]: x = {p[0]} is off the beam of length {length}"
+            raise ModelError(msg)
+        phi, dphi = _beam_mode(float(p[0]), length)
+        T2 = np.hstack([T, np.zeros((6, 1))])
+        T2[2, -1], T2[4, -1] = phi * scale, -dphi * scale
+        seats[name] = (p, T2)
+    for name, (p, P) in carbody.points.items():
+        if abs(p[0]) > 0.5 * length:
+            msg = f"points[{name!r}]: x = {p[0]} is off the beam of length {length}"
+            raise ModelError(msg)
+        P2 = np.hstack([P, np.zeros((3, 1))])
+        P2[2, -1] = _beam_mode(float(p[0]), length)[0] * scale
+        points[name] = (p, P2)
+    return ReducedCarbody(name=f"{carbody.name} + bending {f_hz:g} Hz", M=grow(carbody.M, 1.0),
+                          K=grow(carbody.K, w * w), C=grow(carbody.C, 2.0 * zeta * w),
+                          seats=seats, points=points,
+                          coordinates=(*carbody.coordinate_names, "bending1"))

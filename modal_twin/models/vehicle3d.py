@@ -466,8 +466,7 @@ def build_vehicle3d(spec: Vehicle3DSpec, carbody: ReducedCarbody | None = None) 
     cb = _default_carbody(spec) if carbody is None else carbody
     nc = cb.n
     n = nc + 2 * 6 + 2 * N_AXLES
-    names = [f"car_{k}" for k in range(nc)] if nc != 6 else [
-        "car_x", "car_y", "car_z", "car_roll", "car_pitch", "car_yaw"]
+    names = [f"car_{k}" for k in cb.coordinate_names]
     for b in (1, 2):
         names += [f"bogie{b}_{d}" for d in ("x", "y", "z", "roll", "pitch", "yaw")]
     for a in range(1, N_AXLES + 1):

@@ -64,7 +64,7 @@ class CarbodyMode:
     ----------
     label : str
         The carbody coordinate with the largest share (bounce, pitch, sway, roll, yaw,
-        surge; ``car_<k>`` for a flexible carbody's coordinate).
+        surge; a flexible carbody's coordinate by its name, e.g. ``bending1``).
     f_hz, zeta : float
         Damped frequency (Hz) and damping ratio.
     share : float
@@ -97,7 +97,8 @@ def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5
     out = []
     for i in np.flatnonzero((lam.imag > 0.0) & (share >= min_share)):
         name = vehicle.dof_names[int(np.argmax(Ed[:, i]))]
-        out.append(CarbodyMode(_CAR_LABELS.get(name, name), float(lam[i].imag / (2 * math.pi)),
+        label = _CAR_LABELS.get(name, name.removeprefix("car_"))
+        out.append(CarbodyMode(label, float(lam[i].imag / (2 * math.pi)),
                                float(-lam[i].real / abs(lam[i])), float(share[i])))
     return tuple(sorted(out, key=lambda m: m.f_hz))
 

@@ -3,7 +3,7 @@
 The file has ``kind: vehicle3d`` and the sections below (SI units; every suspension value
 is per element, e.g. per axle box or per air spring):
 
-``carbody``  ``{mass, Ixx, Iyy, Izz, cg_height, floor_height, pivot_spacing}``
+``carbody``  ``{mass, Ixx, Iyy, Izz, length, cg_height, floor_height, pivot_spacing}``
 ``bogie``  ``{mass, Ixx, Iyy, Izz, cg_height, wheelbase}``
 ``wheelset``  ``{mass, Izz}`` (lateral and yaw; vertical and roll follow the track)
 ``contact``  ``{conicity, r0, b, f11, f22}`` (:mod:`modal_twin.models.wheel_rail`)
@@ -50,7 +50,7 @@ G_ACC = 9.81
 
 # section -> key -> may be zero (dampers may be switched off)
 _SCHEMA: dict[str, dict[str, bool]] = {
-    "carbody": {"mass": False, "Ixx": False, "Iyy": False, "Izz": False,
+    "carbody": {"mass": False, "Ixx": False, "Iyy": False, "Izz": False, "length": False,
                 "cg_height": False, "floor_height": False, "pivot_spacing": False},
     "bogie": {"mass": False, "Ixx": False, "Iyy": False, "Izz": False,
               "cg_height": False, "wheelbase": False},
@@ -177,7 +177,7 @@ def load_vehicle3d(path: str | Path | None = None) -> Vehicle3DSpec:
     if not isinstance(pts, list) or not pts:
         msg = f"{src}: floor_points: expected a non-empty list, got {pts!r}"
         raise ConfigError(msg)
-    half = 0.5 * values["carbody"]["pivot_spacing"] + 4.0
+    half = 0.5 * values["carbody"]["length"]
     floor = []
     for i, item in enumerate(pts):
         where = f"floor_points[{i}]"

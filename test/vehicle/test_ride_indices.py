@@ -166,3 +166,55 @@ def test_model_info_lists_the_3d_car(capsys):
     assert doc["n_dof"] == 6 + 12 + 8 and len(doc["maxwell_elements"]) == 10
     assert doc["total_mass_kg"] == pytest.approx(41030 + 2 * 2600 + 4 * 1900)
     assert "bounce" in [m["label"] for m in doc["carbody_modes"]]
+
+
+# ---------------------------------------------------------------- a flexible carbody
+def test_beam_bending_mode_shape():
+    from modal_twin.models.carbody_interface import _beam_mode
+
+    L = 25.0
+    x = np.linspace(-L / 2, L / 2, 20001)
+    phi = np.array([_beam_mode(v, L)[0] for v in x])
+    assert np.trapezoid(phi**2, x) == pytest.approx(L, rel=1e-6)  # Blevins' normalisation
+    assert abs(np.trapezoid(phi, x)) < 1e-6 * L  # orthogonal to the rigid translation
+    assert abs(np.trapezoid(phi * x, x)) < 1e-6 * L**2  # and to the rigid pitch
+    assert phi[0] == pytest.approx(2.0) and phi[-1] == pytest.approx(2.0)  # free ends
+
+
+@pytest.fixture(scope="module")
+def flexible(vehicle):
+    from modal_twin.models.carbody_interface import with_bending_mode
+
+    spec = vehicle.spec
+    cb = with_bending_mode(vehicle.carbody, length=spec.v("carbody", "length"), f_hz=8.73,
+                           zeta=0.02, mass=spec.v("carbody", "mass"))
+    return build_vehicle3d(spec, cb)
+
+
+def test_flexible_carbody_enters_through_the_interface(flexible):
+    modes = carbody_modes(flexible, 300.0 / 3.6)
+    bend = next(m for m in modes if m.label == "bending1")
+    assert bend.f_hz == pytest.approx(8.73, rel=0.01)  # free-free 8.73 Hz, on its suspension
+    assert {"bounce", "pitch", "sway"} <= {m.label for m in modes}
+    r = ride_run(flexible, 280.0, duration_s=60.0)
+    mid = r.channels.index("floor_mid_z")
+    assert np.any(np.abs(r.psd.peaks_hz[mid] - bend.f_hz) < 0.15)  # [002]'s shaking peak
+
+
+def test_speed_sweep_shows_the_flexible_resonance_filtered_by_the_bogie_spacing(flexible):
+    """The symmetric bending is driven by both bogies, ~ |1 + exp(-i w L_p / V)|, and by
+    both wheelsets of each, ~ |1 + exp(-i w a / V)|: at the bending frequency the mid-floor
+    PSD vanishes where f_b L_p / V = k + 1/2 (224, 374 km/h) and f_b a / V = 1/2 (157 km/h)."""
+    fb = next(m for m in carbody_modes(flexible, 80.0) if m.label == "bending1").f_hz
+    Lp = flexible.spec.v("carbody", "pivot_spacing")
+    a = flexible.spec.v("bogie", "wheelbase")
+    V = np.arange(180.0, 450.0, 1.0) / 3.6
+    S = np.array([floor_psd_theory(flexible, v, np.array([fb]))[2, 0] for v in V])  # mid_z
+    mins = [V[i] for i in range(1, V.size - 1) if S[i] < S[i - 1] and S[i] < S[i + 1]]
+    expected = [fb * Lp / (k + 0.5) for k in (2, 1)]  # 224 and 374 km/h
+    assert len(mins) == 2
+    assert np.allclose(mins, expected, rtol=0.02)
+    assert S.max() > 30 * max(S[np.searchsorted(V, m)] for m in mins)
+    v_wb = 2 * fb * a  # wheelbase null
+    s_wb = floor_psd_theory(flexible, v_wb, np.array([fb]))[2, 0]
+    assert S.max() > 30 * s_wb
