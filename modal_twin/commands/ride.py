@@ -86,19 +86,29 @@ def run(a: argparse.Namespace) -> int:
                                                    else float(a.speed)]
     hunt = critical_speed(veh, np.arange(10.0, 300.01, 5.0))
     vc_kmh = 3.6 * hunt.v_critical
-    runs = [ride_run(veh, s, duration_s=a.duration, fs_hz=a.fs, level=a.track, seed=a.seed)
-            for s in speeds]
+    if not a.sweep:
+        runs = [ride_run(veh, speeds[0], duration_s=a.duration, fs_hz=a.fs, level=a.track,
+                         seed=a.seed)]
+    else:  # speeds above the critical one are reported as unstable
+        runs = [ride_run(veh, s, duration_s=a.duration, fs_hz=a.fs, level=a.track,
+                         seed=a.seed) for s in speeds if veh.is_stable(s / 3.6)]
+        unstable = [s for s in speeds if not veh.is_stable(s / 3.6)]
     if a.json:
         print(json.dumps({"vehicle": spec.name, "critical_speed_kmh": _finite(vc_kmh),
                           "hunting_f_hz": _finite(hunt.f_critical_hz),
-                          "runs": [_run_dict(r) for r in runs]}, indent=1))
+                          "runs": [_run_dict(r) for r in runs],
+                          "unstable_speeds_kmh": unstable if a.sweep else []}, indent=1))
         return ExitCode.OK
     print(f"{spec.name}: {veh.n_dof} DOFs ({veh.carbody.name} carbody), "
           f"{a.track}-interference track, seed {a.seed}, {a.duration:g} s at {a.fs:g} Hz")
     print("hunting: " + (f"critical speed {vc_kmh:.0f} km/h ({hunt.f_critical_hz:.2f} Hz)"
                          if math.isfinite(vc_kmh) else "stable up to 1080 km/h"))
     if a.sweep:
-        _print_sweep(runs)
+        if runs:
+            _print_sweep(runs)
+        if unstable:
+            print("unstable (hunting, no ride): " + ", ".join(f"{s:g}" for s in unstable)
+                  + " km/h")
     else:
         _print_run(runs[0])
     return ExitCode.OK
@@ -148,7 +158,7 @@ def _run_dict(r: Any) -> dict[str, Any]:
                 r.channels, r.psd.peaks_hz, strict=True)},
             "carbody_modes": [{"label": m.label, "f_hz": m.f_hz, "zeta": m.zeta}
                               for m in r.modes],
-            "kinematic_mode": {"zeta": r.kinematic[0], "f_hz": r.kinematic[1]}}
+            "kinematic_mode": {"zeta": _finite(r.kinematic[0]), "f_hz": _finite(r.kinematic[1])}}
 
 
 def _print_run(r: Any) -> None:
@@ -162,8 +172,9 @@ def _print_run(r: Any) -> None:
         print(f"{lab:<10} {r.W[iz]:5.2f} {r.W[iy]:5.2f}  {pz:<20}  {py}")
     print("carbody modes (shaking check: PSD peaks near these): " + ", ".join(
         f"{m.label} {m.f_hz:.2f} Hz ({100 * m.zeta:.0f} %)" for m in r.modes))
-    print(f"least-damped kinematic mode: {r.kinematic[1]:.2f} Hz, zeta "
-          f"{100 * r.kinematic[0]:.1f} %")
+    if math.isfinite(r.kinematic[0]):
+        print(f"least-damped kinematic mode: {r.kinematic[1]:.2f} Hz, zeta "
+              f"{100 * r.kinematic[0]:.1f} %")
 
 
 def _print_sweep(runs: list[Any]) -> None:

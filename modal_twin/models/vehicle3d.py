@@ -194,6 +194,10 @@ class Vehicle3D:
         S = np.array(rows)
         return S @ A[n:2 * n], S @ B[n:2 * n], names
 
+    def is_stable(self, speed: float) -> bool:
+        """Tell whether every eigenvalue at ``speed`` has a negative real part."""
+        return bool(np.max(self.eigenvalues(speed).real) < 0.0)
+
     def eigenvalues(self, speed: float) -> ComplexArray:
         """Eigenvalues of ``A`` at ``speed``, rad/s (complex)."""
         A, _ = self.state_space(speed)
@@ -219,15 +223,12 @@ class Vehicle3D:
                      kinematic_share: float = 0.25) -> tuple[float, float]:
         """Damping ratio and frequency (Hz) of the least-damped kinematic mode.
 
-        Raises
-        ------
-        ConvergenceError
-            No kinematic mode (see :meth:`kinematic_modes`).
+        ``(inf, nan)`` when there is none (at a crawl the creep forces damp every wheelset
+        motion critically; see :meth:`kinematic_modes`).
         """
         lam = self.kinematic_modes(speed, f_min_hz=f_min_hz, kinematic_share=kinematic_share)
         if lam.size == 0:
-            msg = f"no kinematic mode at {speed} m/s (share >= {kinematic_share})"
-            raise ConvergenceError(msg)
+            return math.inf, math.nan
         zeta = -lam.real / np.abs(lam)
         i = int(np.argmin(zeta))
         return float(zeta[i]), float(lam[i].imag / (2.0 * math.pi))

@@ -77,13 +77,14 @@ class CarbodyMode:
     share: float
 
 
-def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5
-                  ) -> tuple[CarbodyMode, ...]:
+def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
+                  f_min_hz: float = 0.1) -> tuple[CarbodyMode, ...]:
     """Oscillatory modes with at least ``min_share`` of their kinetic energy in the carbody.
 
     Energy share ``x_c^H M_cc x_c / x^H M x`` of the mode shape ``x`` (displacements);
     the label is the carbody coordinate of the largest kinetic energy ``M_ii |x_i|^2``.
-    Sorted by frequency.
+    Modes below ``f_min_hz`` (the car's slow lateral drift at a crawl) are left out. Sorted
+    by frequency.
     """
     A, _ = vehicle.state_space(speed)
     lam, X = np.linalg.eig(A)
@@ -95,7 +96,7 @@ def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5
     share = car / total
     Ed = np.diag(M)[:nc, None] * np.abs(Xq[:nc]) ** 2
     out = []
-    for i in np.flatnonzero((lam.imag > 0.0) & (share >= min_share)):
+    for i in np.flatnonzero((lam.imag > 2.0 * math.pi * f_min_hz) & (share >= min_share)):
         name = vehicle.dof_names[int(np.argmax(Ed[:, i]))]
         label = _CAR_LABELS.get(name, name.removeprefix("car_"))
         out.append(CarbodyMode(label, float(lam[i].imag / (2 * math.pi)),
@@ -165,7 +166,8 @@ def ride_run(vehicle: Vehicle3D, speed_kmh: float, *, duration_s: float = 60.0,
     Raises
     ------
     OptionError
-        Bad speed, duration, rate or level.
+        Bad speed, duration, rate or level, or a speed where the linear vehicle is unstable
+        (above the hunting critical speed: the motion grows without bound).
     """
     german_spectrum(level)
     if not (math.isfinite(speed_kmh) and 1.0 <= speed_kmh <= 1000.0):
@@ -178,6 +180,10 @@ def ride_run(vehicle: Vehicle3D, speed_kmh: float, *, duration_s: float = 60.0,
         msg = f"fs_hz: expected 100 .. 2000 Hz, got {fs_hz!r}"
         raise OptionError(msg)
     V = speed_kmh / 3.6
+    if not vehicle.is_stable(V):
+        msg = (f"speed_kmh: {speed_kmh:g} km/h is above the hunting critical speed (an "
+               f"eigenvalue has a positive real part): no ride to evaluate")
+        raise OptionError(msg)
     x = vehicle.spec.axle_x
     length = V * duration_s + (max(x) - min(x)) + 130.0
     track = random_track_3d(length, level=level, rng=seed)

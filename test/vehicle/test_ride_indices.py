@@ -128,6 +128,10 @@ def test_ride_run_refuses_bad_options(vehicle):
         ride_run(vehicle, 300.0, duration_s=1e6)
     with pytest.raises(OptionError, match="level: expected one of"):
         ride_run(vehicle, 300.0, level="medium")
+    with pytest.raises(OptionError, match="above the hunting critical speed"):
+        ride_run(vehicle, 650.0)  # critical speed 573 km/h
+    crawl = ride_run(vehicle, 1.0, duration_s=10.0)  # creep damps every wheelset motion
+    assert crawl.kinematic[0] == math.inf and all(m.f_hz > 0.1 for m in crawl.modes)
 
 
 # ---------------------------------------------------------------- command line
@@ -141,9 +145,10 @@ def test_ride_command_prints_indices_and_critical_speed(capsys):
 def test_ride_command_sweep_and_json(capsys):
     import json
 
-    assert main(["ride", "--sweep", "200:300:100", "--duration", "10", "--json"]) == 0
+    assert main(["ride", "--sweep", "200:600:200", "--duration", "10", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert [r["speed_kmh"] for r in doc["runs"]] == [200.0, 300.0]
+    assert [r["speed_kmh"] for r in doc["runs"]] == [200.0, 400.0]
+    assert doc["unstable_speeds_kmh"] == [600.0]
     assert 100 < doc["critical_speed_kmh"] < 1000
     assert set(doc["runs"][0]["sperling"]) >= {"floor_mid_z", "floor_mid_y"}
 
