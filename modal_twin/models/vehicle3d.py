@@ -90,7 +90,7 @@ class _Element:
     c: float = 0.0
 
 
-@dataclass(slots=True)
+@dataclass(frozen=True, slots=True)
 class Vehicle3D:
     """The assembled 3D vehicle (module docstring).
 
