@@ -72,7 +72,7 @@ def parse_sweep(text: str) -> list[float]:
 def run(a: argparse.Namespace) -> int:
     """Run the ride evaluation (module docstring)."""
     from modal_twin.models.carbody_interface import with_bending_mode
-    from modal_twin.models.vehicle3d import build_vehicle3d, critical_speed
+    from modal_twin.models.vehicle3d import build_vehicle3d, critical_speed, hunting_branch
     from modal_twin.models.vehicle3d_ride import ride_run
     from modal_twin.models.vehicle3d_spec import load_vehicle3d
 
@@ -86,6 +86,8 @@ def run(a: argparse.Namespace) -> int:
                                                    else float(a.speed)]
     hunt = critical_speed(veh, np.arange(10.0, 300.01, 5.0))
     vc_kmh = 3.6 * hunt.v_critical
+    branch = dict(zip(speeds, zip(*hunting_branch(veh, hunt, np.array(speeds) / 3.6),
+                                  strict=True), strict=True))
     if not a.sweep:
         runs = [ride_run(veh, speeds[0], duration_s=a.duration, fs_hz=a.fs, level=a.track,
                          seed=a.seed)]
@@ -96,7 +98,9 @@ def run(a: argparse.Namespace) -> int:
     if a.json:
         print(json.dumps({"vehicle": spec.name, "critical_speed_kmh": _finite(vc_kmh),
                           "hunting_f_hz": _finite(hunt.f_critical_hz),
-                          "runs": [_run_dict(r) for r in runs],
+                          "runs": [_run_dict(r) | {"hunting_mode": {
+                              "zeta": _finite(float(branch[r.speed_kmh][0])),
+                              "f_hz": _finite(float(branch[r.speed_kmh][1]))}} for r in runs],
                           "unstable_speeds_kmh": unstable if a.sweep else []}, indent=1))
         return ExitCode.OK
     print(f"{spec.name}: {veh.n_dof} DOFs ({veh.carbody.name} carbody), "
@@ -105,12 +109,16 @@ def run(a: argparse.Namespace) -> int:
                          if math.isfinite(vc_kmh) else "stable up to 1080 km/h"))
     if a.sweep:
         if runs:
-            _print_sweep(runs)
+            _print_sweep(runs, branch)
         if unstable:
             print("unstable (hunting, no ride): " + ", ".join(f"{s:g}" for s in unstable)
                   + " km/h")
     else:
         _print_run(runs[0])
+        zb, fb = branch[speeds[0]]
+        if math.isfinite(fb):
+            print(f"hunting mode (followed from the critical speed): {fb:.2f} Hz, zeta "
+                  f"{100 * zb:.1f} %")
     return ExitCode.OK
 
 
@@ -177,12 +185,12 @@ def _print_run(r: Any) -> None:
               f"{100 * r.kinematic[0]:.1f} %")
 
 
-def _print_sweep(runs: list[Any]) -> None:
+def _print_sweep(runs: list[Any], branch: dict[float, tuple[float, float]]) -> None:
     mid = [c for c in runs[0].channels if "_mid_" in c] or list(runs[0].channels[:2])
     head = " ".join(f"{'W ' + c[len('floor_'):]:>9}" for c in mid)
     bend = next((m for m in runs[0].modes if m.label.startswith("bending")), None)
     extra = f"  PSD mid_z at {bend.f_hz:.2f} Hz" if bend is not None else ""
-    print(f"{'km/h':>6} {head}  lateral peak [Hz]  kinematic f [Hz] zeta [%]{extra}")
+    print(f"{'km/h':>6} {head}  lateral peak [Hz]  hunting f [Hz] zeta [%]{extra}")
     for r in runs:
         ys = [i for i, c in enumerate(r.channels) if c.endswith("_y")]
         top = max(ys, key=lambda i: float(np.max(r.psd.psd[i])))
@@ -192,5 +200,5 @@ def _print_sweep(runs: list[Any]) -> None:
         if bend is not None and "floor_mid_z" in r.channels:
             i = r.channels.index("floor_mid_z")
             tail = f"  {np.interp(bend.f_hz, r.psd.f_hz, r.psd.psd[i]):.2e} (m/s^2)^2/Hz"
-        print(f"{r.speed_kmh:6.0f} {ws}  {peak:17.2f}  {r.kinematic[1]:16.2f} "
-              f"{100 * r.kinematic[0]:8.1f}{tail}")
+        zb, fb = branch[r.speed_kmh]
+        print(f"{r.speed_kmh:6.0f} {ws}  {peak:17.2f}  {fb:14.2f} {100 * zb:8.1f}{tail}")

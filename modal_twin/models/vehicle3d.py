@@ -59,6 +59,7 @@ __all__ = [
     "Vehicle3D",
     "build_vehicle3d",
     "critical_speed",
+    "hunting_branch",
     "propagate",
     "zoh",
 ]
@@ -570,3 +571,57 @@ def critical_speed(vehicle: Vehicle3D, speeds: FloatArray | None = None) -> Hunt
         msg = f"critical speed: Brent's method failed between {V[i - 1]} and {V[i]} m/s: {err}"
         raise ConvergenceError(msg) from err
     return HuntingResult(V, z, f, vc, vehicle.least_damped(vc)[1])
+
+
+def hunting_branch(vehicle: Vehicle3D, hunting: HuntingResult, speeds: FloatArray, *,
+                   step: float = 1.0) -> tuple[FloatArray, FloatArray]:
+    """Follow the mode that loses stability at the critical speed down (or up) in speed.
+
+    From the critical eigenvalue at ``hunting.v_critical`` the eigenvalue nearest to the
+    previous one is taken at every ``step`` (m/s) towards each of ``speeds`` (continuation
+    of one eigenvalue branch), so the hunting mode is named at speeds where another mode
+    is the least damped.
+
+    Returns
+    -------
+    zeta, f_hz : (n,) float arrays
+        Damping ratio and frequency (Hz) of the branch at ``speeds`` (nan when there is
+        no critical speed).
+
+    Raises
+    ------
+    OptionError
+        ``step`` not positive.
+    """
+    V = np.asarray(speeds, dtype=float)
+    zeta, f = np.full(V.size, math.nan), np.full(V.size, math.nan)
+    if not math.isfinite(hunting.v_critical):
+        return zeta, f
+    if not (math.isfinite(step) and step > 0.0):
+        msg = f"step: expected a positive speed step (m/s), got {step!r}"
+        raise OptionError(msg)
+    vc = hunting.v_critical
+    lam_c = complex(0.0, 2.0 * math.pi * hunting.f_critical_hz)
+    for sign in (-1.0, 1.0):
+        idx = np.flatnonzero((V - vc) * sign >= 0.0)
+        if idx.size == 0:
+            continue
+        far = float(np.max(np.abs(V[idx] - vc)))
+        path = vc + sign * np.append(np.arange(0.0, far, step), far)
+        lam = lam_c
+        found = {}
+        for v in path:
+            eig = vehicle.eigenvalues(float(v))
+            lam = complex(eig[np.argmin(np.abs(eig - lam))])
+            found[float(v)] = lam
+        keys = np.array(sorted(found))
+        for i in idx:
+            k = keys[np.argmin(np.abs(keys - V[i]))]
+            if abs(k - V[i]) > 1e-9:  # off the path: one more step onto it
+                eig = vehicle.eigenvalues(float(V[i]))
+                lam_i = complex(eig[np.argmin(np.abs(eig - found[float(k)]))])
+            else:
+                lam_i = found[float(k)]
+            zeta[i] = -lam_i.real / abs(lam_i)
+            f[i] = lam_i.imag / (2.0 * math.pi)
+    return zeta, f

@@ -22,6 +22,7 @@ from modal_twin.models.vehicle3d import (
     N_AXLES,
     build_vehicle3d,
     critical_speed,
+    hunting_branch,
     propagate,
     zoh,
 )
@@ -202,6 +203,34 @@ def test_kinematic_frequency_rises_with_speed(vehicle, hunting):
     below = hunting.speeds > 0.8 * hunting.v_critical  # where hunting is the least damped
     f = hunting.f_hz[below]
     assert np.all(np.diff(f) > 0)
+
+
+def test_hunting_branch_from_critical_speed_down(vehicle, hunting):
+    vc = hunting.v_critical
+    V = np.array([0.4, 0.6, 0.8, 0.9, 0.98]) * vc
+    zeta, f = hunting_branch(vehicle, hunting, V)
+    assert np.all(np.diff(f) > 0) and np.all(np.diff(zeta) < 0) and zeta[-1] > 0
+    z98, f98 = vehicle.least_damped(V[-1])  # near Vc the branch is the least damped
+    assert (zeta[-1], f[-1]) == pytest.approx((z98, f98), rel=1e-9)
+    # at low speed (inertia small) the hunting wavelength V / f lies between a free
+    # wheelset's and a rigid bogie's (elastic primary yaw guidance); inertia lengthens it
+    # with speed
+    Lw = klingel_wavelength(vehicle.contact)
+    Lb = bogie_kinematic_wavelength(vehicle.contact, vehicle.spec.v("bogie", "wheelbase"))
+    V_low = np.array([10.0, 20.0, 40.0])
+    _, f_low = hunting_branch(vehicle, hunting, V_low)
+    wavelength = V_low / f_low
+    assert np.all((Lw < wavelength) & (wavelength < Lb)) and np.all(np.diff(wavelength) > 0)
+
+
+def test_stiff_primary_hunts_at_the_rigid_bogie_wavelength(spec):
+    """Primary stiffened 10x: at a crawl the hunting branch runs at V / L_b (Wickens Sec. 4.2)."""
+    stiff = build_vehicle3d(spec.with_values(primary={"kx": 1.2e8, "ky": 4.0e7}))
+    h = critical_speed(stiff, SPEEDS)
+    V = np.array([3.0, 5.0])
+    _, f = hunting_branch(stiff, h, V, step=0.5)
+    Lb = bogie_kinematic_wavelength(stiff.contact, spec.v("bogie", "wheelbase"))
+    assert V / f == pytest.approx([Lb, Lb], rel=0.03)
 
 
 # ---------------------------------------------------------------- simulation
