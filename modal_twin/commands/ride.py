@@ -72,7 +72,8 @@ def parse_sweep(text: str) -> list[float]:
 def run(a: argparse.Namespace) -> int:
     """Run the ride evaluation (module docstring)."""
     from modal_twin.models.carbody_interface import with_bending_mode
-    from modal_twin.models.vehicle3d import build_vehicle3d, critical_speed, hunting_branch
+    from modal_twin.models.hunting import critical_speed, hunting_branch
+    from modal_twin.models.vehicle3d import build_vehicle3d
     from modal_twin.models.vehicle3d_ride import ride_run
     from modal_twin.models.vehicle3d_spec import load_vehicle3d
 
@@ -124,7 +125,8 @@ def run(a: argparse.Namespace) -> int:
 
 def vehicle3d_info(a: argparse.Namespace) -> int:
     """``modal-twin model info`` of a 3D vehicle file: DOFs, carbody modes, hunting speed."""
-    from modal_twin.models.vehicle3d import build_vehicle3d, critical_speed
+    from modal_twin.models.hunting import critical_speed
+    from modal_twin.models.vehicle3d import build_vehicle3d
     from modal_twin.models.vehicle3d_ride import carbody_modes
     from modal_twin.models.vehicle3d_spec import load_vehicle3d
 

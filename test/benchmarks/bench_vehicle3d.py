@@ -18,8 +18,9 @@ import time
 
 import numpy as np
 
+from modal_twin.models.hunting import critical_speed
 from modal_twin.models.track3d import random_track_3d, track_inputs_3d
-from modal_twin.models.vehicle3d import build_vehicle3d, critical_speed
+from modal_twin.models.vehicle3d import build_vehicle3d
 from modal_twin.models.vehicle3d_ride import ride_run
 from modal_twin.models.vehicle3d_spec import load_vehicle3d
 

@@ -10,13 +10,14 @@ import pytest
 
 from modal_twin.cli import main
 from modal_twin.errors import OptionError
+from modal_twin.models.hunting import critical_speed
 from modal_twin.models.ride import (
     floor_psd,
     sperling_index,
     sperling_weight_lateral,
     sperling_weight_vertical,
 )
-from modal_twin.models.vehicle3d import build_vehicle3d, critical_speed
+from modal_twin.models.vehicle3d import build_vehicle3d
 from modal_twin.models.vehicle3d_ride import carbody_modes, floor_psd_theory, ride_run
 from modal_twin.models.vehicle3d_spec import load_vehicle3d
 

@@ -11,6 +11,7 @@ import scipy.signal
 
 from modal_twin.errors import ConfigError, ModelError, OptionError
 from modal_twin.models.carbody_interface import SEAT_NAMES, ReducedCarbody, rigid_carbody
+from modal_twin.models.hunting import critical_speed, hunting_branch
 from modal_twin.models.track import wheelset_inputs
 from modal_twin.models.track3d import (
     german_alignment_psd,
@@ -18,14 +19,7 @@ from modal_twin.models.track3d import (
     random_track_3d,
     track_inputs_3d,
 )
-from modal_twin.models.vehicle3d import (
-    N_AXLES,
-    build_vehicle3d,
-    critical_speed,
-    hunting_branch,
-    propagate,
-    zoh,
-)
+from modal_twin.models.vehicle3d import N_AXLES, build_vehicle3d, propagate, zoh
 from modal_twin.models.vehicle3d_spec import load_vehicle3d
 from modal_twin.models.wheel_rail import (
     WheelRailContact,
