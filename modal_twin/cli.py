@@ -15,6 +15,7 @@ modal-twin export modes|frf|model SRC --out FILE
 modal-twin view MODEL [--modes FILE | --bag BAG] [--html OUT]   (or a UFF test geometry)
 modal-twin report RUN_DIR [--out FILE]
 modal-twin residual MODEL BAG [--top N] [--live]          (the twin on a record, per channel)
+modal-twin ride [VEHICLE_3D] --speed KMH [--duration S] [--sweep A:B:STEP]   (Sperling, hunting)
 modal-twin demo
 """
 
@@ -34,6 +35,7 @@ from modal_twin.commands import (
     import_,
     report,
     residual,
+    ride,
     update,
     view,
 )
@@ -113,10 +115,13 @@ def _cmd_model(a: argparse.Namespace) -> int:
     from modal_twin.models.building import build_building, modal_reduction
     from modal_twin.models.carbody3d_file import is_carbody3d_file
     from modal_twin.models.model_info import model_info
+    from modal_twin.models.vehicle3d_spec import is_vehicle3d_file
     from modal_twin.models.vehicle_spec import is_vehicle_file
 
     if check_model_kind(a.file) == "matrix":  # .mat / .npz from the user's FE tool
         return matrix_info(a)
+    if is_vehicle3d_file(a.file):  # config/vehicles/*_3d.yaml (kind: vehicle3d)
+        return ride.vehicle3d_info(a)
     if is_vehicle_file(a.file):  # config/vehicles
         return _vehicle_info(a)
     if is_carbody3d_file(a.file):  # config/carbodies: the 3D shell carbody
@@ -315,7 +320,7 @@ def _parser() -> argparse.ArgumentParser:
     de = sub.add_parser("demo", help="the main job: run the demo scenario and report")
     de.add_argument("--run-dir", type=Path, default=None)
     de.set_defaults(func=_cmd_demo)
-    for mod in (import_, identify, export, update, campaign, residual):
+    for mod in (import_, identify, export, update, campaign, residual, ride):
         mod.register(sub)
     _flags_on_commands(sub)  # also after the command: modal-twin demo --quiet
     return p

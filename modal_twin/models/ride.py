@@ -1,4 +1,4 @@
-"""Ride indices: vertical Sperling index Wz, and the floor-PSD band error of a twin.
+"""Ride indices: Sperling indices Wz and Wy, floor PSDs, and the floor-PSD band error of a twin.
 
 Sperling index, spectral form (Sec. 5.2 of [002] takes it from W. Zhai, *Vehicle-Track
 Coupled Dynamics*, Springer 2020; the formula as in the Chinese standard GB 5599-1985)::
@@ -12,12 +12,22 @@ vertical weighting::
          = 400 / f^2   (5.9 <= f < 20 Hz)
          = 1           (f >= 20 Hz)
 
+and the lateral weighting (same sources)::
+
+    F(f) = 0.8 f^2     (0.5 <= f < 5.4 Hz)
+         = 650 / f^2   (5.4 <= f < 26 Hz)
+         = 1           (f >= 26 Hz)
+
 For one sinusoid of amplitude ``a`` at ``f`` this is the classical
 ``W = 0.896 (a^3 F(f) / f)^(1/10)``. The record is cut in segments (default 5 s, the
 usual evaluation length; the sum of cubed line amplitudes depends on the line spacing, so
 the segment length is part of the definition), each segment's mean removed, the line
 amplitudes taken from a rectangular-window FFT (``a_i = 2 |X_i| / N``), and the index
 of the record is the mean of the segment indices. [002] judges ``W > 3.00`` unqualified.
+
+Floor PSD: one-sided Welch PSD (``scipy.signal.welch``, Hann window, 50 % overlap) of each
+channel and its largest peaks in a band (:func:`floor_psd`); the carbody-shaking check of
+[002] Sec. 5 reads the peak frequencies against the carbody's modes.
 
 Floor-PSD band error (the S2 figure of merit): Welch PSDs of the measured and predicted
 records, band power ``P = int_band PSD df`` and the relative error
@@ -37,10 +47,13 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError, ShapeError, SignalError
 
 __all__ = [
+    "FloorPSD",
     "PSDBandError",
     "SperlingResult",
+    "floor_psd",
     "psd_band_error",
     "sperling_index",
+    "sperling_weight_lateral",
     "sperling_weight_vertical",
 ]
 
@@ -52,6 +65,17 @@ def sperling_weight_vertical(f_hz: FloatArray | float) -> FloatArray:
         return np.asarray(np.select(
             [f < 0.5, f < 5.9, f < 20.0], [0.0 * f, 0.325 * f**2, 400.0 / np.where(
                 f > 0, f, 1.0) ** 2], default=1.0))
+
+
+def sperling_weight_lateral(f_hz: FloatArray | float) -> FloatArray:
+    """Lateral Sperling weighting ``F(f)`` (module docstring); 0 below 0.5 Hz."""
+    f = np.asarray(f_hz, dtype=float)
+    return np.asarray(np.select(
+        [f < 0.5, f < 5.4, f < 26.0], [0.0 * f, 0.8 * f**2, 650.0 / np.where(
+            f > 0, f, 1.0) ** 2], default=1.0))
+
+
+_WEIGHTS = {"vertical": sperling_weight_vertical, "lateral": sperling_weight_lateral}
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,13 +101,14 @@ class SperlingResult:
 
 
 def sperling_index(acc: FloatArray, fs_hz: float, *, segment_s: float | None = 5.0,
-                   band_hz: tuple[float, float] = (0.5, 40.0)) -> SperlingResult:
-    """Vertical Sperling index Wz of an acceleration record (module docstring).
+                   band_hz: tuple[float, float] = (0.5, 40.0),
+                   direction: str = "vertical") -> SperlingResult:
+    """Sperling index Wz (vertical) or Wy (lateral) of an acceleration record (module docstring).
 
     Parameters
     ----------
     acc : (nt,) float array
-        Vertical acceleration, m/s^2.
+        Floor acceleration in ``direction``, m/s^2.
     fs_hz : float
         Sample rate, Hz.
     segment_s : float or None
@@ -91,6 +116,8 @@ def sperling_index(acc: FloatArray, fs_hz: float, *, segment_s: float | None = 5
         do not fill a segment are dropped.
     band_hz : (float, float)
         Spectral lines summed (default 0.5-40 Hz).
+    direction : {"vertical", "lateral"}
+        Frequency weighting.
 
     Returns
     -------
@@ -103,7 +130,7 @@ def sperling_index(acc: FloatArray, fs_hz: float, *, segment_s: float | None = 5
     SignalError
         Non-finite samples, or a record shorter than one segment.
     OptionError
-        Bad ``fs_hz``, ``segment_s`` or band.
+        Bad ``fs_hz``, ``segment_s``, band or direction.
 
     Examples
     --------
@@ -112,6 +139,9 @@ def sperling_index(acc: FloatArray, fs_hz: float, *, segment_s: float | None = 5
     >>> print(round(r.W, 4), round(0.896 * (10.0**3 * 0.325 * 16 / 4) ** 0.1, 4))
     1.8353 1.8353
     """
+    if direction not in _WEIGHTS:
+        msg = f"direction: expected one of {list(_WEIGHTS)}, got {direction!r}"
+        raise OptionError(msg)
     a = np.asarray(acc, dtype=float)
     if a.ndim != 1:
         msg = f"acc: expected a 1-D record (nt,), got shape {a.shape}"
@@ -140,10 +170,91 @@ def sperling_index(acc: FloatArray, fs_hz: float, *, segment_s: float | None = 5
     if n_seg % 2 == 0:
         amp[:, -1] *= 0.5  # the Nyquist line is not doubled
     sel = (f >= lo) & (f <= hi) & (f > 0)
-    w = sperling_weight_vertical(f[sel]) / f[sel]
+    w = _WEIGHTS[direction](f[sel]) / f[sel]
     W = (0.896**10 * (amp[:, sel] ** 3 @ w)) ** 0.1  # Sperling, spectral form
     return SperlingResult(W=float(W.mean()), W_segments=W,
                           segment_s=n_seg / fs_hz, band_hz=(lo, hi))
+
+
+def _check_records(what: str, records: list[FloatArray], fs_name: str, fs: float,
+                   band_name: str, band: tuple[float, float]) -> tuple[float, float]:
+    """Check finite samples, a positive rate and ``0 <= low < high <= fs / 2``."""
+    if not all(np.all(np.isfinite(r)) for r in records):
+        msg = f"{what}: expected finite samples, found NaN or inf"
+        raise SignalError(msg)
+    if not (math.isfinite(fs) and fs > 0):
+        msg = f"{fs_name}: expected a positive finite rate, got {fs!r}"
+        raise OptionError(msg)
+    lo, hi = (float(b) for b in band)
+    if not 0.0 <= lo < hi <= 0.5 * fs:
+        msg = f"{band_name}: expected 0 <= low < high <= fs / 2 = {0.5 * fs}, got {band!r}"
+        raise OptionError(msg)
+    return lo, hi
+
+
+@dataclass(frozen=True, slots=True)
+class FloorPSD:
+    """Welch PSDs of floor channels and their peaks.
+
+    Attributes
+    ----------
+    f_hz : (n_f,) float array
+    psd : (n_ch, n_f) float array
+        One-sided PSD, (m/s^2)^2/Hz.
+    peaks_hz : tuple of (n_peaks,) float arrays
+        Per channel, the frequencies of the largest local maxima in the band, largest first.
+    band_hz : (float, float)
+    """
+
+    f_hz: FloatArray
+    psd: FloatArray
+    peaks_hz: tuple[FloatArray, ...]
+    band_hz: tuple[float, float]
+
+
+def floor_psd(acc: FloatArray, fs_hz: float, *, nperseg: int | None = None,
+              band_hz: tuple[float, float] = (0.3, 40.0), n_peaks: int = 3) -> FloorPSD:
+    """Welch PSD of floor accelerations and their largest peaks (module docstring).
+
+    Parameters
+    ----------
+    acc : (nt,) or (n_ch, nt) float array
+        m/s^2.
+    fs_hz : float
+    nperseg : int, optional
+        Welch segment (default 10 s of samples, at most the record).
+    band_hz : (float, float)
+        Band searched for peaks.
+    n_peaks : int
+        Peaks kept per channel (``scipy.signal.find_peaks``, by height).
+
+    Raises
+    ------
+    ShapeError, SignalError, OptionError
+        More than two dimensions; non-finite samples; bad rate or band.
+
+    Examples
+    --------
+    >>> t = np.arange(40000) / 200.0
+    >>> r = floor_psd(np.sin(2 * np.pi * 1.5 * t), 200.0)
+    >>> print(r.peaks_hz[0][0])
+    1.5
+    """
+    a = np.atleast_2d(np.asarray(acc, dtype=float))
+    if a.ndim != 2:
+        msg = f"acc: expected (nt,) or (n_ch, nt), got shape {np.shape(acc)}"
+        raise ShapeError(msg)
+    lo, hi = _check_records("acc", [a], "fs_hz", fs_hz, "band_hz", band_hz)
+    nps = min(a.shape[1], round(10.0 * fs_hz) if nperseg is None else int(nperseg))
+    f, S = scipy.signal.welch(a, fs=fs_hz, nperseg=nps, axis=-1)
+    sel = np.flatnonzero((f >= lo) & (f <= hi))
+    peaks = []
+    for row in S:
+        idx, _ = scipy.signal.find_peaks(row[sel])
+        top = idx[np.argsort(row[sel][idx])[::-1][:n_peaks]]
+        peaks.append(np.asarray(f[sel][top], dtype=np.float64))
+    return FloorPSD(f_hz=np.asarray(f, dtype=np.float64), psd=np.asarray(S, dtype=np.float64),
+                    peaks_hz=tuple(peaks), band_hz=(lo, hi))
 
 
 @dataclass(frozen=True, slots=True)
@@ -211,16 +322,7 @@ def psd_band_error(measured: FloatArray, predicted: FloatArray, fs: float, *,
         msg = (f"measured, predicted: expected equal shapes (nt,) or (n_ch, nt), got "
                f"{np.shape(measured)} and {np.shape(predicted)}")
         raise ShapeError(msg)
-    if not (np.all(np.isfinite(m)) and np.all(np.isfinite(p))):
-        msg = "measured, predicted: expected finite samples, found NaN or inf"
-        raise SignalError(msg)
-    if not (math.isfinite(fs) and fs > 0):
-        msg = f"fs: expected a positive finite rate, got {fs!r}"
-        raise OptionError(msg)
-    lo, hi = (float(b) for b in band)
-    if not 0.0 <= lo < hi <= 0.5 * fs:
-        msg = f"band: expected 0 <= low < high <= fs / 2 = {0.5 * fs}, got {band!r}"
-        raise OptionError(msg)
+    lo, hi = _check_records("measured, predicted", [m, p], "fs", fs, "band", band)
     nps = min(m.shape[1], round(4.0 * fs) if nperseg is None else int(nperseg))
     f, Sm = scipy.signal.welch(m, fs=fs, nperseg=nps, axis=-1)
     _, Sp = scipy.signal.welch(p, fs=fs, nperseg=nps, axis=-1)

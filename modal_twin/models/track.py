@@ -23,7 +23,7 @@ derivative of the same sum (``-Omega_k`` times the quadrature component).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,7 +101,8 @@ def random_profile(length_m: float, *, dx_m: float = 0.05,
                    wavelength_band_m: tuple[float, float] = (1.0, 120.0),
                    rng: np.random.Generator | int | None = None,
                    A_v: float = 4.032e-7, Omega_c: float = 0.8246,
-                   Omega_r: float = 0.0206) -> TrackProfile:
+                   Omega_r: float = 0.0206,
+                   psd: Callable[[FloatArray], FloatArray] | None = None) -> TrackProfile:
     """Draw a random vertical profile of the German spectrum (module docstring).
 
     Parameters
@@ -116,6 +117,10 @@ def random_profile(length_m: float, *, dx_m: float = 0.05,
         Random source or seed (``np.random.default_rng(rng)``).
     A_v, Omega_c, Omega_r : float
         Spectrum parameters (:func:`german_vertical_psd`).
+    psd : callable, optional
+        Another one-sided spectrum ``S(Omega)`` (rad/m in, units^2/(rad/m) out) used
+        instead of the vertical one (e.g. alignment or cross level,
+        :mod:`modal_twin.models.track3d`); ``A_v, Omega_c, Omega_r`` are then unused.
 
     Returns
     -------
@@ -146,8 +151,9 @@ def random_profile(length_m: float, *, dx_m: float = 0.05,
     Om = np.asarray(2.0 * math.pi * k / L, dtype=np.float64)
     dOm = 2.0 * math.pi / L
     band = (Om >= 2.0 * math.pi / hi) & (Om <= 2.0 * math.pi / lo)
-    amp = np.where(band, np.sqrt(2.0 * german_vertical_psd(
-        Om, A_v=A_v, Omega_c=Omega_c, Omega_r=Omega_r) * dOm), 0.0)
+    S = (german_vertical_psd(Om, A_v=A_v, Omega_c=Omega_c, Omega_r=Omega_r) if psd is None
+         else np.asarray(psd(Om), dtype=float))
+    amp = np.where(band, np.sqrt(2.0 * S * dOm), 0.0)
     phase = gen.uniform(0.0, 2.0 * math.pi, k.size)
     Z = amp * np.exp(1j * phase) * (n_fft / 2.0)  # irfft(Z)[j] = sum amp cos(Om x + phi)
     z = np.fft.irfft(Z, n_fft)[:n]

@@ -1,0 +1,195 @@
+"""3D vehicle file (``config/vehicles/trailer_car_3d.yaml``) -> :class:`Vehicle3DSpec`.
+
+The file has ``kind: vehicle3d`` and the sections below (SI units; every suspension value
+is per element, e.g. per axle box or per air spring):
+
+``carbody``  ``{mass, Ixx, Iyy, Izz, length, cg_height, floor_height, pivot_spacing}``
+``bogie``  ``{mass, Ixx, Iyy, Izz, cg_height, wheelbase}``
+``wheelset``  ``{mass, Izz}`` (lateral and yaw; vertical and roll follow the track)
+``contact``  ``{conicity, r0, b, f11, f22}`` (:mod:`modal_twin.models.wheel_rail`)
+``primary``  ``{kx, ky, kz, cz, half_spacing}`` per axle box
+``secondary``  ``{kx, ky, kz, half_spacing, seat_height}`` per air spring
+``vertical_damper``, ``lateral_damper``, ``yaw_damper``  ``{c, k_series[, half_spacing]}``
+  Maxwell elements (two vertical and two yaw dampers per bogie at ``+-half_spacing``, one
+  lateral damper per bogie on the centre line)
+``anti_roll_bar``  ``{k_roll}`` per bogie, N m/rad
+``traction_rod``  ``{kx}`` per bogie
+``floor_points``  ``[{label, x, y}]`` floor accelerometers (vertical and lateral)
+``speed_kmh``
+
+Missing keys and wrong types raise :class:`ConfigError`, non-positive physical values
+:class:`ModelError`; both name the file and the entry.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from modal_twin.errors import ConfigError
+from modal_twin.models.vehicle_spec import _num as read_number
+from modal_twin.yaml_files import read_yaml
+
+__all__ = [
+    "DEFAULT_VEHICLE3D_YAML",
+    "FloorPoint",
+    "Vehicle3DSpec",
+    "is_vehicle3d_file",
+    "load_vehicle3d",
+]
+
+DEFAULT_VEHICLE3D_YAML = (Path(__file__).resolve().parents[2] / "config" / "vehicles"
+                          / "trailer_car_3d.yaml")
+"""The 3D trailer car of [002] shipped with the package."""
+
+G_ACC = 9.81
+"""Gravity, m/s^2."""
+
+# section -> key -> may be zero (dampers may be switched off)
+_SCHEMA: dict[str, dict[str, bool]] = {
+    "carbody": {"mass": False, "Ixx": False, "Iyy": False, "Izz": False, "length": False,
+                "cg_height": False, "floor_height": False, "pivot_spacing": False},
+    "bogie": {"mass": False, "Ixx": False, "Iyy": False, "Izz": False,
+              "cg_height": False, "wheelbase": False},
+    "wheelset": {"mass": False, "Izz": False},
+    "contact": {"conicity": False, "r0": False, "b": False, "f11": False, "f22": False},
+    "primary": {"kx": False, "ky": False, "kz": False, "cz": True, "half_spacing": False},
+    "secondary": {"kx": False, "ky": False, "kz": False, "half_spacing": False,
+                  "seat_height": False},
+    "vertical_damper": {"c": True, "k_series": False, "half_spacing": False},
+    "lateral_damper": {"c": True, "k_series": False},
+    "yaw_damper": {"c": True, "k_series": False, "half_spacing": False},
+    "anti_roll_bar": {"k_roll": True},
+    "traction_rod": {"kx": True},
+}
+
+
+@dataclass(frozen=True, slots=True)
+class FloorPoint:
+    """A floor accelerometer: ``label``, ``x`` (m from the centre, + front), ``y`` (+ left)."""
+
+    label: str
+    x: float
+    y: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class Vehicle3DSpec:
+    """A 3D trailer car (module docstring).
+
+    Attributes
+    ----------
+    name : str
+    values : mapping section -> mapping key -> float
+        The numbers of the file's sections (``values["primary"]["kx"]`` ...).
+    floor_points : tuple of FloorPoint
+    speed_kmh : float
+    source : str
+    """
+
+    name: str
+    values: Mapping[str, Mapping[str, float]]
+    floor_points: tuple[FloorPoint, ...]
+    speed_kmh: float = 300.0
+    source: str = "<spec>"
+
+    def v(self, section: str, key: str) -> float:
+        """One value, e.g. ``spec.v("yaw_damper", "c")``."""
+        return float(self.values[section][key])
+
+    def with_values(self, **changes: Mapping[str, float]) -> Vehicle3DSpec:
+        """Copy with some values replaced: ``spec.with_values(contact={"conicity": 0.3})``.
+
+        Raises
+        ------
+        ConfigError
+            Unknown section or key.
+        """
+        vals = {s: dict(d) for s, d in self.values.items()}
+        for sec, upd in changes.items():
+            for k, val in upd.items():
+                if sec not in vals or k not in vals[sec]:
+                    msg = f"{sec}.{k}: unknown vehicle value"
+                    raise ConfigError(msg)
+                vals[sec][k] = float(val)
+        return replace(self, values=vals)
+
+    @property
+    def speed(self) -> float:
+        """Running speed, m/s."""
+        return self.speed_kmh / 3.6
+
+    @property
+    def pivot_x(self) -> tuple[float, float]:
+        """Bogie centres (bogie 1 leading, bogie 2), m."""
+        h = 0.5 * self.v("carbody", "pivot_spacing")
+        return h, -h
+
+    @property
+    def axle_x(self) -> tuple[float, float, float, float]:
+        """Wheelsets 1 (leading) .. 4, m from the carbody centre."""
+        a = 0.5 * self.v("bogie", "wheelbase")
+        f, r = self.pivot_x
+        return f + a, f - a, r + a, r - a
+
+    @property
+    def axle_load(self) -> float:
+        """Static vertical load on one wheelset, N (a quarter of car and bogies, plus it)."""
+        m = (self.v("carbody", "mass") + 2.0 * self.v("bogie", "mass")) / 4.0
+        return G_ACC * (m + self.v("wheelset", "mass"))
+
+
+def _number(d: Any, key: str, where: str, src: str, zero_ok: bool) -> float:
+    if not isinstance(d, Mapping):
+        msg = f"{src}: {where}.{key}: missing"
+        raise ConfigError(msg)
+    return read_number(d, key, where, src, positive=not zero_ok)
+
+
+def is_vehicle3d_file(path: str | Path) -> bool:
+    """Tell whether ``path`` is a 3D vehicle file (``kind: vehicle3d``)."""
+    doc = read_yaml(path, "model file")
+    return isinstance(doc, Mapping) and doc.get("kind") == "vehicle3d"
+
+
+def load_vehicle3d(path: str | Path | None = None) -> Vehicle3DSpec:
+    """Read a 3D vehicle file (default :data:`DEFAULT_VEHICLE3D_YAML`).
+
+    Raises
+    ------
+    ConfigError
+        Not a ``kind: vehicle3d`` file, a missing key, a wrong type, a floor point off the car.
+    ModelError
+        A mass, stiffness or length that is not positive (a damping may be 0).
+    """
+    p = Path(DEFAULT_VEHICLE3D_YAML if path is None else path)
+    doc = read_yaml(p, "vehicle file")
+    src = str(p)
+    if doc.get("kind") != "vehicle3d":
+        msg = f"{src}: kind: expected 'vehicle3d', got {doc.get('kind')!r}"
+        raise ConfigError(msg)
+    values = {sec: {k: _number(doc.get(sec), k, sec, src, z) for k, z in keys.items()}
+              for sec, keys in _SCHEMA.items()}
+    pts = doc.get("floor_points")
+    if not isinstance(pts, list) or not pts:
+        msg = f"{src}: floor_points: expected a non-empty list, got {pts!r}"
+        raise ConfigError(msg)
+    half = 0.5 * values["carbody"]["length"]
+    floor = []
+    for i, item in enumerate(pts):
+        where = f"floor_points[{i}]"
+        if not isinstance(item, Mapping) or "label" not in item:
+            msg = f"{src}: {where}: expected a mapping with a label, got {item!r}"
+            raise ConfigError(msg)
+        xy = [item.get("x"), item.get("y", 0.0)]
+        if any(isinstance(c, bool) or not isinstance(c, int | float) or not math.isfinite(c)
+               for c in xy) or abs(float(xy[0])) > half or abs(float(xy[1])) > 1.6:
+            msg = f"{src}: {where}: expected finite x within +-{half} m, |y| <= 1.6 m, got {xy}"
+            raise ConfigError(msg)
+        floor.append(FloorPoint(str(item["label"]), float(xy[0]), float(xy[1])))
+    speed = _number(doc, "speed_kmh", "<top>", src, False) if "speed_kmh" in doc else 300.0
+    return Vehicle3DSpec(name=str(doc.get("name", p.stem)), values=values,
+                         floor_points=tuple(floor), speed_kmh=speed, source=src)
