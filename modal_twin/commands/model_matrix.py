@@ -1,6 +1,6 @@
 """``modal-twin model info`` for matrix files (.mat / .npz) and the kind check of model files.
 
-Used by :func:`modal_twin.cli._cmd_model`; not a sub-command of its own.
+Used by :func:`modal_twin.commands.model.run`; not a sub-command of its own.
 """
 
 from __future__ import annotations
