@@ -26,6 +26,7 @@ setup(
         (f"share/{PACKAGE}/config/structures", glob("config/structures/*.yaml")),
         (f"share/{PACKAGE}/config/rigs", glob("config/rigs/*.yaml")),
         (f"share/{PACKAGE}/config/scenarios", glob("config/scenarios/*.yaml")),
+        (f"share/{PACKAGE}/config/matrix_models", glob("config/matrix_models/*.yaml")),
     ],
     install_requires=["setuptools", "numpy", "scipy", "PyYAML", "rosbags", "mcap"],
     zip_safe=True,

@@ -34,6 +34,7 @@ __all__ = [
     "channel_map_to_dict",
     "channels_with_role",
     "default_role",
+    "device_channels",
     "direction_vector",
 ]
 
@@ -141,6 +142,20 @@ def channels_with_role(channels: Iterable[ChannelSpec], role: str) -> list[Chann
         msg = f"role: expected one of {ROLES}, got {role!r}"
         raise ConfigError(msg)
     return [c for c in channels if c.effective_role == role]
+
+
+def device_channels(channels: Iterable[ChannelSpec], device: str, role: str) -> list[str]:
+    """Return the names of the channels of ``role`` at ``device`` (its location), x then y.
+
+    ``role`` is ``device_drift`` or ``device_force``; a device's drift and force are found
+    by role and place, never by a channel name's pattern.
+    """
+    if role not in ("device_drift", "device_force"):
+        msg = f"role: expected device_drift or device_force, got {role!r}"
+        raise ConfigError(msg)
+    found = {c.direction: c.name for c in channels_with_role(channels, role)
+             if c.location == device}
+    return [found[a] for a in "xy" if a in found]
 
 
 def channel_map_to_dict(channels: Iterable[ChannelSpec], **extra: Any) -> dict[str, Any]:

@@ -130,9 +130,9 @@ def test_export_modes_and_model_round_trip(frame: dict[str, Path], tmp_path: Pat
 
 
 def test_export_structure_to_npz_keeps_its_modes(tmp_path: Path) -> None:
-    from modal_twin.io.matfiles import load_matrix_model
     from modal_twin.models.building import build_building, modal_reduction
     from modal_twin.models.fe import solve_modes
+    from modal_twin.models.matrix_model import load_matrix_model
 
     yaml = Path(__file__).resolve().parents[1] / "config" / "structures" / "building.yaml"
     out = tmp_path / "b.npz"

@@ -5,7 +5,7 @@
 - ``model``: a structure YAML or a matrix file -> NPZ with ``M``, ``K``, ``C``, ``dofs``
   (``"node:dof"`` labels), ``parameter_names``, ``theta0`` and one matrix per parameter
   (``K_<name>`` = dK/dtheta, ``M_<name>``, ``C_<name>``), readable again by
-  :func:`modal_twin.io.matfiles.load_matrix_model` (``K(theta) = K + sum (theta -
+  :func:`modal_twin.models.matrix_model.load_matrix_model` (``K(theta) = K + sum (theta -
   theta0)_j K_j``).
 
 Every output is written to a temporary file and renamed: nothing half-written; an existing
@@ -38,6 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("src", type=Path, help="modes JSON, bag, or model file")
     p.add_argument("--out", type=Path, required=True, help="file to write (.uff / .npz)")
     p.add_argument("--force", action="store_true", help="overwrite an existing file")
+    p.add_argument("--rules", type=Path, default=None,
+                   help="model from a matrix file: YAML of the data set's parameter order "
+                        "and bounds (e.g. config/matrix_models/pedestrian_bridge.yaml)")
     p.set_defaults(func=run)
 
 
@@ -90,12 +93,12 @@ def structure_arrays(path: Path) -> dict[str, Any]:
     return out
 
 
-def _model(src: Path, out: Path, force: bool) -> str:
+def _model(src: Path, out: Path, force: bool, rules: Path | None = None) -> str:
     from modal_twin.commands.model_matrix import check_model_kind
-    from modal_twin.io.matfiles import load_matrix_model
+    from modal_twin.models.matrix_model import load_matrix_model
 
     if check_model_kind(src) == "matrix":
-        arrays = load_matrix_model(src).to_arrays()
+        arrays = load_matrix_model(src, rules=rules).to_arrays()
     else:
         arrays = structure_arrays(src)
     check_matrices(arrays, str(src))
@@ -158,6 +161,10 @@ def run(a: argparse.Namespace) -> int:
         msg = f"{a.src}: no such file or bag"
         raise ConfigError(msg)
     check_new(a.out, a.force)  # before the work
-    what = {"modes": _modes, "frf": _frf, "model": _model}[a.what](a.src, a.out, a.force)
+    if a.rules is not None and a.what != "model":
+        msg = f"--rules: only for export model, not export {a.what}"
+        raise ConfigError(msg)
+    what = (_model(a.src, a.out, a.force, a.rules) if a.what == "model" else
+            {"modes": _modes, "frf": _frf}[a.what](a.src, a.out, a.force))
     print(f"export: wrote {a.out} ({what})")
     return ExitCode.OK

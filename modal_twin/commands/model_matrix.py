@@ -1,6 +1,6 @@
 """``modal-twin model info`` for matrix files (.mat / .npz) and the kind check of model files.
 
-Used by :func:`modal_twin.cli._cmd_model`; not a sub-command of its own.
+Used by :func:`modal_twin.commands.model.run`; not a sub-command of its own.
 """
 
 from __future__ import annotations
@@ -42,10 +42,10 @@ def check_model_kind(path: Path) -> str:
 
 def matrix_info(a: argparse.Namespace) -> int:
     """DOFs, parameters, measured DOFs and lowest modes of a matrix model."""
-    from modal_twin.io.matfiles import load_matrix_model
     from modal_twin.models.fe import solve_modes
+    from modal_twin.models.matrix_model import load_matrix_model
 
-    mm = load_matrix_model(a.file)
+    mm = load_matrix_model(a.file, rules=a.rules)
     n_show = min(a.modes or a.show, mm.n_dof - 2)
     s = solve_modes(mm.K0, mm.M, n_show)
     info = {"file": str(a.file), "n_dof": mm.n_dof, "parameters": list(mm.names),

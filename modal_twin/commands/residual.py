@@ -4,7 +4,10 @@ The model (any structure, vehicle or version file) is run on the record's measur
 (an imported bag's channels by their roles: any subset of the model's inputs, the others
 zero) and compared with every response it has: per channel the NRMSE, RMS(measured -
 model) / RMS(measured), against the noise floor estimated from the record itself, and
-Eq. (8) of [004] (a difference of RMS values) beside it, labelled.
+Eq. (8) of [004] (a difference of RMS values) beside it, labelled. ``--ride`` adds the ride
+figures of every vertical acceleration channel (a vehicle's floor): the Sperling index Wz
+of the record and of the model, and the floor-PSD band error
+(:mod:`modal_twin.models.ride`, Sec. 5.2 of [002]).
 
 With ``--live`` the bag is instead replayed (``replay_node``: its frames, and the latched
 channel map that tells the twin the channels' roles) into a twin node (``twin_node``)
@@ -21,17 +24,20 @@ import argparse
 import json
 import logging
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from modal_twin._types import FloatArray
+from modal_twin.channels import ChannelSpec
 from modal_twin.errors import SignalError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.paths import atomic_file, check_new
 
-__all__ = ["last_metrics", "metrics_consistent", "register", "run"]
+__all__ = ["last_metrics", "metrics_consistent", "register", "ride_lines", "run"]
 
 log = logging.getLogger(__name__)
 
@@ -44,6 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--top", type=int, default=0, help="print only the N worst channels")
     p.add_argument("--json", type=Path, default=None, help="also write the table as JSON")
     p.add_argument("--force", action="store_true", help="--json: overwrite an existing file")
+    p.add_argument("--ride", action="store_true",
+                   help="also the Sperling index Wz (record, model) and the floor-PSD band "
+                        "error of every vertical acceleration channel")
     p.add_argument("--live", action="store_true",
                    help="replay the bag into a twin node (ROS) instead of simulating offline")
     p.add_argument("--rate", type=float, default=4.0, help="--live: replay rate (x real time)")
@@ -327,10 +336,9 @@ def run(a: argparse.Namespace) -> int:
     left = [c for c in rec.channel_names if c not in set(plant.channel_names)]
     recs = [r.with_channels(have) for r in recs]
     noise = record_noise_floor(plant, max(recs, key=lambda r: r.n_samples))
-    fig = error_figures(np.concatenate([simulate_record(plant, r)[:, r.skip:] for r in recs],
-                                       axis=1),
-                        np.concatenate([r.scored for r in recs], axis=1), recs[0].channel_names,
-                        noise, str(a.bag))
+    pred = np.concatenate([simulate_record(plant, r)[:, r.skip:] for r in recs], axis=1)
+    meas = np.concatenate([r.scored for r in recs], axis=1)
+    fig = error_figures(pred, meas, recs[0].channel_names, noise, str(a.bag))
     order = np.argsort(-fig.nrmse)
     rows = order[: a.top] if a.top > 0 else order
     note = frames.note()
@@ -349,6 +357,9 @@ def run(a: argparse.Namespace) -> int:
     print(f"median: NRMSE {100 * fig.median_nrmse:.2f} % against a noise floor of "
           f"{100 * float(np.median(fig.noise)):.2f} % (x{fig.median_over_noise:.2f}); "
           f"Eq. (8) of [004] median {100 * float(np.median(fig.eq8)):.2f} %")
+    if a.ride:
+        print("\n".join(ride_lines(plant.channels, recs[0].channel_names, meas, pred,
+                                    recs[0].fs_hz)))
     if a.json is not None:
         with atomic_file(a.json, force=a.force) as tmp:
             tmp.write_text(json.dumps({c: {"nrmse": float(fig.nrmse[i]),
@@ -357,3 +368,28 @@ def run(a: argparse.Namespace) -> int:
                                        for i, c in enumerate(fig.channels)}, indent=1))
         print(f"wrote {a.json}")
     return ExitCode.OK
+
+
+def ride_lines(channels: Sequence[ChannelSpec], names: Sequence[str], measured: FloatArray,
+               predicted: FloatArray, fs_hz: float) -> list[str]:
+    """Ride figures of every vertical acceleration channel of ``names``, as table lines.
+
+    The Sperling index Wz of the record and of the model (5 s segments, 0.5-40 Hz) and the
+    floor-PSD band error (4-15 Hz) of :mod:`modal_twin.models.ride`.
+    """
+    from modal_twin.models.ride import psd_band_error, sperling_index
+
+    spec = {c.name: c for c in channels}
+    rows = [i for i, n in enumerate(names) if n in spec and spec[n].direction == "z"
+            and spec[n].quantity == "acceleration"]
+    if not rows:
+        return ["ride: no vertical acceleration channel"]
+    seg = 5.0 if measured.shape[-1] >= 5.0 * fs_hz else None  # a short record: one segment
+    band = psd_band_error(measured[rows], predicted[rows], fs_hz)
+    out = [f"{'channel':<18} {'Wz record':>10} {'Wz model':>9} {'PSD 4-15 Hz err %':>18}"]
+    for k, i in enumerate(rows):
+        wm = sperling_index(measured[i], fs_hz, segment_s=seg).W
+        wp = sperling_index(predicted[i], fs_hz, segment_s=seg).W
+        out.append(f"{names[i]:<18} {wm:10.3f} {wp:9.3f} "
+                   f"{100 * float(band.rel_power_error[k]):18.2f}")
+    return out

@@ -47,6 +47,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="identified modes: identify JSON, UFF 55 or .mat")
     p.add_argument("--measured-dofs", default=None,
                    help="0-based model DOFs of the shape entries, comma list")
+    p.add_argument("--rules", type=Path, default=None,
+                   help="matrix model: YAML of the data set's parameter order and bounds "
+                        "(e.g. config/matrix_models/pedestrian_bridge.yaml)")
     p.add_argument("--bounds", default="-0.5,1.0",
                    help="bounds of every theta_j when the model gives none (default -0.5,1.0)")
     p.add_argument("--prior-weight", type=float, default=0.3)
@@ -119,14 +122,14 @@ def _table(res: object) -> None:
 def run(a: argparse.Namespace) -> int:
     """Update the model (module docstring)."""
     from modal_twin.commands.model_matrix import check_model_kind
-    from modal_twin.io.matfiles import load_matrix_model
     from modal_twin.io.modes_file import read_modes
+    from modal_twin.models.matrix_model import load_matrix_model
     from modal_twin.updating.optimize import update
     from modal_twin.updating.problem import ModeTargets, UpdatingProblem
 
     if check_model_kind(a.model) != "matrix":
         return _update_structure(a)
-    mm = load_matrix_model(a.model)
+    mm = load_matrix_model(a.model, rules=a.rules)
     if not mm.names:
         msg = f"{a.model}: no substructure stiffness K_<name> to update"
         raise ConfigError(msg)

@@ -19,12 +19,14 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.effect_kind import Job, PlacedEffect, Round
 from modal_twin.diagnosis.fitting import (
     FittedEffect,
     Records,
@@ -36,10 +38,12 @@ from modal_twin.diagnosis.fitting import (
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.models.effects import MOUNT_LAW, EffectSpec
+from modal_twin.models.loading import ModelFactory
 
 log = logging.getLogger(__name__)
 
-__all__ = ["MOUNT_LAW", "AttachmentCandidate", "fit_attachment", "screen_attachments"]
+__all__ = ["MOUNT", "MOUNT_LAW", "AttachmentCandidate", "MountKind", "fit_attachment",
+           "screen_attachments"]
 
 _ZETA_BOUNDS = (0.005, 0.4)
 
@@ -159,3 +163,52 @@ def _fit_hardening(factory: Any, component: str, x_lin: FloatArray, lo: FloatArr
     names = ["f_hz", "zeta", "u_h", "m"]
     return judge_fit(effect, fitted, factory.plant(), sol, 4, train, test, objective, t0,
                      _parameter_std(sol, to_params, names))
+
+
+class MountKind(PlacedEffect):
+    """Effect kind ``mount``: a rigidly attached mass that hangs on an elastic mount."""
+
+    name = "mount"
+    families: tuple[str, ...] = ("elastic_attachment",)
+
+    def owns(self, law: str) -> bool:
+        """:data:`MOUNT_LAW`."""
+        return law == MOUNT_LAW
+
+    def laws(self) -> tuple[str, ...]:
+        """:data:`MOUNT_LAW`."""
+        return (MOUNT_LAW,)
+
+    def screen(self, rnd: Round) -> tuple[AttachmentCandidate, ...]:
+        """:func:`screen_attachments` when the model has attached masses."""
+        if not tuple(rnd.factory.attachments()):
+            return ()
+        rnd.say("screening elastic mounts of the rigidly attached masses")
+        return tuple(screen_attachments(rnd.factory, rnd.train))
+
+    def jobs(self, rnd: Round, candidates: tuple[Any, ...]) -> list[Job]:
+        """Return the best ``n_fit`` above the gain threshold, from their best grid frequency."""
+        return [(f"{MOUNT_LAW} at {ac.component}", partial(
+            fit_attachment, rnd.factory, ac.component, {"f_hz": ac.f_hz}, rnd.fit_on,
+            rnd.test)) for ac in candidates[:rnd.n_fit] if ac.gain >= rnd.gain_threshold]
+
+    def report(self, candidates: tuple[Any, ...]) -> list[str]:
+        """One line for each of the best four."""
+        return [f"  {ac.component:<12} {MOUNT_LAW:<14} removes {100 * ac.gain:6.2f} "
+                f"% of the residual (best mount frequency {ac.f_hz:.3g} Hz)"
+                for ac in candidates[:4]]
+
+    def start(self, factory: ModelFactory, component: str, law: str, train: Record
+              ) -> dict[str, float]:
+        """Return the best mount frequency of the screening grid (10 Hz if none), 5 % damping."""
+        best = [c for c in screen_attachments(factory, train) if c.component == component]
+        return {"f_hz": best[0].f_hz if best else 10.0, "zeta": 0.05}
+
+    def fit(self, factory: ModelFactory, component: str, law: str, start: dict[str, float],
+            train: Record, test: Record) -> FittedEffect:
+        """:func:`fit_attachment`."""
+        return fit_attachment(factory, component, start, train, test)
+
+
+
+MOUNT = MountKind()

@@ -9,66 +9,26 @@ kept as found.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from modal_twin._types import FloatArray
-from modal_twin.diagnosis.fitting import (
-    FittedEffect,
-    SimulationObjective,
-    _transform,
-    as_records,
-)
+from modal_twin.diagnosis.effect_kind import Piece
+from modal_twin.diagnosis.fitting import FittedEffect, SimulationObjective, as_records
+from modal_twin.diagnosis.kinds import kind_of
 from modal_twin.diagnosis.record import Record
-from modal_twin.errors import ModalTwinError
 from modal_twin.models.effects import EffectSpec
 from modal_twin.models.loading import ModelFactory
 
 __all__ = ["refit_jointly"]
 
-PARAMETER_LAWS = ("added_mass", "stiffness", "damping")
-
-
-Piece = tuple[int, Callable[[FloatArray], dict[str, float]], FloatArray, FloatArray,
-              FloatArray]
-
 
 def _pieces(factory: ModelFactory, f: FittedEffect) -> Piece | None:
     """(size, x -> params, x0, lower, upper) of an effect refitted jointly; None to keep it."""
-    e = f.effect
-    if e.law in PARAMETER_LAWS:
-        if len(e.params) > 1:
-            return None  # an added mass with its position: kept as found
-        v = float(e.params[e.component])
-        nom = factory.parameters()[e.component]
-        lo = 0.0 if e.law == "added_mass" else min(0.3 * nom, 0.5 * v)
-        hi = max(5.0 * nom + 1.0, 2.0 * v)
-        name = e.component
-
-        def one(x: FloatArray) -> dict[str, float]:
-            return {name: float(x[0])}
-
-        return 1, one, np.array([v]), np.array([lo]), np.array([hi])
-    spec = factory.sites.get(e.component)
-    if spec is None:
-        return None
-    start = dict(e.params)
-    if e.law == "linear":
-        start.setdefault("c0", float(np.mean(spec.c)) or 1.0)
-    try:
-        names, to_p, to_x, lo_x, hi_x = _transform(e.law, start, float(np.mean(spec.k)))
-    except ModalTwinError:
-        return None
-    x0 = np.clip(to_x(start), lo_x + 1e-9, hi_x - 1e-9)
-    keep_all = e.law == "linear"
-
-    def params(x: FloatArray) -> dict[str, float]:
-        return {n: v for n, v in to_p(x).items() if keep_all or n in names}
-
-    return len(names), params, x0, lo_x, hi_x
+    return kind_of(f.effect.law).joint(factory, f.effect)
 
 
 def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
@@ -92,19 +52,21 @@ def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
     sizes = [p[0] for p, _ in free]
     cuts = np.cumsum([0, *sizes])
 
-    def split(x: FloatArray) -> tuple[dict[str, float], list[EffectSpec]]:
+    def split(x: FloatArray) -> tuple[dict[str, float], tuple[EffectSpec, ...],
+                                      list[EffectSpec]]:
         theta: dict[str, float] = {}
-        effects = list(fixed)
+        effects: tuple[EffectSpec, ...] = ()
+        for e in fixed:  # kept as found: a parameter stays a value, the rest effects
+            theta, effects = kind_of(e.law).into_version(theta, effects, e)
+        each = []
         for (p, f), a, b in zip(free, cuts[:-1], cuts[1:], strict=True):
-            params = p[1](x[a:b])
-            if f.effect.law in PARAMETER_LAWS:
-                theta.update(params)
-            else:
-                effects.append(EffectSpec(f.effect.component, f.effect.law, params))
-        return theta, effects
+            e = EffectSpec(f.effect.component, f.effect.law, p[1](x[a:b]))
+            theta, effects = kind_of(e.law).into_version(theta, effects, e)
+            each.append(e)
+        return theta, effects, each
 
     def build(x: FloatArray):
-        theta, effects = split(x)
+        theta, effects, _ = split(x)
         return (factory.with_theta(theta) if theta else factory).plant(effects)
 
     x0 = np.concatenate([p[2] for p, _ in free])
@@ -116,13 +78,6 @@ def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
                         x_scale="jac")
     if float(sol.fun @ sol.fun) >= float(r0 @ r0):
         return list(found)
-    theta, effects = split(sol.x)
-    by_comp = {(e.component, e.law): e for e in effects}
-    out = []
-    for f in found:
-        e = f.effect
-        if e.law in PARAMETER_LAWS:
-            out.append(replace(f, effect=replace(e, params={e.component: theta[e.component]})))
-        else:
-            out.append(replace(f, effect=by_comp.get((e.component, e.law), e)))
-    return out
+    _, _, each = split(sol.x)
+    refitted = {id(f): e for (_, f), e in zip(free, each, strict=True)}
+    return [replace(f, effect=refitted.get(id(f), f.effect)) for f in found]

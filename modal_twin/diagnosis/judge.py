@@ -23,8 +23,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from modal_twin.diagnosis.families import family_of, place_of
+from modal_twin.diagnosis.effect_kind import Facts
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
+from modal_twin.diagnosis.kinds import kind_of
 from modal_twin.diagnosis.noise import ErrorFigures, error_figures, noise_floor
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError
@@ -80,37 +81,24 @@ def worse_tolerance(rec: Record) -> float:
     return max(WORSE_BY, 3.0 / np.sqrt(2.0 * rec.scored.shape[-1]))
 
 
-def _flags(f: FittedEffect, nominal: Mapping[str, float], floor_mass: Mapping[str, float]
-           ) -> tuple[str, ...]:
+def _flags(f: FittedEffect, facts: Facts) -> tuple[str, ...]:
     # a radius of gyration at 0 is a point mass, not a fit stopped by its bound
     flags = [f"{n} at its bound" for n in f.at_bound
              if not (n.endswith("_r") and abs(f.effect.params.get(n, 1.0)) < 1e-6)]
-    if f.effect.law == "added_mass":
-        name = f.effect.component
-        added = f.effect.params[name] - nominal.get(name, 0.0)
-        floor = name.removeprefix("madd_").removeprefix("m_")
-        ref = floor_mass.get(f"m_{floor}", nominal.get(name, 0.0))
-        if added < 0:
-            flags.append(f"implausible: {name} loses {-added:.4g} kg (an added mass cannot "
-                         "be negative)")
-        elif ref > 0 and added < 0.01 * ref:
-            flags.append(f"implausible: added mass {added:.4g} kg is below 1 % of the "
-                         f"{ref:.4g} kg it joins")
-    return tuple(flags)
+    return (*flags, *kind_of(f.effect.law).flags(f.effect, facts))
 
 
 def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
           records: Sequence[Record], noises: Sequence[np.ndarray], *,
-          nominal_values: Mapping[str, float] | None = None,
-          floor_mass: Mapping[str, float] | None = None,
-          nominal_k: float | None = None, nominal_c: float | None = None,
-          drift_scale: float | None = None, evidence_family: str = "",
+          facts: Facts | None = None, place: str = "",
           lower_by: float = LOWER_BY) -> FittedEffect:
     """``f`` with its family, place, per-record errors, flags and rejection filled in.
 
-    ``records[0]`` is the training record and ``records[1]`` the held-out one. A law that
-    can be friction or hysteresis (bilinear hysteretic) takes the family the evidence named
-    at its place, when that is one of the two.
+    ``records[0]`` is the training record and ``records[1]`` the held-out one. The effect's
+    kind (:func:`modal_twin.diagnosis.kinds.kind_of`) gives its family and flags from
+    ``facts`` (what is known of its model and place: a law that can be friction or
+    hysteresis takes the family the evidence named there), and its place unless ``place``
+    is given.
     """
     try:
         after = figures_on(plant, records, noises)
@@ -136,11 +124,10 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
                 break
         if rejected:
             break
-    family = family_of(f.effect, nominal_k=nominal_k, nominal_c=nominal_c,
-                       drift_scale=drift_scale, evidence_family=evidence_family)
-    return replace(f, family=family,
-                   place=place_of(f.effect), records=rows, rejected=rejected,
-                   flags=_flags(f, nominal_values or {}, floor_mass or {}))
+    kind, facts = kind_of(f.effect.law), facts or Facts()
+    return replace(f, family=kind.family(f.effect, facts),
+                   place=place or kind.place(f.effect), records=rows, rejected=rejected,
+                   flags=_flags(f, facts))
 
 
 def held_out(f: FittedEffect) -> float:

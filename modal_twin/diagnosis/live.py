@@ -61,4 +61,4 @@ def live_diagnosis(frames: Sequence[SignalBlock], residuals: Sequence[SignalBloc
                f"{worst.nmse_pct:.2f} % NMSE; "
                + ("significant: run the diagnosis for candidates" if significant
                   else "nothing significant"))
-    return Diagnosis(significant, summary, where, (), (), (), (), None)
+    return Diagnosis(significant, summary, where, (), ())

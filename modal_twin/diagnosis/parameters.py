@@ -12,14 +12,18 @@ is explained this way; a nonlinearity is not.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.effect_kind import Facts, Job, Piece, Round
 from modal_twin.diagnosis.fitting import (
     FittedEffect,
     Records,
@@ -32,13 +36,15 @@ from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.models.effects import EffectSpec
 from modal_twin.models.loading import ModelFactory
+from modal_twin.models.plant import Plant
 
-__all__ = ["KINDS", "PARAMETER_LAWS", "ParameterCandidate", "fit_parameter",
-           "screen_parameters"]
+__all__ = ["KINDS", "PARAMETER", "PARAMETER_LAWS", "ParameterCandidate", "ParameterKind",
+           "fit_parameter", "screen_parameters"]
 
 KINDS = {"m_": "added_mass", "E_": "stiffness", "EI_": "stiffness", "k_": "stiffness",
          "c_": "damping"}
-PARAMETER_LAWS = tuple(KINDS.values())  # effects that change a parameter value
+PARAMETER_LAWS = tuple(dict.fromkeys(KINDS.values()))  # effects that change a parameter value
+_LAW_FAMILY = {"added_mass": "mass", "stiffness": "stiffness", "damping": "damping"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,20 +72,18 @@ _KIND_LAW = {"mass": "added_mass", "stiffness": "stiffness", "damping": "damping
 def _info(factory: ModelFactory, name: str, nominal: float,
           prefixes: Sequence[str]) -> tuple[str, float, float] | None:
     """(law, lower, upper) of a parameter the diagnosis may change, None otherwise."""
-    info_of = getattr(factory, "parameter_info", None)
     if not any(name.startswith(p) for p in prefixes):
         return None
-    if info_of is not None:
-        try:
-            info = info_of(name)
-        except ModalTwinError:
-            info = None
-        if info is not None:
-            if info.family in _MASS_COMPANIONS:
-                return None  # fitted with their added mass, never alone
-            law = _KIND_LAW[info.kind]
-            lo = {"added_mass": 0.0, "damping": 0.01 * nominal}.get(law, info.lower)
-            return law, float(min(lo, info.lower)), float(info.upper)
+    try:
+        info = factory.parameter_info(name)
+    except ModalTwinError:
+        info = None
+    if info is not None:
+        if info.family in _MASS_COMPANIONS:
+            return None  # fitted with their added mass, never alone
+        law = _KIND_LAW[info.kind]
+        lo = {"added_mass": 0.0, "damping": 0.01 * nominal}.get(law, info.lower)
+        return law, float(min(lo, info.lower)), float(info.upper)
     kind = next((KINDS[p] for p in KINDS if name.startswith(p)), None)
     if kind is None:
         return None
@@ -99,7 +103,7 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
     for a parameter whose nominal value is 0 (an added mass).
     """
     if prefixes is None:
-        prefixes = tuple(getattr(factory, "parameter_prefixes", tuple(KINDS)))
+        prefixes = tuple(factory.parameter_prefixes)
     values = factory.parameters()
     scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
     r0 = _residual(factory, {}, train, decimate, scale)
@@ -141,11 +145,10 @@ def _positions(factory: ModelFactory, name: str) -> list[dict[str, float]]:
     point mass; one empty entry for any other parameter.
     """
     comp = _companions(factory, name)
-    info_of = getattr(factory, "parameter_info", None)
-    if len(comp) < 2 or info_of is None:
+    if len(comp) < 2:
         return [{}]
     (nx, ny), values = comp[:2], factory.parameters()
-    ix, iy = info_of(nx), info_of(ny)
+    ix, iy = factory.parameter_info(nx), factory.parameter_info(ny)
     out = [{nx: values[nx], ny: values[ny]}]
     for fx in (0.1, 0.9):
         for fy in (0.1, 0.9):
@@ -176,23 +179,21 @@ def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Record
 
     """
     t0 = time.perf_counter()
-    prefixes = tuple(getattr(factory, "parameter_prefixes", tuple(KINDS)))
+    prefixes = tuple(factory.parameter_prefixes)
     what = _info(factory, cand.name, cand.nominal, (*prefixes, cand.name))
     if what is None:
         lo, hi = 0.0, cand.nominal * 5.0 + 1.0
     else:
         _, lo, hi = what
     names = [cand.name, *_companions(factory, cand.name)]
-    values = factory.parameters()
-    info_of = getattr(factory, "parameter_info", None)
     los, his, x0 = [lo], [hi], [cand.start]
     given = dict(cand.companions)
     for n in names[1:]:
-        info = info_of(n) if info_of is not None else None
-        los.append(info.lower if info else values[n] - 1.0)
-        his.append(info.upper if info else values[n] + 1.0)
-        start = given.get(n, values[n])
-        if info is not None and info.family == "added_mass_r" and start <= info.lower:
+        info = factory.parameter_info(n)
+        los.append(info.lower)
+        his.append(info.upper)
+        start = given.get(n, factory.parameters()[n])
+        if info.family == "added_mass_r" and start <= info.lower:
             start = info.lower + 0.25 * (info.upper - info.lower)  # d(m rg^2)/d rg = 0 at 0
         x0.append(start)
     lo_a, hi_a = np.asarray(los, float), np.asarray(his, float)
@@ -214,3 +215,135 @@ def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Record
     return judge_fit(effect, factory.with_theta(effect.params).plant(), factory.plant(), sol,
                      len(names), train, test, objective, t0,
                      _parameter_std(sol, to_params, names))
+
+
+def _place_in_name(name: str) -> str:
+    """Return the place a parameter's name holds (``m_F2`` -> ``F2``, ``k_RB2_x`` -> ``RB2``)."""
+    if "_" not in name:
+        return name
+    head, _, rest = name.partition("_")
+    if head in ("k", "c") and rest[-2:] in ("_x", "_y", "_z"):
+        return rest[:-2]  # k_RB2_x: the device RB2
+    return rest
+
+
+class ParameterKind:
+    """Effect kind ``parameter``: a parameter value of the model is wrong.
+
+    An element group's stiffness, a damping factor, a floor's mass, or a mass added at a
+    place with its position (module docstring). Its effect's component is the parameter's
+    name and its law one of :data:`PARAMETER_LAWS`; it is applied as a parameter value.
+    """
+
+    name = "parameter"
+    families: tuple[str, ...] = tuple(dict.fromkeys(_LAW_FAMILY.values()))
+
+    def owns(self, law: str) -> bool:
+        """One of :data:`PARAMETER_LAWS`."""
+        return law in PARAMETER_LAWS
+
+    def laws(self) -> tuple[str, ...]:
+        """:data:`PARAMETER_LAWS`."""
+        return PARAMETER_LAWS
+
+    def screen(self, rnd: Round) -> tuple[ParameterCandidate, ...]:
+        """:func:`screen_parameters` on the training record."""
+        rnd.say("screening parameters (mass, stiffness, damping) by simulated sensitivities")
+        return tuple(screen_parameters(rnd.factory, rnd.train))
+
+    def jobs(self, rnd: Round, candidates: tuple[Any, ...]) -> list[Job]:
+        """Return the best ``n_fit + 2`` above the gain threshold (many, and cheap to fit)."""
+        return [(f"{pc.kind} {pc.name}", partial(fit_parameter, rnd.factory, pc, rnd.fit_on,
+                                                 rnd.test))
+                for pc in candidates[:rnd.n_fit + 2] if pc.gain >= rnd.gain_threshold]
+
+    def report(self, candidates: tuple[Any, ...]) -> list[str]:
+        """One line for each of the best four."""
+        return [f"  {pc.name:<12} {pc.kind:<14} removes {100 * pc.gain:6.2f} % of the "
+                f"residual (start {pc.start:.4g}, nominal {pc.nominal:.4g})"
+                for pc in candidates[:4]]
+
+    def plant(self, factory: ModelFactory, effect: EffectSpec) -> Plant:
+        """Return the plant with the parameter values changed."""
+        return factory.with_theta(effect.params).plant()
+
+    def apply(self, factory: ModelFactory, effect: EffectSpec) -> ModelFactory:
+        """Return the factory with the parameter values changed."""
+        return factory.with_theta(effect.params)
+
+    def into_version(self, theta: dict[str, float], effects: tuple[EffectSpec, ...],
+                     effect: EffectSpec) -> tuple[dict[str, float], tuple[EffectSpec, ...]]:
+        """Return the version's parameter values with these changed."""
+        return {**theta, **effect.params}, effects
+
+    def facts(self, rnd: Round, effect: EffectSpec) -> Facts:
+        """Return the model's parameter values (an added mass is judged against its floor's)."""
+        return Facts(rnd.factory.parameters(),
+                     evidence_family=rnd.evidence_family.get(effect.component, ""))
+
+    def family(self, effect: EffectSpec, facts: Facts) -> str:
+        """``mass``, ``stiffness`` or ``damping``."""
+        return _LAW_FAMILY[effect.law]
+
+    def place(self, effect: EffectSpec, factory: ModelFactory | None = None) -> str:
+        """Return the place its model gives the parameter, else the place in its name."""
+        if factory is not None:
+            with contextlib.suppress(ModalTwinError):
+                return factory.parameter_info(effect.component).place
+        return _place_in_name(effect.component)
+
+    def flags(self, effect: EffectSpec, facts: Facts) -> tuple[str, ...]:
+        """Flag an added mass that is negative, or below 1 % of the floor mass it joins."""
+        if effect.law != "added_mass":
+            return ()
+        nominal = facts.values
+        name = effect.component
+        added = effect.params[name] - nominal.get(name, 0.0)
+        floor = name.removeprefix("madd_").removeprefix("m_")
+        ref = nominal.get(f"m_{floor}", nominal.get(name, 0.0))
+        if added < 0:
+            return (f"implausible: {name} loses {-added:.4g} kg (an added mass cannot "
+                    "be negative)",)
+        if ref > 0 and added < 0.01 * ref:
+            return (f"implausible: added mass {added:.4g} kg is below 1 % of the "
+                    f"{ref:.4g} kg it joins",)
+        return ()
+
+    def start(self, factory: ModelFactory, component: str, law: str, train: Record
+              ) -> dict[str, float]:
+        """Return the parameter's current value."""
+        return {component: self._nominal(factory, component, law)}
+
+    def fit(self, factory: ModelFactory, component: str, law: str, start: dict[str, float],
+            train: Record, test: Record) -> FittedEffect:
+        """:func:`fit_parameter` from ``start`` (the current value when not given)."""
+        nominal = self._nominal(factory, component, law)
+        cand = ParameterCandidate(component, law, nominal,
+                                  float(start.get(component, nominal)), 0.0)
+        return fit_parameter(factory, cand, train, test)
+
+    @staticmethod
+    def _nominal(factory: ModelFactory, component: str, law: str) -> float:
+        values = factory.parameters()
+        if component not in values:
+            msg = f"{law}: unknown parameter {component!r}; parameters: {sorted(values)}"
+            raise OptionError(msg)
+        return values[component]
+
+    def joint(self, factory: ModelFactory, effect: EffectSpec) -> Piece | None:
+        """Return the value between its bounds (an added mass with its position: None)."""
+        if len(effect.params) > 1:
+            return None
+        v = float(effect.params[effect.component])
+        nom = factory.parameters()[effect.component]
+        lo = 0.0 if effect.law == "added_mass" else min(0.3 * nom, 0.5 * v)
+        hi = max(5.0 * nom + 1.0, 2.0 * v)
+        name = effect.component
+
+        def one(x: FloatArray) -> dict[str, float]:
+            return {name: float(x[0])}
+
+        return 1, one, np.array([v]), np.array([lo]), np.array([hi])
+
+
+PARAMETER = ParameterKind()

@@ -26,34 +26,26 @@ One round (:func:`diagnose_round`) on a model (any version: its effects stay in 
 
 from __future__ import annotations
 
-import contextlib
 import logging
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, replace
-from functools import partial
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from modal_twin.diagnosis.attachments import (
-    AttachmentCandidate,
-    fit_attachment,
-    screen_attachments,
-)
-from modal_twin.diagnosis.evidence import DeviceEvidence, device_evidence
-from modal_twin.diagnosis.families import FAMILY_LAWS
-from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
+from modal_twin.diagnosis.device_kind import DeviceCandidate
+from modal_twin.diagnosis.effect_kind import Job, Round
+from modal_twin.diagnosis.evidence import DeviceEvidence
+from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
 from modal_twin.diagnosis.judge import figures_on, judge, rank, record_noise_floor, worse_tolerance
+from modal_twin.diagnosis.kinds import KINDS, kind_of
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
 from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures
-from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter, screen_parameters
 from modal_twin.diagnosis.record import Record
-from modal_twin.diagnosis.screening import ScreenedCandidate, screen_components
-from modal_twin.diagnosis.sensors import SensorCandidate, fit_sensor, screen_sensors
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
 from modal_twin.errors import ModalTwinError
-from modal_twin.models.loading import ModelFactory, with_effects
+from modal_twin.models.loading import ModelFactory
 from modal_twin.models.plant import Plant
 
 __all__ = ["Diagnosis", "diagnose", "diagnose_round"]
@@ -70,18 +62,21 @@ class Diagnosis:
     significant: bool
     summary: str
     where: WhereReport
-    screened: tuple[ScreenedCandidate, ...]
-    parameters: tuple[ParameterCandidate, ...]
     fitted: tuple[FittedEffect, ...]  # ranked (judge.rank): usable first
     skipped: tuple[str, ...]
     modal: ModalView | None = None  # identified vs model modes, held-out record
-    attachments: tuple[AttachmentCandidate, ...] = ()  # rigid masses hung elastically
-    evidence: tuple[DeviceEvidence, ...] = ()
-    sensors: tuple[SensorCandidate, ...] = ()
+    # every effect kind's screened candidates, best first (kind name -> candidates)
+    candidates: Mapping[str, tuple[Any, ...]] = field(default_factory=dict)
     before: tuple[ErrorFigures, ...] = ()  # the model as given, every record
     after: tuple[ErrorFigures, ...] = ()  # with every effect found, every record
     found: tuple[FittedEffect, ...] = ()  # effects accepted, in the order found (refitted)
     rounds: int = 1
+
+    @property
+    def evidence(self) -> tuple[DeviceEvidence, ...]:
+        """The evidence at every device site screened (training record, before any fit)."""
+        return tuple(c.evidence for c in self.candidates.get("device", ())
+                     if isinstance(c, DeviceCandidate))
 
     @property
     def best(self) -> FittedEffect | None:
@@ -106,15 +101,8 @@ class Diagnosis:
             out += ["  " + e.format() for e in self.evidence]
             out.append("")
         out.append("OTHER CANDIDATES (screened on the training record)")
-        for pc in self.parameters[:4]:
-            out.append(f"  {pc.name:<12} {pc.kind:<14} removes {100 * pc.gain:6.2f} % of the "
-                       f"residual (start {pc.start:.4g}, nominal {pc.nominal:.4g})")
-        for ac in self.attachments[:4]:
-            out.append(f"  {ac.component:<12} {'elastic_mount':<14} removes {100 * ac.gain:6.2f} "
-                       f"% of the residual (best mount frequency {ac.f_hz:.3g} Hz)")
-        for sc in self.sensors[:4]:
-            out.append(f"  {sc.channel:<12} {sc.law:<14} removes {100 * sc.gain:6.2f} % of its "
-                       f"residual ({sc.value:.4g})")
+        for name, kind in KINDS.items():
+            out += kind.report(self.candidates.get(name, ()))
         out += ["", "FITTED BY SIMULATION (NRMSE as RMS over channels: train / held-out, before "
                 "-> after; ranked)"]
         for f in self.fitted:
@@ -127,15 +115,6 @@ class Diagnosis:
             out.append(f"  skipped: {s}")
         out += ["", f"DECISION: {self.summary}"]
         return "\n".join(out)
-
-
-def _device_data(rec: Record, names: Iterable[str]) -> tuple[dict, dict]:
-    drifts, forces = {}, {}
-    for n in names:
-        cols_d, cols_f = [f"{n}_dx", f"{n}_dy"], [f"{n}_fx", f"{n}_fy"]
-        if all(c in rec.channel_names for c in cols_d + cols_f):
-            drifts[n], forces[n] = rec.channels(cols_d), rec.channels(cols_f)
-    return drifts, forces
 
 
 def _common_channels(factory: ModelFactory, records: Sequence[Record]
@@ -154,40 +133,6 @@ def _significant(figs: Sequence[ErrorFigures]) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _device_jobs(factory: ModelFactory, fit_on: tuple[Record, ...],
-                 evidence: Sequence[DeviceEvidence], drifts: dict, forces: dict,
-                 test: Record, n_families: int
-                 ) -> tuple[list[ScreenedCandidate], list[tuple[str, Callable[[], FittedEffect]]]]:
-    train = fit_on[0]
-    screened: list[ScreenedCandidate] = []
-    jobs: list[tuple[str, Callable[[], FittedEffect]]] = []
-    for ev in evidence:
-        sc = ev.family_scores()
-        fams = [g for g in sorted(sc, key=lambda g: -sc[g]) if sc[g] > 0]
-        nonlinear = [g for g in fams if g not in ("stiffness", "damping")]
-        fams = (nonlinear or fams)[:n_families]
-        # every law of the family named first, the first law of the next one
-        first = list(FAMILY_LAWS.get(fams[0], ())) if fams else []
-        laws = tuple(dict.fromkeys(first + [x for g in fams[1:]
-                                            for x in FAMILY_LAWS.get(g, ())[:1]]))
-        if not laws:
-            continue
-        comp = ev.component
-        scr = screen_components({comp: drifts[comp]}, {comp: forces[comp]},
-                                {comp: factory.sites[comp]}, {comp: factory.weight(comp)},
-                                train.fs_hz, laws=tuple(x for x in laws if x != "linear"))
-        screened += scr
-        starts = {c.law: c.params for c in scr}
-        for law in laws:
-            if law == "linear":
-                jobs.append((f"linear at {comp}",
-                             partial(fit_effect, factory, comp, "linear", {}, fit_on, test)))
-            elif law in starts:
-                jobs.append((f"{law} at {comp}", partial(fit_effect, factory, comp, law,
-                                                         starts[law], fit_on, test)))
-    return screened, jobs
-
-
 def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: int = 3,
                    gain_threshold: float = 0.01, n_families: int = 2,
                    progress: Callable[[str], None] | None = None, mapper: Mapper = map,
@@ -199,7 +144,7 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     """
     say = progress or (lambda s: None)
     records, skipped = _common_channels(factory, records)
-    train, test = records[0], records[1]
+    test = records[1]
     nominal = factory.plant()
     noises = [record_noise_floor(nominal, r) for r in records]
     say("simulating the model on every record")
@@ -211,34 +156,22 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
         summary = (f"nothing significant is missing: every channel is within "
                    f"{SIGNIFICANT_RATIO}x its noise floor on every record (worst median "
                    f"x{worst.median_over_noise:.2f} on {worst.record or 'a record'})")
-        return Diagnosis(False, summary, where, (), (), (), tuple(skipped), modal,
+        return Diagnosis(False, summary, where, (), tuple(skipped), modal,
                          before=before, after=before)
-    say("gathering evidence at the devices (force-state maps, cycles)")
-    evidence, drifts, forces = _evidence(factory, train, noises[0], skipped)
-    # fits use every record but the held-out one: a low-level record pins what a law does
-    # where it barely engages (a break-away force, an initial stiffness)
-    fit_on = (train, *records[2:])
-    screened, jobs = _device_jobs(factory, fit_on, evidence, drifts, forces, test, n_families)
-    say("screening parameters (mass, stiffness, damping) by simulated sensitivities")
-    params = screen_parameters(factory, train)
-    attachments: list[AttachmentCandidate] = []
-    if tuple(factory.attachments()):
-        say("screening elastic mounts of the rigidly attached masses")
-        attachments = screen_attachments(factory, train)
-    sensors = screen_sensors(train.channel_names, train.scored,
-                             simulate_record(nominal, train)[:, train.skip:], sig)
-    jobs += _global_jobs(factory, fit_on, test, params, attachments, sensors, n_fit,
-                         gain_threshold)
+    rnd = Round(factory, records, nominal, noises, sig, skipped, say, n_fit, gain_threshold,
+                n_families)
+    candidates: dict[str, tuple[Any, ...]] = {}
+    jobs: list[Job] = []
+    for name, kind in KINDS.items():  # screened in registry order, fitted in one batch
+        candidates[name] = kind.screen(rnd)
+        jobs += kind.jobs(rnd, candidates[name])
     fitted = [f for f in _run_jobs(jobs, mapper, skipped, say)
               if (f.effect.component, f.effect.law) not in set(exclude)]
-    ev_family = {e.component: _top_family(e) for e in evidence}
     # a later round must earn its effect: 5 % lower, not 1 %
     lower_by = 0.05 if factory.base_effects or set(exclude) else 0.01
-    ranked = rank([_judge(factory, f, before, records, noises, ev_family, lower_by)
-                   for f in fitted], ev_family)
-    return Diagnosis(True, _round_summary(ranked, sig), where, tuple(screened), tuple(params),
-                     tuple(ranked), tuple(skipped), modal, tuple(attachments),
-                     tuple(evidence), tuple(sensors), before, before)
+    ranked = rank([_judge(rnd, f, before, lower_by) for f in fitted], rnd.evidence_family)
+    return Diagnosis(True, _round_summary(ranked, sig), where, tuple(ranked), tuple(skipped),
+                     modal, candidates, before, before)
 
 
 def _where_and_modal(nominal: Plant, test: Record, skipped: list[str]
@@ -257,49 +190,6 @@ def _where_and_modal(nominal: Plant, test: Record, skipped: list[str]
     return where, modal
 
 
-def _evidence(factory: ModelFactory, train: Record, noise: np.ndarray, skipped: list[str]
-              ) -> tuple[list[DeviceEvidence], dict, dict]:
-    """Evidence at every component with measured drift and force (not one with an effect).
-
-    A component that already carries an effect is refined by the joint refit, not screened
-    again.
-    """
-    carried = {e.component for e in factory.base_effects}
-    drifts, forces = _device_data(train, [s for s in factory.sites if s not in carried])
-    if not drifts and factory.sites:
-        skipped.append("evidence: no component has measured drift and force")
-    tr_noise = dict(zip(train.channel_names, noise, strict=True))
-    evidence = []
-    for comp in drifts:
-        fv = [(tr_noise[f"{comp}_f{a}"] * float(np.std(forces[comp][i]))) ** 2
-              for i, a in enumerate("xy")]
-        spec = factory.sites[comp]
-        evidence.append(device_evidence(comp, drifts[comp], forces[comp], spec.k, spec.c,
-                                        train.fs_hz, noise_var=fv))
-    return evidence, drifts, forces
-
-
-def _global_jobs(factory: ModelFactory, fit_on: tuple[Record, ...], test: Record,
-                 params: Sequence[ParameterCandidate],
-                 attachments: Sequence[AttachmentCandidate],
-                 sensors: Sequence[SensorCandidate], n_fit: int, gain_threshold: float
-                 ) -> list[tuple[str, Callable[[], FittedEffect]]]:
-    """Fit jobs of the parameter, mount and sensor candidates worth a simulation."""
-    jobs: list[tuple[str, Callable[[], FittedEffect]]] = []
-    for pc in params[:n_fit + 2]:  # parameters are many and cheap to fit
-        if pc.gain >= gain_threshold:
-            jobs.append((f"{pc.kind} {pc.name}",
-                         partial(fit_parameter, factory, pc, fit_on, test)))
-    for ac in attachments[:n_fit]:
-        if ac.gain >= gain_threshold:
-            jobs.append((f"elastic_mount at {ac.component}", partial(
-                fit_attachment, factory, ac.component, {"f_hz": ac.f_hz}, fit_on, test)))
-    for sc in sensors[:n_fit]:
-        jobs.append((f"{sc.law} at {sc.channel}",
-                     partial(fit_sensor, factory, sc, fit_on[0], test)))
-    return jobs
-
-
 def _round_summary(ranked: Sequence[FittedEffect], sig: Sequence[str]) -> str:
     usable = [f for f in ranked if not f.rejected and not f.flags]
     if not usable:
@@ -311,14 +201,7 @@ def _round_summary(ranked: Sequence[FittedEffect], sig: Sequence[str]) -> str:
             f"(x{b.records[1][3]:.2f} the noise floor)")
 
 
-def _top_family(e: DeviceEvidence) -> str:
-    sc = e.family_scores()
-    nonlinear = {g: s for g, s in sc.items() if g not in ("stiffness", "damping") and s > 0}
-    pick = nonlinear or {g: s for g, s in sc.items() if s > 0}
-    return max(pick, key=lambda g: pick[g]) if pick else "nothing"
-
-
-def _run_jobs(jobs: Sequence[tuple[str, Callable[[], FittedEffect]]], mapper: Mapper,
+def _run_jobs(jobs: Sequence[Job], mapper: Mapper,
               skipped: list[str], say: Callable[[str], None]) -> list[FittedEffect]:
     say(f"fitting {len(jobs)} candidates by simulation")
     out: list[FittedEffect] = []
@@ -338,36 +221,16 @@ def _call(job: Callable[[], FittedEffect]) -> FittedEffect | str:
         return str(err)
 
 
-def _judge(factory: ModelFactory, f: FittedEffect, before: Sequence[ErrorFigures],
-           records: Sequence[Record], noises: Sequence[np.ndarray],
-           ev_family: dict[str, str], lower_by: float) -> FittedEffect:
-    e = f.effect
-    if e.law in ("added_mass", "stiffness", "damping"):
-        plant = factory.with_theta(e.params).plant()
-    else:
-        plant = factory.plant([e])
-    spec = factory.sites.get(e.component)
-    k = float(np.mean(spec.k)) if spec is not None and hasattr(spec, "k") else None
-    c = float(np.mean(spec.c)) if spec is not None and hasattr(spec, "c") else None
-    values = factory.parameters()
-    floor = {n: v for n, v in values.items() if n.startswith("m_")}
-    cols = [f"{e.component}_d{a}" for a in "xy"]
-    drift = (float(np.quantile(np.abs(records[0].channels(cols)), 0.99))
-             if all(x in records[0].channel_names for x in cols) else None)
-    out = judge(f, plant, before, records, noises, nominal_values=values, floor_mass=floor,
-                nominal_k=k, nominal_c=c, drift_scale=drift,
-                evidence_family=ev_family.get(e.component, ""), lower_by=lower_by)
-    info_of = getattr(factory, "parameter_info", None)
-    if e.law in ("added_mass", "stiffness", "damping") and info_of is not None:
-        with contextlib.suppress(ModalTwinError):
-            out = replace(out, place=info_of(e.component).place)
-    return out
+def _judge(rnd: Round, f: FittedEffect, before: Sequence[ErrorFigures], lower_by: float
+           ) -> FittedEffect:
+    kind = kind_of(f.effect.law)
+    return judge(f, kind.plant(rnd.factory, f.effect), before, rnd.records, rnd.noise,
+                 facts=kind.facts(rnd, f.effect), place=kind.place(f.effect, rnd.factory),
+                 lower_by=lower_by)
 
 
 def _apply(factory: ModelFactory, f: FittedEffect) -> ModelFactory:
-    if f.effect.law in ("added_mass", "stiffness", "damping"):
-        return factory.with_theta(f.effect.params)
-    return with_effects(factory, [f.effect])
+    return kind_of(f.effect.law).apply(factory, f.effect)
 
 
 def _apply_all(factory: ModelFactory, found: Sequence[FittedEffect]) -> ModelFactory:
@@ -411,7 +274,6 @@ def diagnose(
     progress: Callable[[str], None] | None = None,
     mapper: Mapper = map,
     joint: bool = True,
-    **_ignored: object,
 ) -> Diagnosis:
     """Diagnose ``factory``'s model.
 

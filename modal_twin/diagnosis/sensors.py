@@ -13,16 +13,22 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
+from typing import Any
 
 import numpy as np
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.effect_kind import Job, PlacedEffect, Round
 from modal_twin.diagnosis.fitting import FittedEffect, record_nmse, simulate_record
 from modal_twin.diagnosis.record import Record
-from modal_twin.models.effects import EffectSpec
+from modal_twin.errors import OptionError
+from modal_twin.models.effects import SENSOR_LAWS, EffectSpec
 from modal_twin.models.loading import ModelFactory
 
-__all__ = ["SensorCandidate", "fit_sensor", "screen_sensors"]
+__all__ = ["SENSOR", "SensorCandidate", "SensorKind", "fit_sensor", "screen_sensors"]
+
+_VALUE = {"sensor_gain": "gain", "sensor_angle": "angle_deg"}  # law -> its one parameter
 
 
 @dataclass(frozen=True, slots=True)
@@ -78,7 +84,7 @@ def fit_sensor(factory: ModelFactory, cand: SensorCandidate, train: Record, test
                ) -> FittedEffect:
     """Return the sensor effect of ``cand`` as a fitted candidate (errors on both records)."""
     t0 = time.perf_counter()
-    key = "gain" if cand.law == "sensor_gain" else "angle_deg"
+    key = _VALUE[cand.law]
     effect = EffectSpec(cand.channel, cand.law, {key: cand.value})
     plant, nominal = factory.plant([effect]), factory.plant()
     pred_train = simulate_record(plant, train)
@@ -92,3 +98,55 @@ def fit_sensor(factory: ModelFactory, cand: SensorCandidate, train: Record, test
         float(np.mean(record_nmse(simulate_record(nominal, test), test))),
         float(n * np.log(max(sse, 1e-300) / n) + np.log(n)), 3, time.perf_counter() - t0,
         "closed form", {key: cand.std})
+
+
+class SensorKind(PlacedEffect):
+    """Effect kind ``sensor``: one channel reads its quantity scaled or turned."""
+
+    name = "sensor"
+    families: tuple[str, ...] = ("sensor",)
+
+    def owns(self, law: str) -> bool:
+        """One of :data:`~modal_twin.models.effects.SENSOR_LAWS`."""
+        return law in SENSOR_LAWS
+
+    def laws(self) -> tuple[str, ...]:
+        """:data:`~modal_twin.models.effects.SENSOR_LAWS`."""
+        return SENSOR_LAWS
+
+    def screen(self, rnd: Round) -> tuple[SensorCandidate, ...]:
+        """:func:`screen_sensors` among the significant channels of the training record."""
+        train = rnd.train
+        return tuple(screen_sensors(train.channel_names, train.scored,
+                                    simulate_record(rnd.nominal, train)[:, train.skip:],
+                                    rnd.significant))
+
+    def jobs(self, rnd: Round, candidates: tuple[Any, ...]) -> list[Job]:
+        """Return the best ``n_fit`` (closed form, on the training record)."""
+        return [(f"{sc.law} at {sc.channel}", partial(fit_sensor, rnd.factory, sc, rnd.train,
+                                                      rnd.test))
+                for sc in candidates[:rnd.n_fit]]
+
+    def report(self, candidates: tuple[Any, ...]) -> list[str]:
+        """One line for each of the best four."""
+        return [f"  {sc.channel:<12} {sc.law:<14} removes {100 * sc.gain:6.2f} % of its "
+                f"residual ({sc.value:.4g})" for sc in candidates[:4]]
+
+    def start(self, factory: ModelFactory, component: str, law: str, train: Record
+              ) -> dict[str, float]:
+        """Refuse: a sensor effect is found by the diagnosis in closed form."""
+        raise OptionError(self._refusal(law, component))
+
+    def fit(self, factory: ModelFactory, component: str, law: str, start: dict[str, float],
+            train: Record, test: Record) -> FittedEffect:
+        """Refuse: a sensor effect is found by the diagnosis in closed form."""
+        raise OptionError(self._refusal(law, component))
+
+    @staticmethod
+    def _refusal(law: str, component: str) -> str:
+        return (f"{law} at {component}: a sensor effect is found by the diagnosis, not "
+                "fitted from a start (modal-twin diagnose, or effects add --auto)")
+
+
+
+SENSOR = SensorKind()

@@ -11,19 +11,15 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
-from modal_twin.diagnosis.attachments import MOUNT_LAW, fit_attachment, screen_attachments
-from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
+from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floor
+from modal_twin.diagnosis.kinds import kind_of
 from modal_twin.diagnosis.noise import nrmse
-from modal_twin.diagnosis.parameters import PARAMETER_LAWS, ParameterCandidate, fit_parameter
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
 from modal_twin.diagnosis.record import Record
-from modal_twin.diagnosis.screening import parameter_grid
 from modal_twin.errors import OptionError
 from modal_twin.models.effects import EffectSpec
-from modal_twin.models.loading import ModelFactory, load_model, merge_effects
+from modal_twin.models.loading import ModelFactory, load_model
 from modal_twin.models.versions import ModelVersion, latest_version, read_version, write_version
 
 __all__ = [
@@ -59,59 +55,24 @@ def choose_start(factory: ModelFactory, component: str, law: str, train: Record
                  ) -> dict[str, float]:
     """Return starting parameters of ``law`` at ``component`` from the training record.
 
-    The best mount frequency of the screening grid, a parameter's current value, or the middle
-    of a device law's grid scaled to the measured drift and force. One rule for the command
-    line and the diagnosis node.
+    As the law's effect kind chooses them (:mod:`modal_twin.diagnosis.kinds`): the best
+    mount frequency of the screening grid, a parameter's current value, or the middle of a
+    device law's grid scaled to the measured drift and force. One rule for the command line
+    and the diagnosis node.
 
+    Raises
+    ------
+    OptionError
+        Unknown law, component or parameter; a record without the device's channels.
     """
-    if law == MOUNT_LAW:
-        best = [c for c in screen_attachments(factory, train) if c.component == component]
-        return {"f_hz": best[0].f_hz if best else 10.0, "zeta": 0.05}
-    if law in PARAMETER_LAWS:
-        values = factory.parameters()
-        if component not in values:
-            msg = f"{law}: unknown parameter {component!r}; parameters: {sorted(values)}"
-            raise OptionError(msg)
-        return {component: values[component]}
-    if component not in factory.sites:
-        msg = f"unknown component {component!r}; components: {sorted(factory.sites)}"
-        raise OptionError(msg)
-    cols = [f"{component}_d{a}" for a in "xy"] + [f"{component}_f{a}" for a in "xy"]
-    missing = [c for c in cols if c not in train.channel_names]
-    if missing:
-        msg = f"{law} at {component}: the training record lacks {missing}"
-        raise OptionError(msg)
-    u, f = train.channels(cols[:2]), train.channels(cols[2:])
-    spec = factory.sites[component]
-    grid = parameter_grid(law, float(np.abs(u).max()), float(np.abs(f).max()),
-                          float(np.mean(spec.k)), factory.weight(component))
-    return grid[len(grid) // 2]
-
-
-def _fit(factory: ModelFactory, component: str, law: str, start: dict[str, float],
-         train: Record, test: Record) -> FittedEffect:
-    if law in PARAMETER_LAWS:
-        values = factory.parameters()
-        if component not in values:
-            msg = f"{law}: unknown parameter {component!r}; parameters: {sorted(values)}"
-            raise OptionError(msg)
-        nominal = values[component]
-        cand = ParameterCandidate(component, law, nominal,
-                                  float(start.get(component, nominal)), 0.0)
-        return fit_parameter(factory, cand, train, test)
-    if law == MOUNT_LAW:
-        return fit_attachment(factory, component, start, train, test)
-    return fit_effect(factory, component, law, start, train, test)
+    return kind_of(law).start(factory, component, law, train)
 
 
 def _version_with(base: ModelVersion, found: Sequence[FittedEffect]) -> ModelVersion:
     theta = dict(base.theta)
     effects: tuple[EffectSpec, ...] = tuple(base.effects)
     for f in found:
-        if f.effect.law in PARAMETER_LAWS:
-            theta.update(f.effect.params)
-        else:
-            effects = merge_effects(effects, [f.effect])
+        theta, effects = kind_of(f.effect.law).into_version(theta, effects, f.effect)
     return replace(base, theta=theta, effects=effects)
 
 
@@ -140,13 +101,12 @@ def add_effect(model_file: str | Path, component: str, law: str, start: dict[str
     """
     base = read_version(model_file)
     factory = load_model(model_file)
-    fitted = _fit(factory, component, law, start, train, test)
+    kind = kind_of(law)
+    fitted = kind.fit(factory, component, law, start, train, test)
     records = [train, test, *levels]
     noises = [record_noise_floor(factory.plant(), r) for r in records]
     before = figures_on(factory.plant(), records, noises)
-    plant = (factory.with_theta(fitted.effect.params).plant() if law in PARAMETER_LAWS
-             else factory.plant([fitted.effect]))
-    fitted = judge(fitted, plant, before, records, noises)
+    fitted = judge(fitted, kind.plant(factory, fitted.effect), before, records, noises)
     if fitted.rejected:
         msg = f"{law} at {component} not written: it {fitted.rejected}"
         raise OptionError(msg)

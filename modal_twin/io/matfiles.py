@@ -7,7 +7,11 @@ support springs ``K_y1, K_z1, K_y2, K_z2``), a singular mass ``M0`` (massless DO
 58 measured DOFs and five modes identified from ambient tests (eigenvalues
 ``(2 pi f)^2`` with standard deviations, shapes with standard deviations), plus the
 project's own results (100 multi-start ``fmincon`` runs). The files are read from
-``/work/shared/realdata/model_updating`` (or a folder given); they are never copied.
+``/work/shared/realdata/model_updating`` (or a folder given); they are never copied. The
+data set's parameter order and bounds are not in this reader: they are the rules file
+``config/matrix_models/pedestrian_bridge.yaml`` (:data:`BRIDGE_RULES`,
+:func:`modal_twin.models.matrix_model.read_matrix_rules`). Any other matrix file is read by
+:func:`modal_twin.models.matrix_model.load_matrix_model`.
 """
 
 from __future__ import annotations
@@ -21,31 +25,24 @@ import scipy.sparse as sp
 from modal_twin._types import FloatArray, IntArray
 from modal_twin.array_files import mat_arrays
 from modal_twin.errors import ConfigError
-from modal_twin.models.matrix_model import (
-    MatrixModel,
-    matrix_model_from_arrays,
-    read_matrix_arrays,
-)
+from modal_twin.models.matrix_model import read_matrix_rules
 
 __all__ = [
     "BRIDGE_DIR",
+    "BRIDGE_RULES",
     "BridgeData",
     "BridgePublished",
     "load_bridge",
     "load_bridge_published",
-    "load_matrix_model",
 ]
 
 BRIDGE_DIR = Path("/work/shared/realdata/model_updating")
 _PREFIX = "SteelPedestrianBridge__"
 _MODEL = _PREFIX + "Experiment__Experiment_Model_Updating__SteelPedestrianBridgeExp.mat"
 _MODES = _PREFIX + "Experiment__Experiment_Model_Updating__ExpModeInfo_FEM.mat"
-SUBSTRUCTURES: tuple[str, ...] = ("K_Frame", "K_Truss", *(f"K_Conc{j}" for j in range(1, 12)),
-                                  "K_y1", "K_z1", "K_y2", "K_z2")
-"""Order of the 17 parameters alpha_j (as the project's own ``structModel.K_j``)."""
-BRIDGE_LOWER = np.array([-0.1, -0.1] + [-0.2] * 11 + [-1.0] * 4)
-BRIDGE_UPPER = np.array([0.1, 0.1] + [0.4] * 11 + [10.0] * 4)
-"""The project's bounds on alpha (frame / truss, concrete segments, support springs)."""
+BRIDGE_RULES = (Path(__file__).resolve().parents[2] / "config" / "matrix_models"
+                / "pedestrian_bridge.yaml")
+"""Order of the 17 parameters alpha_j (the project's ``structModel.K_j``) and its bounds."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,7 +58,7 @@ class BridgeData:
     K_j : tuple of 17 (946, 946) scipy.sparse.csr_array
         ``dK / d alpha_j``.
     names : tuple of str
-        Substructure names (:data:`SUBSTRUCTURES`).
+        Substructure names, in the order of :data:`BRIDGE_RULES`.
     lower, upper : (17,) float arrays
         The project's bounds on ``alpha`` (-0.1..0.1 frame / truss, -0.2..0.4 concrete,
         -1..10 support springs).
@@ -124,19 +121,24 @@ def _file(folder: Path, name: str) -> Path:
     return p
 
 
-def load_bridge(folder: str | Path | None = None) -> BridgeData:
-    """Read the bridge model and modes (module docstring).
+def load_bridge(folder: str | Path | None = None, *, rules: str | Path = BRIDGE_RULES
+                ) -> BridgeData:
+    """Read the bridge model and modes (module docstring), parameters as ``rules`` say.
 
     Raises
     ------
     ConfigError
-        A file is missing or lacks a variable.
+        A file is missing or lacks a variable; a rules file without bounds.
     """
     d = Path(folder) if folder is not None else BRIDGE_DIR
+    r = read_matrix_rules(rules)
+    if r.lower is None or r.upper is None:
+        msg = f"{rules}: expected the bridge's bounds (lower, upper)"
+        raise ConfigError(msg)
     mod = mat_arrays(_file(d, _MODEL))
     exp = mat_arrays(_file(d, _MODES))
     try:
-        K_j = tuple(sp.csr_array(np.asarray(mod[k], dtype=float)) for k in SUBSTRUCTURES)
+        K_j = tuple(sp.csr_array(np.asarray(mod[f"K_{k}"], dtype=float)) for k in r.parameters)
         M = sp.csr_array(np.asarray(mod["M0"], dtype=float))
         dofs = np.asarray(mod["measDOFs"], dtype=np.int64).ravel() - 1  # MATLAB 1-based
         lam = np.asarray(exp["lambdaExp"], dtype=float).ravel()
@@ -147,10 +149,8 @@ def load_bridge(folder: str | Path | None = None) -> BridgeData:
         msg = f"{_MODEL} / {_MODES}: missing variable {err}"
         raise ConfigError(msg) from err
     K0 = sp.csr_array(sum(K_j[1:], K_j[0]))  # K(alpha) = sum_j (1 + alpha_j) K_j
-    lower, upper = BRIDGE_LOWER.copy(), BRIDGE_UPPER.copy()
-    return BridgeData(M=M, K0=K0, K_j=K_j, names=tuple(s.removeprefix("K_") for s in
-                                                         SUBSTRUCTURES),
-                      lower=lower, upper=upper, measured_dofs=dofs, lambda_exp=lam,
+    return BridgeData(M=M, K0=K0, K_j=K_j, names=r.parameters,
+                      lower=r.lower, upper=r.upper, measured_dofs=dofs, lambda_exp=lam,
                       std_lambda=slam, psi=psi, std_psi=spsi)
 
 
@@ -175,30 +175,3 @@ def load_bridge_published(folder: str | Path | None = None, formulation: int = 1
                            fval=float(fval[k]),
                            seconds_per_run=float(np.median(np.asarray(r["t"], dtype=float))),
                            formulation=formulation)
-
-
-def load_matrix_model(path: str | Path) -> MatrixModel:
-    """Return a :class:`~modal_twin.models.matrix_model.MatrixModel` of a .mat / .npz file.
-
-    The pedestrian-bridge file (its 17 substructures) gets the parameter order and bounds
-    of :func:`load_bridge` (the project's published bounds).
-
-    Raises
-    ------
-    ConfigError
-        Not a readable ``.mat`` / ``.npz`` file.
-    ModelError, ShapeError
-        See :func:`~modal_twin.models.matrix_model.matrix_model_from_arrays`.
-
-    """
-    p = Path(path)
-    arrays = read_matrix_arrays(p)
-    subs = {f"K_{s.removeprefix('K_')}" for s in SUBSTRUCTURES}
-    bridge = subs <= set(arrays) and "lower" not in arrays
-    order = tuple(s.removeprefix("K_") for s in SUBSTRUCTURES) if bridge else None
-    mm = matrix_model_from_arrays(arrays, str(p), order)
-    if bridge:
-        from dataclasses import replace
-
-        mm = replace(mm, lower=BRIDGE_LOWER.copy(), upper=BRIDGE_UPPER.copy())
-    return mm

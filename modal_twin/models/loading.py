@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from modal_twin.models.effects import MOUNT_LAW, SENSOR_LAWS, EffectSpec
+from modal_twin.models.parameter_info import ParameterInfo
 from modal_twin.models.plant import Plant
 
 __all__ = ["ModelFactory", "load_model", "merge_effects", "split_sensor_effects", "with_effects"]
@@ -54,6 +55,10 @@ class ModelFactory(Protocol):
 
     def parameters(self) -> dict[str, float]:
         """Return the current value of every parameter."""
+        ...
+
+    def parameter_info(self, name: str) -> ParameterInfo:
+        """Kind, place, nominal value and bounds of a parameter (OptionError: unknown)."""
         ...
 
     def attachments(self) -> tuple[str, ...]:

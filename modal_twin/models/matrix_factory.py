@@ -28,11 +28,7 @@ import numpy as np
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.effects import SENSOR_LAWS, EffectSpec
-from modal_twin.models.matrix_model import (
-    MatrixModel,
-    matrix_model_from_arrays,
-    read_matrix_arrays,
-)
+from modal_twin.models.matrix_model import MatrixModel, load_matrix_model
 from modal_twin.models.parameter_info import ParameterInfo
 from modal_twin.models.plant import Plant, with_sensor_effects
 from modal_twin.models.reduced import ReducedSystem
@@ -70,7 +66,7 @@ class MatrixFactory:
                  n_modes: int | None = None, zeta: float = 0.02,
                  model: MatrixModel | None = None) -> None:
         self.structure_file = Path(path)
-        self.mm = model or matrix_model_from_arrays(read_matrix_arrays(path), str(path))
+        self.mm = model or load_matrix_model(path)
         unknown = sorted(set(theta or {}) - set(self.mm.names))
         if unknown:
             msg = (f"{path}: unknown parameters {unknown}; the file's substructures are "

@@ -1,7 +1,7 @@
 """A model given as matrices by the user's own FE tool: M, K, substructures K_j, C, DOF map.
 
-Conventions of the arrays (a ``.mat`` or ``.npz`` file read by
-:func:`modal_twin.io.matfiles.load_matrix_model`, or any mapping of names to arrays):
+Conventions of the arrays (a ``.mat`` or ``.npz`` file read by :func:`load_matrix_model`,
+the one reader of matrix files, or any mapping of names to arrays):
 
 - mass ``M`` (or ``M0``); stiffness ``K`` (or ``K0``); damping ``C`` (optional);
 - substructure stiffnesses ``K_<name>`` (any number; ``K_whole`` is a copy of the total,
@@ -13,7 +13,13 @@ Conventions of the arrays (a ``.mat`` or ``.npz`` file read by
   default ``"0".."n-1"``;
 - ``measDOFs`` / ``measured_dofs``: the DOFs of the sensors (``measDOFs`` is MATLAB's
   1-based; ``measured_dofs`` is 0-based);
-- ``lower`` / ``upper``: bounds of ``theta`` (optional).
+- ``lower`` / ``upper``: bounds of ``theta`` (optional); ``parameter_names``: the order of
+  the ``theta_j`` (optional; what :meth:`MatrixModel.to_arrays` writes).
+
+Rules of a data set that its file does not hold -- the order of its parameters, their
+bounds -- live in a small YAML file beside the user's command (``--rules``;
+``config/matrix_models/pedestrian_bridge.yaml`` is the public pedestrian bridge's), never in
+the reader: :func:`read_matrix_rules`.
 """
 
 from __future__ import annotations
@@ -30,7 +36,15 @@ import scipy.sparse as sp
 from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import ConfigError, ModelError, ShapeError
 
-__all__ = ["MATRIX_SUFFIXES", "MatrixModel", "matrix_model_from_arrays", "read_matrix_arrays"]
+__all__ = [
+    "MATRIX_SUFFIXES",
+    "MatrixModel",
+    "MatrixRules",
+    "load_matrix_model",
+    "matrix_model_from_arrays",
+    "read_matrix_arrays",
+    "read_matrix_rules",
+]
 
 MATRIX_SUFFIXES = (".mat", ".npz")
 """File kinds a matrix model is read from."""
@@ -150,6 +164,14 @@ def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
     M = _square(a[mkey], mkey, None, source)
     n = M.shape[0]
     subs = [k[2:] for k in a if k.startswith("K_") and k not in ("K_whole", "K_j")]
+    written = ([str(v).strip() for v in np.asarray(a["parameter_names"]).ravel()]
+               if "parameter_names" in a else [])
+    if order is None and written and sorted(written) == sorted(subs):
+        order = tuple(written)  # the order the file was written in (to_arrays)
+    if order is not None and sorted(order) != sorted(subs):
+        msg = (f"{source}: expected the parameters {list(order)} as substructures K_<name>, "
+               f"got {sorted(subs, key=_natural)}")
+        raise ShapeError(msg)
     names = tuple(order) if order is not None else tuple(sorted(subs, key=_natural))
     K_j = tuple(_square(a[f"K_{s}"], f"K_{s}", n, source) for s in names)
     kkey = next((k for k in ("K", "K0") if k in a), None)
@@ -193,3 +215,90 @@ def read_matrix_arrays(path: str | Path) -> dict[str, Any]:
         return mat_arrays(p)
     msg = f"{p}: expected a .mat or .npz matrix file, got {p.suffix!r}"
     raise ConfigError(msg)
+
+
+@dataclass(frozen=True, slots=True)
+class MatrixRules:
+    """Rules of a matrix data set its file does not hold (module docstring).
+
+    Attributes
+    ----------
+    parameters : tuple of str
+        Order of the substructure factors ``theta_j`` (the ``<name>`` of ``K_<name>``).
+    lower, upper : (p,) float arrays or None
+        Their bounds.
+    source : str
+    """
+
+    parameters: tuple[str, ...]
+    lower: FloatArray | None
+    upper: FloatArray | None
+    source: str = ""
+
+
+def read_matrix_rules(path: str | Path) -> MatrixRules:
+    """Read a rules file: ``parameters`` (names, in order), ``lower`` and ``upper`` (optional).
+
+    Raises
+    ------
+    ConfigError
+        Unreadable YAML, unknown keys, no parameter names, bounds of another length or with
+        ``lower >= upper``.
+    """
+    from modal_twin.yaml_files import read_yaml
+
+    doc = read_yaml(path, "matrix rules file")
+    src = str(path)
+    bad = sorted(set(doc) - {"parameters", "lower", "upper"})
+    if bad:
+        msg = f"{src}: unknown keys {bad}; valid: ['parameters', 'lower', 'upper']"
+        raise ConfigError(msg)
+    names = doc.get("parameters")
+    if not isinstance(names, list) or not names or len(set(map(str, names))) != len(names):
+        msg = f"{src}: parameters: expected a list of distinct names, got {names!r}"
+        raise ConfigError(msg)
+    if ("lower" in doc) != ("upper" in doc):
+        msg = f"{src}: expected both lower and upper, or neither"
+        raise ConfigError(msg)
+    bounds = []
+    for key in ("lower", "upper"):
+        if key not in doc:
+            continue
+        try:
+            v = np.asarray(doc[key], dtype=float).ravel()
+        except (TypeError, ValueError) as err:
+            msg = f"{src}: {key}: expected {len(names)} numbers, got {doc[key]!r}"
+            raise ConfigError(msg) from err
+        if v.size != len(names) or not np.all(np.isfinite(v)):
+            msg = f"{src}: {key}: expected {len(names)} finite numbers, got {v.size}"
+            raise ConfigError(msg)
+        bounds.append(v)
+    lo, hi = (bounds[0], bounds[1]) if bounds else (None, None)
+    if lo is not None and hi is not None and not np.all(lo < hi):
+        msg = f"{src}: expected lower < upper for every parameter"
+        raise ConfigError(msg)
+    return MatrixRules(tuple(str(n) for n in names), lo, hi, src)
+
+
+def load_matrix_model(path: str | Path, *, rules: str | Path | MatrixRules | None = None
+                      ) -> MatrixModel:
+    """Read a ``.mat`` / ``.npz`` matrix model: the one reader of matrix files.
+
+    ``rules`` (a file, :func:`read_matrix_rules`) give the parameters' order and bounds a
+    data set's file does not hold; its bounds replace any the file has.
+
+    Raises
+    ------
+    ConfigError
+        Not a readable ``.mat`` / ``.npz`` file; a bad rules file.
+    ModelError, ShapeError
+        See :func:`matrix_model_from_arrays`; rules naming other parameters than the file's.
+    """
+    from dataclasses import replace
+
+    arrays = read_matrix_arrays(path)
+    r = rules if isinstance(rules, MatrixRules) or rules is None else read_matrix_rules(rules)
+    mm = matrix_model_from_arrays(arrays, str(path), r.parameters if r is not None else None)
+    if r is not None and r.lower is not None and r.upper is not None:
+        mm = replace(mm, lower=r.lower.copy(), upper=r.upper.copy())
+    return mm

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.device_kind import measured_device
 from modal_twin.diagnosis.fitting import simulate_record
 from modal_twin.diagnosis.pipeline import Diagnosis
 from modal_twin.diagnosis.record import Record
@@ -81,10 +82,11 @@ def force_state_plots(model_file: str | Path, diag: Diagnosis, rec: Record,
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     out: list[Path] = []
+    chans = factory.plant().channels
     for f in diag.fitted[:n]:
         comp = f.effect.component
-        cols = [f"{comp}_d{a}" for a in "xy"], [f"{comp}_f{a}" for a in "xy"]
-        if not all(c in rec.channel_names for c in cols[0] + cols[1]):
+        cols = measured_device(chans, rec, comp)  # by role and place
+        if cols is None:
             continue
         plant = factory.plant([*mv.effects, f.effect])
         fitted = simulate_record(plant, rec.with_channels(cols[1]))

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from modal_twin.diagnosis.effect_kind import Facts
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
 from modal_twin.diagnosis.judge import _flags
@@ -82,16 +83,16 @@ def test_a_single_effect_is_left_as_found(factory: BuildingFactory) -> None:
 
 def test_implausible_added_mass_and_bound_are_flagged() -> None:
     tiny = found("madd_R", 0.26)  # 0.26 kg on a roof of 17 t
-    flags = _flags(tiny, {"madd_R": 0.0}, {"m_R": 17280.0})
+    flags = _flags(tiny, Facts({"madd_R": 0.0, "m_R": 17280.0}))
     assert any("below 1 %" in f for f in flags)
     negative = found("m_F2", 19000.0)
     assert any("cannot be negative" in f
-               for f in _flags(negative, {"m_F2": 19520.0}, {"m_F2": 19520.0}))
+               for f in _flags(negative, Facts({"m_F2": 19520.0})))
     at_bound = FittedEffect(EffectSpec("RB1", "linear", {"k": 1.0}), 1, 1.0, 1.0, 1.0, 0.0, 1,
                             0.0, at_bound=("k",))
-    assert _flags(at_bound, {}, {}) == ("k at its bound",)
+    assert _flags(at_bound, Facts()) == ("k at its bound",)
     plausible = found("madd_R", 2000.0)
-    assert _flags(plausible, {"madd_R": 0.0}, {"m_R": 17280.0}) == ()
+    assert _flags(plausible, Facts({"madd_R": 0.0, "m_R": 17280.0})) == ()
 
 
 def test_parameter_std_marks_only_the_undetermined_ones() -> None:

@@ -188,8 +188,8 @@ def test_law_names_by_family_and_form() -> None:
         "linear", "stick_slip", "regularised_friction", "bilinear", "bilinear_hysteretic",
         "bouc_wen", "cubic", "gap")
     assert law_names(family="friction") == ("stick_slip", "regularised_friction",
-                                            "bouc_wen_esb", "prandtl")
-    assert law_names(family="hardening") == ("cubic",)
+                                            "bilinear_hysteretic", "bouc_wen_esb", "prandtl")
+    assert law_names(family="hardening") == ("bilinear", "cubic")
     assert set(law_names(family="hysteresis")) == {
         "bilinear_hysteretic", "bouc_wen", "bouc_wen_esb", "prandtl"}
 

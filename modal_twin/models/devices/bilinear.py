@@ -28,6 +28,8 @@ from modal_twin.models.devices.base import (
     KIND_BILINEAR_HYSTERETIC,
     Device,
     carry_state,
+    clear_outputs,
+    copy_state,
 )
 
 __all__ = [
@@ -44,11 +46,8 @@ def law_bilinear_elastic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - ji
     """Eq. (9) of [004] (sign-corrected); p = [k, kb, ub, cx, cy, n_dir, y_scale]."""
     ub = p[2]
     nd = int(p[5])
+    clear_outputs(f, Kt, Ct)
     for i in range(2):
-        for j in range(2):
-            Kt[i, j] = 0.0
-            Ct[i, j] = 0.0
-        f[i] = 0.0
         if i >= nd:
             continue
         sc = 1.0 if i == 0 else p[6]  # y stiffnesses are y_scale times x's
@@ -74,13 +73,9 @@ def law_bilinear_hysteretic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover -
     """Kinematic-hardening bilinear; p = [k, kb, ub, cx, cy, n_dir, y_scale]; s[2:4] elastic."""
     ub = p[2]
     nd = int(p[5])
-    for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
-        s_new[ic] = s[ic]
+    copy_state(s, s_new)
+    clear_outputs(f, Kt, Ct)
     for i in range(2):
-        for j in range(2):
-            Kt[i, j] = 0.0
-            Ct[i, j] = 0.0
-        f[i] = 0.0
         if i >= nd:
             continue
         sc = 1.0 if i == 0 else p[6]

@@ -278,22 +278,15 @@ def bw_advance_many(idx, params, states, uv, s_new, tan, work, nsub):  # pragma:
                                    work[3, j], work[0, j], work[1, j])
                 work[4, j] = k1x
                 work[5, j] = k1y
-        for j in range(m):
-            if it < nsub[j]:
-                d = idx[j]
-                k2x, k2y = bw_rate(params[d, 0], params[d, 1], params[d, 2],
-                                   work[2, j] + 0.5 * work[4, j], work[3, j] + 0.5 * work[5, j],
-                                   work[0, j], work[1, j])
-                work[6, j] = k2x
-                work[7, j] = k2y
-        for j in range(m):
-            if it < nsub[j]:
-                d = idx[j]
-                k3x, k3y = bw_rate(params[d, 0], params[d, 1], params[d, 2],
-                                   work[2, j] + 0.5 * work[6, j], work[3, j] + 0.5 * work[7, j],
-                                   work[0, j], work[1, j])
-                work[8, j] = k3x
-                work[9, j] = k3y
+        for r in (4, 6):  # k2 at z + k1 / 2 into rows 6-7, k3 at z + k2 / 2 into rows 8-9
+            for j in range(m):
+                if it < nsub[j]:
+                    d = idx[j]
+                    kx, ky = bw_rate(params[d, 0], params[d, 1], params[d, 2],
+                                     work[2, j] + 0.5 * work[r, j],
+                                     work[3, j] + 0.5 * work[r + 1, j], work[0, j], work[1, j])
+                    work[r + 2, j] = kx
+                    work[r + 3, j] = ky
         for j in range(m):
             if it < nsub[j]:
                 d = idx[j]

@@ -14,7 +14,7 @@ from numba import njit
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError
-from modal_twin.models.devices.base import KIND_CUBIC, Device, carry_state
+from modal_twin.models.devices.base import KIND_CUBIC, Device, carry_state, clear_outputs
 
 __all__ = ["CubicSpring", "law_cubic"]
 
@@ -24,11 +24,8 @@ def law_cubic(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
     """p = [k1, k3, cx, cy, n_dir, m, k1y]."""
     nd = int(p[4])
     m = p[5]
+    clear_outputs(f, Kt, Ct)
     for i in range(2):
-        for j in range(2):
-            Kt[i, j] = 0.0
-            Ct[i, j] = 0.0
-        f[i] = 0.0
         if i >= nd:
             continue
         x = u[i]

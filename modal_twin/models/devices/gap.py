@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from modal_twin.errors import ModelError
-from modal_twin.models.devices.base import KIND_GAP, Device, carry_state
+from modal_twin.models.devices.base import KIND_GAP, Device, carry_state, clear_outputs
 
 __all__ = ["GapSpring", "law_gap"]
 
@@ -30,11 +30,8 @@ def law_gap(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
     d_ref = g if g > 0.0 else 1.0
     c = p[2]
     nd = int(p[3])
+    clear_outputs(f, Kt, Ct)
     for i in range(2):
-        for j in range(2):
-            Kt[i, j] = 0.0
-            Ct[i, j] = 0.0
-        f[i] = 0.0
         if i >= nd:
             continue
         x = u[i]

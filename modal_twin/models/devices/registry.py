@@ -101,7 +101,9 @@ class LawEntry:
     law : callable
         The jitted law function (``law(p, s, u, v, f, Kt, Ct, s_new)``).
     families : tuple of str
-        Families of :data:`FAMILIES` the law represents.
+        Families of :data:`FAMILIES` the law can report in, the one it reports when its
+        parameters do not decide first (the diagnosis's ``device`` kind,
+        :func:`modal_twin.diagnosis.device_kind.family_of`).
     parameters : tuple of str
         Keys of the absolute form (structure files).
     defaults : mapping
@@ -323,11 +325,11 @@ _ENTRIES = (
              {"mu_s": 0.09, "mu_k": 0.06, **_REG_FRICTION},
              build_relative=_rel_regularised_friction),
     LawEntry("bilinear", BilinearElastic, law_bilinear_elastic,
-             ("softening",), ("k", "kb", "ub", "c"), _NOM_C, "Eq. (9) of [004]",
+             ("softening", "hardening"), ("k", "kb", "ub", "c"), _NOM_C, "Eq. (9) of [004]",
              _abs_bilinear(BilinearElastic), ("k", "ratio", "ub"), _BILINEAR,
              aliases=("bilinear_elastic",), build_relative=_rel_bilinear(BilinearElastic)),
     LawEntry("bilinear_hysteretic", BilinearHysteretic,
-             law_bilinear_hysteretic, ("hysteresis",), ("k", "kb", "ub", "c"), _NOM_C,
+             law_bilinear_hysteretic, ("hysteresis", "friction"), ("k", "kb", "ub", "c"), _NOM_C,
              "Eq. (9) of [004], kinematic hardening", _abs_bilinear(BilinearHysteretic),
              ("k", "ratio", "ub"), _BILINEAR,
              build_relative=_rel_bilinear(BilinearHysteretic)),
@@ -335,7 +337,7 @@ _ENTRIES = (
              ("A", "beta", "gamma", "K", "alpha", "c"), _NOM_C, "Eqs. (10), (11b) of [004]",
              _abs_bw_sdp, ("k", "uy", "alpha", "c_factor"), _BOUC_WEN, aliases=("bouc_wen_sdp",),
              build_relative=_rel_bouc_wen),
-    LawEntry("bouc_wen_esb", BoucWenESB, law_bw_esb, ("hysteresis", "friction"),
+    LawEntry("bouc_wen_esb", BoucWenESB, law_bw_esb, ("friction", "hysteresis"),
              ("A", "beta", "gamma", "c", "W", "mu0", "mu1", "mu2", "S"),
              {"c": "nominal c", "W": "auto (carried weight)", "mu0": 0.0606, "mu1": -0.5883,
               "mu2": 0.1148, "S": 0.1018}, "Eqs. (10), (11a) of [004]", _abs_bw_esb),

@@ -1,0 +1,60 @@
+"""``modal-twin launch SCENARIO``: run a scenario's nodes (and record them)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+__all__ = ["register", "run", "scenario_path"]
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def scenario_path(name: str) -> Path:
+    """Find a scenario file by path, or by name in ``config/scenarios`` (source or installed)."""
+    p = Path(name)
+    if p.is_file():
+        return p
+    for base in (ROOT / "config" / "scenarios", Path(sys.prefix) / "share" / "modal_twin"
+                 / "config" / "scenarios"):
+        for cand in (base / name, base / f"{name}.yaml"):
+            if cand.is_file():
+                return cand
+    return p
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``launch`` parser."""
+    la = sub.add_parser("launch", help="run a scenario's nodes")
+    la.add_argument("scenario", help="scenario YAML (path or name in config/scenarios)")
+    la.add_argument("--domain-id", type=int, default=None)
+    la.add_argument("--run-dir", type=Path, default=None)
+    la.add_argument("--duration", type=float, default=None, help="override launch.duration_s")
+    la.add_argument("--no-record", action="store_true")
+    la.add_argument("--allow-external", action="store_true",
+                    help="let the scenario start executables that are not this package's nodes")
+    la.add_argument("--network", action="store_true",
+                    help="discover nodes on the network, not only this host (see README)")
+    la.set_defaults(func=run)
+
+
+def run(a: argparse.Namespace) -> int:
+    """Launch the scenario; the launcher's exit code."""
+    from modal_twin.launch import Launcher
+    from modal_twin.scenario import load_scenario
+
+    sc = load_scenario(scenario_path(a.scenario), allow_external=a.allow_external)
+    if a.network:
+        from modal_twin.io.ros import dds_env
+
+        dds_env(os.environ, network=True)
+    if a.duration is not None:
+        from dataclasses import replace
+
+        sc = replace(sc, duration_s=a.duration)
+    res = Launcher(sc, run_dir=a.run_dir, domain_id=a.domain_id, record=not a.no_record).run()
+    if res.bag is not None and res.exit_code == 0:
+        print(f"launch: bag {res.bag}")
+    return res.exit_code

@@ -1,0 +1,260 @@
+"""Effect kind ``device``: a device law of the registry placed at a device site.
+
+Screened where a site's drift and force are measured (channels with the roles
+``device_drift`` / ``device_force`` at that location, :mod:`modal_twin.channels`): the
+evidence (:mod:`.evidence`) names families, :data:`FAMILY_LAWS` the laws tried for each,
+and the force-state screening (:mod:`.screening`, Eq. (20) of [003]) their starts; each law
+is then fitted by simulation (:func:`.fitting.fit_effect`). Its families are the device
+registry's (:data:`modal_twin.models.devices.registry.FAMILIES`); a law whose registry
+entry lists several reports the one its fitted parameters show (:func:`family_of`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+from modal_twin.channels import ChannelSpec, device_channels
+from modal_twin.diagnosis.effect_kind import Facts, Job, Piece, PlacedEffect, Round
+from modal_twin.diagnosis.evidence import DeviceEvidence, device_evidence
+from modal_twin.diagnosis.fitting import FittedEffect, _transform, fit_effect
+from modal_twin.diagnosis.record import Record
+from modal_twin.diagnosis.screening import ScreenedCandidate, parameter_grid, screen_components
+from modal_twin.errors import ModalTwinError, OptionError
+from modal_twin.models.devices.registry import ALIASES, FAMILIES, LAWS, law_entry
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import ModelFactory
+
+__all__ = ["DEVICE", "FAMILY_LAWS", "DeviceCandidate", "DeviceKind", "family_of",
+           "measured_device"]
+
+# device laws that can express each family at a component, best first (a law may express
+# a family beside its own: stick-slip also makes a loop, a gap also hardens)
+FAMILY_LAWS: Mapping[str, tuple[str, ...]] = {
+    "friction": ("stick_slip", "regularised_friction", "bilinear_hysteretic"),
+    "hysteresis": ("bouc_wen", "bilinear_hysteretic", "stick_slip"),
+    "softening": ("bilinear", "cubic"),
+    "hardening": ("cubic", "bilinear", "gap"),
+    "gap": ("gap", "cubic"),
+    "stiffness": ("linear",),
+    "damping": ("linear",),
+}
+_LINEAR = ("stiffness", "damping")  # what the nominal law already has
+
+
+@dataclass(frozen=True, slots=True)
+class DeviceCandidate:
+    """Return the evidence at one site, the laws it names and their screened starts."""
+
+    evidence: DeviceEvidence
+    laws: tuple[str, ...]
+    screened: tuple[ScreenedCandidate, ...]
+
+
+def measured_device(channels: Iterable[ChannelSpec], rec: Record, component: str
+                    ) -> tuple[list[str], list[str]] | None:
+    """Names of the drift and force channels (x, y) of ``component`` measured in ``rec``.
+
+    By role and location (:func:`modal_twin.channels.device_channels`); None unless both
+    directions of both are in the record.
+    """
+    chans = tuple(channels)
+    drift = device_channels(chans, component, "device_drift")
+    force = device_channels(chans, component, "device_force")
+    if len(drift) == 2 and len(force) == 2 and all(
+            c in rec.channel_names for c in drift + force):
+        return drift, force
+    return None
+
+
+def _bilinear_hysteretic(p: Mapping[str, float], facts: Facts) -> str:
+    if facts.evidence_family in ("friction", "hysteresis"):
+        return facts.evidence_family  # the law can be either: the evidence decides
+    if facts.drift_scale and float(p.get("ub", np.inf)) < 0.05 * facts.drift_scale:
+        return "friction"
+    return "hysteresis"
+
+
+def _linear(p: Mapping[str, float], facts: Facts) -> str:
+    k, c = facts.nominal_k, facts.nominal_c
+    dk = abs(float(p.get("k", k or 0.0)) / (k or 1.0) - 1.0) if k else 0.0
+    dc = abs(float(p.get("c", c or 0.0)) / (c or 1.0) - 1.0) if c else 0.0
+    return "damping" if dc > dk else "stiffness"
+
+
+# laws whose registry entry lists several families: which one the fitted parameters show
+_FAMILY_RULES: Mapping[str, Callable[[Mapping[str, float], Facts], str]] = {
+    "bilinear_hysteretic": _bilinear_hysteretic,
+    "bilinear": lambda p, f: "softening" if float(p.get("ratio", 0.75)) < 1.0 else "hardening",
+    "cubic": lambda p, f: "hardening" if float(p.get("k3", 0.0)) > 0 else "softening",
+    "linear": _linear,
+}
+
+
+def family_of(effect: EffectSpec, facts: Facts | None = None) -> str:
+    """Return the family of what a fitted device law does.
+
+    A bilinear law with a post-yield ratio below 1 softens, above 1 hardens; a cubic one
+    hardens for ``k3 > 0``; a linear one changes the stiffness or the damping, whichever
+    moved more from the nominal. A bilinear hysteretic law whose elastic range ``ub`` is
+    below 5 % of the drift it sees (``facts.drift_scale``) is a slider that sticks and
+    slips beside a spring (friction), otherwise it yields (hysteresis), unless the evidence
+    at its place named one of the two. Any other law reports the first family of its
+    registry entry.
+    """
+    rule = _FAMILY_RULES.get(effect.law)
+    if rule is not None:
+        return rule(effect.params, facts or Facts())
+    return law_entry(effect.law).families[0]
+
+
+class DeviceKind(PlacedEffect):
+    """Return the ``device`` effect kind (module docstring)."""
+
+    name = "device"
+    families: tuple[str, ...] = FAMILIES
+
+    def owns(self, law: str) -> bool:
+        """Accept a law or alias of the device registry."""
+        return law in LAWS or law in ALIASES
+
+    def laws(self) -> tuple[str, ...]:
+        """Return the device registry's laws."""
+        return tuple(LAWS)
+
+    def screen(self, rnd: Round) -> tuple[DeviceCandidate, ...]:
+        """Evidence at every measured site without an effect; the laws it names, screened.
+
+        Sets ``rnd.evidence_family`` (site -> the family its evidence names first).
+        """
+        rnd.say("gathering evidence at the devices (force-state maps, cycles)")
+        factory, train = rnd.factory, rnd.train
+        carried = {e.component for e in factory.base_effects}
+        tr_noise = dict(zip(train.channel_names, rnd.noise[0], strict=True))
+        out: list[DeviceCandidate] = []
+        for comp in (s for s in factory.sites if s not in carried):
+            cols = measured_device(rnd.nominal.channels, train, comp)
+            if cols is None:
+                continue
+            u, f = train.channels(cols[0]), train.channels(cols[1])
+            fv = [(tr_noise[n] * float(np.std(f[i]))) ** 2 for i, n in enumerate(cols[1])]
+            spec = factory.sites[comp]
+            ev = device_evidence(comp, u, f, spec.k, spec.c, train.fs_hz, noise_var=fv)
+            rnd.evidence_family[comp] = _top_family(ev)
+            laws = _laws_named(ev, rnd.n_families)
+            scr = screen_components({comp: u}, {comp: f}, {comp: spec},
+                                    {comp: factory.weight(comp)}, train.fs_hz,
+                                    laws=tuple(x for x in laws if x != "linear")) if laws else []
+            out.append(DeviceCandidate(ev, laws, tuple(scr)))
+        if not out and factory.sites:
+            rnd.skipped.append("evidence: no component has measured drift and force")
+        return tuple(out)
+
+    def jobs(self, rnd: Round, candidates: tuple[Any, ...]) -> list[Job]:
+        """Return a fit of every law named at a site (linear from the nominal, others screened)."""
+        jobs: list[Job] = []
+        for cand in candidates:
+            comp = cand.evidence.component
+            starts = {c.law: c.params for c in cand.screened}
+            for law in cand.laws:
+                if law == "linear" or law in starts:
+                    jobs.append((f"{law} at {comp}", partial(
+                        fit_effect, rnd.factory, comp, law, starts.get(law, {}), rnd.fit_on,
+                        rnd.test)))
+        return jobs
+
+    def report(self, candidates: tuple[Any, ...]) -> list[str]:
+        """Return the evidence has its own section of the report: no lines here."""
+        return []
+
+    def facts(self, rnd: Round, effect: EffectSpec) -> Facts:
+        """Return the site's nominal k and c, its measured drift scale, the evidence there."""
+        spec = rnd.factory.sites.get(effect.component)
+        cols = measured_device(rnd.nominal.channels, rnd.train, effect.component)
+        drift = (float(np.quantile(np.abs(rnd.train.channels(cols[0])), 0.99))
+                 if cols is not None else None)
+        return Facts(rnd.factory.parameters(),
+                     float(np.mean(spec.k)) if spec is not None else None,
+                     float(np.mean(spec.c)) if spec is not None else None, drift,
+                     rnd.evidence_family.get(effect.component, ""))
+
+    def family(self, effect: EffectSpec, facts: Facts) -> str:
+        """:func:`family_of`."""
+        return family_of(effect, facts)
+
+    def start(self, factory: ModelFactory, component: str, law: str, train: Record
+              ) -> dict[str, float]:
+        """Return the middle of the law's grid, scaled to the measured drift and force."""
+        if component not in factory.sites:
+            msg = f"unknown component {component!r}; components: {sorted(factory.sites)}"
+            raise OptionError(msg)
+        chans = factory.plant().channels
+        cols = measured_device(chans, train, component)
+        if cols is None:
+            want = [*device_channels(chans, component, "device_drift"),
+                    *device_channels(chans, component, "device_force")]
+            missing = [c for c in want if c not in train.channel_names] or [
+                f"the drift and force of {component} (x, y)"]
+            msg = f"{law} at {component}: the training record lacks {missing}"
+            raise OptionError(msg)
+        u, f = train.channels(cols[0]), train.channels(cols[1])
+        grid = parameter_grid(law, float(np.abs(u).max()), float(np.abs(f).max()),
+                              float(np.mean(factory.sites[component].k)),
+                              factory.weight(component))
+        return grid[len(grid) // 2]
+
+    def fit(self, factory: ModelFactory, component: str, law: str, start: dict[str, float],
+            train: Record, test: Record) -> FittedEffect:
+        """:func:`.fitting.fit_effect`."""
+        return fit_effect(factory, component, law, start, train, test)
+
+    def joint(self, factory: ModelFactory, effect: EffectSpec) -> Piece | None:
+        """Return the law's bounded transform (:func:`.fitting._transform`) from its values."""
+        spec = factory.sites.get(effect.component)
+        if spec is None:
+            return None
+        start = dict(effect.params)
+        if effect.law == "linear":
+            start.setdefault("c0", float(np.mean(spec.c)) or 1.0)
+        try:
+            names, to_p, to_x, lo_x, hi_x = _transform(effect.law, start,
+                                                       float(np.mean(spec.k)))
+        except ModalTwinError:
+            return None
+        x0 = np.clip(to_x(start), lo_x + 1e-9, hi_x - 1e-9)
+        keep_all = effect.law == "linear"
+
+        def params(x: np.ndarray) -> dict[str, float]:
+            return {n: v for n, v in to_p(x).items() if keep_all or n in names}
+
+        return len(names), params, x0, lo_x, hi_x
+
+
+def _laws_named(ev: DeviceEvidence, n_families: int) -> tuple[str, ...]:
+    """Every law of the family the evidence names first, the first law of the next ones."""
+    sc = ev.family_scores()
+    fams = [g for g in sorted(sc, key=lambda g: -sc[g]) if sc[g] > 0]
+    nonlinear = [g for g in fams if g not in _LINEAR]
+    fams = (nonlinear or fams)[:n_families]
+    first = list(FAMILY_LAWS.get(fams[0], ())) if fams else []
+    return tuple(dict.fromkeys(first + [x for g in fams[1:]
+                                        for x in FAMILY_LAWS.get(g, ())[:1]]))
+
+
+def _top_family(e: DeviceEvidence) -> str:
+    sc = e.family_scores()
+    nonlinear = {g: s for g, s in sc.items() if g not in _LINEAR and s > 0}
+    pick = nonlinear or {g: s for g, s in sc.items() if s > 0}
+    return max(pick, key=lambda g: pick[g]) if pick else "nothing"
+
+
+def evidence_of(candidates: Sequence[DeviceCandidate]) -> tuple[DeviceEvidence, ...]:
+    """Return the evidence of every screened site."""
+    return tuple(c.evidence for c in candidates)
+
+
+DEVICE = DeviceKind()
