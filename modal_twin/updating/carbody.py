@@ -43,7 +43,6 @@ from scipy.stats import qmc, spearmanr
 from modal_twin._types import ComplexArray, FloatArray, IntArray
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.executors import ExecutorSpec, make_executor, mapper
-from modal_twin.identification.lsfd import lsfd_modes
 from modal_twin.identification.modal_model import ModalModel
 from modal_twin.identification.polymax import polymax
 from modal_twin.identification.stabilization import select_modes, stabilization_diagram
@@ -61,6 +60,7 @@ __all__ = [
     "driving_points",
     "identify_test_modes",
     "pair_test_modes",
+    "reciprocity",
     "screen_zones",
     "sensor_layout",
     "update_zones",
@@ -448,22 +448,64 @@ def update_zones(model: ZoneModel, f_test: FloatArray, phi_test: ComplexArray,
     return CarbodyUpdate(tuple(names), x, float(res.fun), int(res.nfev), f0, f1, m0, m1, p1)
 
 
-def identify_test_modes(H: ComplexArray, f_hz: FloatArray, band_hz: tuple[float, float], *,
-                        max_order: int = 24) -> ModalModel:
-    """PolyMAX poles, stabilization, then LSFD shapes (Eqs. (1)-(5) of [002]).
+def identify_test_modes(H: ComplexArray, f_hz: FloatArray,
+                        bands_hz: Sequence[tuple[float, float]], *,
+                        max_order: int = 32, min_support: int = 4) -> ModalModel:
+    """PolyMAX poles, stabilization, then LSFD shapes (Eqs. (1)-(5) of [002]), band by band.
+
+    Each band is analysed on its own (poles, then LSFD with lower and upper residuals, as
+    [002] Sec. 3.2 sets the estimation band's ends); the modes of all bands are returned
+    in ascending frequency.
 
     Parameters
     ----------
     H : (n_out, n_in, n_f) complex array
         Measured FRFs.
     f_hz : (n_f,) float array
-    band_hz : (float, float)
-        Analysis band.
+    bands_hz : sequence of (float, float)
+        Analysis bands.
     max_order : int
         Highest polynomial order (``max_order * n_in`` poles).
+    min_support : int
+        Stable poles a mode needs in the diagram (stability: 1 % in frequency, 10 % in
+        damping, MAC 0.9 between consecutive orders; a weakly excited lateral mode is
+        stable over fewer orders than the default rule asks).
     """
-    sweep = polymax(H, f_hz, orders=list(range(4, max_order + 1)), band_hz=band_hz,
-                    shapes="numerator")
-    sel = select_modes(stabilization_diagram(sweep), f_range_hz=band_hz)
-    fb = (f_hz >= band_hz[0]) & (f_hz <= band_hz[1])
-    return lsfd_modes(sel, H[..., fb], f_hz[fb])
+    parts: list[ModalModel] = []
+    for band in bands_hz:
+        sweep = polymax(H, f_hz, orders=list(range(4, max_order + 1)), band_hz=band)
+        diagram = stabilization_diagram(sweep, rel_tol_zeta=0.1, mac_min=0.9)
+        parts.append(select_modes(diagram, f_range_hz=band, min_support=min_support))
+    o = np.argsort(np.concatenate([p.f_hz for p in parts]))
+
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([getattr(p, name) for p in parts], axis=-1)[..., o]
+
+    return ModalModel(f_hz=cat("f_hz"), zeta=cat("zeta"), shapes=cat("shapes"),
+                      std_f_hz=cat("std_f_hz"), std_zeta=cat("std_zeta"), method="polymax",
+                      order=max(p.order for p in parts), mode_orders=cat("mode_orders"),
+                      n_support=cat("n_support"))
+
+
+def reciprocity(H_ij: ComplexArray, H_ji: ComplexArray) -> tuple[float, float]:
+    """Reciprocity of two driving points ([002] Sec. 3.2, Fig. 7c).
+
+    Returns
+    -------
+    rel_diff : float
+        ``||H_ij - H_ji|| / ||H_ij||`` over the lines given.
+    frac : float
+        Frequency response assurance criterion ``|H_ij^H H_ji|^2 / (|H_ij|^2 |H_ji|^2)``
+        (1 for identical shapes of the two FRFs).
+    """
+    a = np.asarray(H_ij, dtype=complex).ravel()
+    b = np.asarray(H_ji, dtype=complex).ravel()
+    if a.shape != b.shape or a.size == 0:
+        msg = f"H_ij, H_ji: expected the same non-empty shape, got {a.shape} and {b.shape}"
+        raise ShapeError(msg)
+    na, nb = float(np.vdot(a, a).real), float(np.vdot(b, b).real)
+    if na == 0.0 or nb == 0.0:
+        msg = "H_ij, H_ji: expected non-zero FRFs"
+        raise ShapeError(msg)
+    frac = abs(np.vdot(a, b)) ** 2 / (na * nb)
+    return float(np.linalg.norm(a - b) / math.sqrt(na)), float(frac)
