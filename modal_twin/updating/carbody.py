@@ -193,10 +193,11 @@ class ZoneModel:
             pts += list(qmc.scale(qmc.LatinHypercube(d=len(nm), seed=seed).random(n_points),
                                   lower, upper))
         cols = []
+        rng = np.random.default_rng(seed)  # ARPACK start vectors: the same basis every run
         for x in pts:
             K, M = _full(par.K0, par.M0, dK, dM, x)
             _, Phi = spla.eigsh(sp.csc_array(K), k=n_modes, M=sp.csc_array(M), sigma=_SIGMA,
-                                which="LM")
+                                which="LM", v0=rng.standard_normal(K.shape[0]))
             cols.append(Phi)
         U, s, _ = np.linalg.svd(np.hstack(cols), full_matrices=False)
         V = U[:, s > 1e-10 * s[0]]
@@ -240,7 +241,8 @@ class ZoneModel:
             full[i] = par.theta0[i] * xs[j]
         K, M = par.K(full), par.M(full)
         lam, Phi = spla.eigsh(sp.csc_array(K), k=N_RIGID + n_modes, M=sp.csc_array(M),
-                              sigma=_SIGMA, which="LM")
+                              sigma=_SIGMA, which="LM",
+                              v0=np.random.default_rng(0).standard_normal(K.shape[0]))
         o = np.argsort(lam)[N_RIGID:]
         return np.sqrt(np.abs(lam[o])) / (2.0 * math.pi), Phi[:, o][self.sensors]
 
