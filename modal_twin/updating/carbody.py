@@ -285,12 +285,9 @@ class _Features:
         return x
 
     def __call__(self, xs: FloatArray) -> FloatArray:
-        f, phi = self.model.reduced_modes(self.full(xs))
-        p = pair_test_modes(self.f_test, self.phi_test, f, phi)
-        fp = np.full(self.f_test.size, np.nan)
-        ok = p.fem_index >= 0
-        fp[ok] = f[p.fem_index[ok]]
-        return np.concatenate([fp, p.mac])
+        fp, mac_p, _ = _paired(self.f_test, self.phi_test,
+                               *self.model.reduced_modes(self.full(xs)))
+        return np.concatenate([fp, mac_p])
 
 
 @dataclass(frozen=True, slots=True)
@@ -397,9 +394,9 @@ class CarbodyUpdate:
     pairing_after: ModePairing
 
 
-def _paired(model: ZoneModel, x: FloatArray, f_test: FloatArray, phi_test: ComplexArray
+def _paired(f_test: FloatArray, phi_test: ComplexArray, f: FloatArray, phi: FloatArray
             ) -> tuple[FloatArray, FloatArray, ModePairing]:
-    f, phi = model.modes(x)
+    """Paired model frequencies (NaN where unpaired), MACs and the pairing."""
     p = pair_test_modes(f_test, phi_test, f, phi)
     fp = np.full(f_test.size, np.nan)
     ok = p.fem_index >= 0
@@ -445,8 +442,8 @@ def update_zones(model: ZoneModel, f_test: FloatArray, phi_test: ComplexArray,
             workers=mapper(ex), updating="deferred", polish=False, tol=1e-8,
             init="latinhypercube", x0=np.ones(idx.size))
     x = feat.full(np.asarray(res.x))
-    f0, m0, _ = _paired(model, np.ones(len(model.names)), f_t, phi_test)
-    f1, m1, p1 = _paired(model, x, f_t, phi_test)
+    f0, m0, _ = _paired(f_t, phi_test, *model.modes(np.ones(len(model.names))))
+    f1, m1, p1 = _paired(f_t, phi_test, *model.modes(x))
     return CarbodyUpdate(tuple(names), x, float(res.fun), int(res.nfev), f0, f1, m0, m1, p1)
 
 
@@ -467,7 +464,8 @@ def identify_test_modes(H: ComplexArray, f_hz: FloatArray,
     bands_hz : sequence of (float, float)
         Analysis bands.
     max_order : int
-        Highest polynomial order (``max_order * n_in`` poles).
+        Highest polynomial order (``max_order * n_in`` poles; lower in a band with fewer
+        than ``2 max_order + 2`` lines).
     min_support : int
         Stable poles a mode needs in the diagram (stability: 1 % in frequency, 10 % in
         damping, MAC 0.9 between consecutive orders; a weakly excited lateral mode is
@@ -475,7 +473,12 @@ def identify_test_modes(H: ComplexArray, f_hz: FloatArray,
     """
     parts: list[ModalModel] = []
     for band in bands_hz:
-        sweep = polymax(H, f_hz, orders=list(range(4, max_order + 1)), band_hz=band)
+        n_lines = int(np.count_nonzero((f_hz >= band[0]) & (f_hz <= band[1]) & (f_hz > 0)))
+        top = min(max_order, (n_lines - 2) // 2)  # PolyMAX needs 2 p + 2 lines
+        if top < 6:
+            msg = f"bands_hz: band {band} has {n_lines} lines, expected at least 14"
+            raise OptionError(msg)
+        sweep = polymax(H, f_hz, orders=list(range(4, top + 1)), band_hz=band)
         diagram = stabilization_diagram(sweep, rel_tol_zeta=0.1, mac_min=0.9)
         parts.append(select_modes(diagram, f_range_hz=band, min_support=min_support))
     o = np.argsort(np.concatenate([p.f_hz for p in parts]))
