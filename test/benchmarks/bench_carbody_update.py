@@ -99,6 +99,10 @@ def main() -> None:
         zip(ident.f_hz, ident.zeta, q, strict=True)))
     print(f"test modes: {len(keep)}; AutoMAC largest off-diagonal {off:.3f} ([002]: < 0.1); "
           f"MPC min {float(q[keep].min()):.3f} ([002]: > 0.9)")
+    print("AutoMAC of the test modes ([002] Eq. (6), Fig. 7a):")
+    for row in am:
+        print("  " + " ".join(f"{v:5.2f}" for v in row))
+    print("MPC ([002] Eqs. (7)-(9), Fig. 7b): " + " ".join(f"{v:.3f}" for v in q[keep]))
     print(f"reciprocity H_12 vs H_21 (5-25 Hz): relative difference {rel:.4f}, FRAC {frac:.5f}")
 
     # 3. screening

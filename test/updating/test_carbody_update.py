@@ -111,6 +111,9 @@ def test_screening_and_search_recover_the_zone_factors(setup: dict) -> None:
     sc = screen_zones(m, setup["f"], setup["phi"], n_samples=80)
     assert {"E_side_wall", "E_underframe"} <= set(sc.selected)
     assert sc.kept.sum() > 40
+    macs = sc.features[:, setup["f"].size:]
+    assert np.all(macs[sc.kept] >= 0.5)  # [002] Sec. 4.1: samples with MAC < 0.5 dropped
+    assert not np.any(np.all(np.nan_to_num(macs[~sc.kept]) >= 0.5, axis=1))
     up = update_zones(m, setup["f"], setup["phi"], ("E_side_wall", "E_underframe"),
                       maxiter=12, popsize=8)
     fac = dict(zip(m.names, up.factors, strict=True))
@@ -130,3 +133,12 @@ def test_bad_options_are_refused(setup: dict) -> None:
         screen_zones(m, setup["f"], setup["phi"], n_samples=3)
     with pytest.raises(ShapeError):
         m.reduced_modes(np.ones(2))
+
+
+def test_search_is_the_same_on_a_process_pool(setup: dict) -> None:
+    m: ZoneModel = setup["model"]
+    a = update_zones(m, setup["f"], setup["phi"], ("E_side_wall",), maxiter=2, popsize=5)
+    b = update_zones(m, setup["f"], setup["phi"], ("E_side_wall",), maxiter=2, popsize=5,
+                     executor=2)
+    np.testing.assert_array_equal(a.factors, b.factors)
+    assert a.nfev == b.nfev
