@@ -48,6 +48,7 @@ from modal_twin.identification.polymax import polymax
 from modal_twin.identification.stabilization import select_modes, stabilization_diagram
 from modal_twin.models.carbody3d import CarbodyFE
 from modal_twin.models.fe import NodeId
+from modal_twin.models.fe.parametric import ParametricMatrices
 from modal_twin.updating.matching import ModePairing, match_modes
 from modal_twin.updating.objectives import weighted_frequency_mac_cost
 from modal_twin.updating.screening import lhs_spearman
@@ -183,6 +184,7 @@ class ZoneModel:
         par = car.asm.parametric
         nm = tuple(n for n in par.names if n.startswith(("E_", "rho_"))) if names is None \
             else tuple(names)
+        _check_bounds(lower, upper)
         idx = [par.index(n) for n in nm]
         scaled = [par.theta0[i] * par.derivatives[i] for i in idx]
         kinds = [par.kinds[i] for i in idx]
@@ -195,7 +197,8 @@ class ZoneModel:
         cols = []
         rng = np.random.default_rng(seed)  # ARPACK start vectors: the same basis every run
         for x in pts:
-            K, M = _full(par.K0, par.M0, dK, dM, x)
+            th = _theta(par, nm, x)
+            K, M = par.K(th), par.M(th)
             _, Phi = spla.eigsh(sp.csc_array(K), k=n_modes, M=sp.csc_array(M), sigma=_SIGMA,
                                 which="LM", v0=rng.standard_normal(K.shape[0]))
             cols.append(Phi)
@@ -234,11 +237,7 @@ class ZoneModel:
     def modes(self, x: FloatArray, n_modes: int = 14) -> tuple[FloatArray, FloatArray]:
         """Flexible frequencies (Hz) and shapes at the sensors, full sparse model."""
         par = self.car.asm.parametric
-        xs = self._check(x)
-        full = par.theta0.copy()
-        for j, n in enumerate(self.names):
-            i = par.index(n)
-            full[i] = par.theta0[i] * xs[j]
+        full = _theta(par, self.names, self._check(x))
         K, M = par.K(full), par.M(full)
         lam, Phi = spla.eigsh(sp.csc_array(K), k=N_RIGID + n_modes, M=sp.csc_array(M),
                               sigma=_SIGMA, which="LM",
@@ -247,15 +246,18 @@ class ZoneModel:
         return np.sqrt(np.abs(lam[o])) / (2.0 * math.pi), Phi[:, o][self.sensors]
 
 
-def _full(K0: sp.csr_array, M0: sp.csr_array, dK: list[sp.csr_array | None],
-          dM: list[sp.csr_array | None], x: FloatArray) -> tuple[sp.csr_array, sp.csr_array]:
-    K, M = K0.copy(), M0.copy()
-    for j, d in enumerate(np.asarray(x) - 1.0):
-        if dK[j] is not None:
-            K = K + d * dK[j]
-        if dM[j] is not None:
-            M = M + d * dM[j]
-    return sp.csr_array(K), sp.csr_array(M)
+def _theta(par: ParametricMatrices, names: Sequence[str], x: FloatArray) -> FloatArray:
+    """Full parameter vector with ``names`` at ``x`` times their nominal values."""
+    out = par.theta0.copy()
+    for n, v in zip(names, x, strict=True):
+        out[par.index(n)] *= v
+    return out
+
+
+def _check_bounds(lower: float, upper: float) -> None:
+    if not (math.isfinite(lower) and math.isfinite(upper) and 0.0 < lower < 1.0 < upper):
+        msg = f"lower, upper: expected 0 < lower < 1 < upper, got {lower!r}, {upper!r}"
+        raise OptionError(msg)
 
 
 def pair_test_modes(f_test: FloatArray, phi_test: ComplexArray, f_fem: FloatArray,
@@ -342,6 +344,7 @@ def screen_zones(model: ZoneModel, f_test: FloatArray, phi_test: ComplexArray, *
     below ``mac_min`` (or an unpaired mode) are dropped; Eq. (10) of [002] is evaluated on
     the rest; parameters with ``|r| >= r_min`` for some frequency or MAC are selected.
     """
+    _check_bounds(lower, upper)
     if n_samples < 10:
         msg = f"n_samples: expected >= 10, got {n_samples}"
         raise OptionError(msg)
@@ -428,8 +431,13 @@ def update_zones(model: ZoneModel, f_test: FloatArray, phi_test: ComplexArray,
     executor : ExecutorSpec
         Where the population is evaluated (:func:`modal_twin.executors.make_executor`).
     """
+    _check_bounds(lower, upper)
     if not names:
         msg = "names: expected at least one parameter to update, got none"
+        raise OptionError(msg)
+    unknown = [n for n in names if n not in model.names]
+    if unknown:
+        msg = f"names: expected parameters of the model {list(model.names)}, got {unknown}"
         raise OptionError(msg)
     idx = np.array([model.names.index(n) for n in names], dtype=np.int64)
     f_t = np.asarray(f_test, dtype=float)

@@ -131,8 +131,14 @@ def test_bad_options_are_refused(setup: dict) -> None:
         update_zones(m, setup["f"], setup["phi"], ())
     with pytest.raises(OptionError):
         screen_zones(m, setup["f"], setup["phi"], n_samples=3)
+    with pytest.raises(OptionError):
+        update_zones(m, setup["f"], setup["phi"], ("E_roof",), lower=1.1, upper=1.5)
+    with pytest.raises(OptionError):
+        update_zones(m, setup["f"], setup["phi"], ("E_nowhere",))
     with pytest.raises(ShapeError):
         m.reduced_modes(np.ones(2))
+    with pytest.raises(ShapeError):
+        m.modes(np.full(len(m.names), -1.0))
 
 
 def test_search_is_the_same_on_a_process_pool(setup: dict) -> None:
