@@ -78,6 +78,7 @@ __all__ = [
     "build_vehicle",
     "equipment_mounted",
     "load_vehicle",
+    "rigid_mode_count",
     "theta_names",
     "vehicle_info",
 ]
@@ -150,6 +151,42 @@ def _node_positions(spec: VehicleSpec) -> FloatArray:
     return np.unique(np.concatenate([grid, extra]))
 
 
+def rigid_mode_count(asm: FEAssembly) -> int:
+    """Return the number of rigid-body modes of an assembled structure (its constraints).
+
+    The rigid-body motions (:meth:`FEAssembly.rigid_body_modes`) the supports and ties
+    leave free are the combinations of the six that vanish on every fixed DOF
+    (``T R_free = R_full``) and that K does not load (its null space; a grounded spring
+    softer than 1e-9 of K's largest term would pass); their count is the rank of their
+    rigid-body mass ``R' M R``. A mesh refinement leaves it unchanged (the free-free
+    carbody: 2, bounce and pitch), where a threshold relative to the largest eigenvalue
+    moves with the shortest element.
+
+    Parameters
+    ----------
+    asm : FEAssembly
+
+    Returns
+    -------
+    int
+    """
+    R_full = asm.rigid_body_modes(full=True)
+    R = R_full[asm.free_dofs]
+    # combinations of the six that the constraints allow: zero on every fixed DOF
+    A = sla.null_space(np.asarray(asm.T @ R) - R_full, rcond=1e-10)
+    R = R @ A
+    if R.shape[1] == 0:
+        return 0
+    # ... and that K does not load (to round-off of its largest term)
+    k_scale = float(abs(asm.K).max())
+    R = R[:, np.abs(asm.K @ R).max(axis=0) <= 1e-9 * k_scale * np.abs(R).max(axis=0)]
+    if R.shape[1] == 0:
+        return 0
+    Mr = R.T @ (asm.M @ R)
+    ev = np.linalg.eigvalsh(0.5 * (Mr + Mr.T))
+    return int(np.count_nonzero(ev > 1e-9 * ev.max()))
+
+
 def build_carbody(spec: VehicleSpec, *, cutoff_hz: float | None = None) -> Carbody:
     """Assemble the FE carbody beam and reduce it by Craig-Bampton (module docstring).
 
@@ -188,7 +225,9 @@ def build_carbody(spec: VehicleSpec, *, cutoff_hz: float | None = None) -> Carbo
     Kd, Md = asm.K.toarray(), asm.M.toarray()
     lam, V = sla.eigh(Kd, Md)
     lam = np.clip(lam, 0.0, None)
-    flex = lam > 1e-8 * lam.max()  # the two rigid-body modes get no damping
+    # the rigid-body modes (bounce and pitch of the free-free car) get no damping: they are
+    # the lowest rigid_mode_count(asm) eigenvalues, whatever the mesh makes of lam.max()
+    flex = np.arange(lam.size) >= rigid_mode_count(asm)
     om = np.sqrt(lam[flex])
     MV = Md @ V[:, flex]
     C_full = MV @ np.diag(2.0 * spec.zeta_carbody * om) @ MV.T  # modal damping zeta

@@ -14,17 +14,24 @@ rows per pass over the short dimensions) so that the compiler vectorises them wi
 call overhead, in an order that depends only on the shapes (the state does not depend on how
 a record is split into blocks). The device laws are called directly (an if-chain on the kind
 code instead of a call through ``evaluate_law``: that extra call level cost ~45 ns per
-device and sample), and the Bouc-Wen devices advance their hysteretic variables together
-(:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`). The law functions are compiled
-on their own, without the loop's fast-math flags, so every law returns exactly what
-:meth:`Device.evaluate` returns (test/twin/test_simulator.py checks it bitwise).
+device and sample), one branch per kind code of the device registry
+(:data:`modal_twin.models.devices.registry.KINDS`); a code without a branch stops the block
+with ``STATUS_UNKNOWN_KIND`` (test/twin/test_kernel_laws.py runs every registry law through
+the kernel and through the law's own implementation). The Bouc-Wen devices advance their
+hysteretic variables together (:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`).
+The law functions are compiled on their own, without the loop's fast-math flags, so every
+law returns exactly what :meth:`Device.evaluate` returns (test/twin/test_simulator.py
+checks it bitwise).
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
+from modal_twin._types import FloatArray, IntArray
 from modal_twin.models.devices.base import (
     KIND_BILINEAR_ELASTIC,
     KIND_BILINEAR_HYSTERETIC,
@@ -32,6 +39,7 @@ from modal_twin.models.devices.base import (
     KIND_BW_SDP,
     KIND_COULOMB,
     KIND_CUBIC,
+    KIND_GAP,
     KIND_LINEAR,
     KIND_PRANDTL,
 )
@@ -49,6 +57,11 @@ __all__ = [
     "STATUS_DIVERGED",
     "STATUS_NONFINITE",
     "STATUS_OK",
+    "STATUS_UNKNOWN_KIND",
+    "BlockRows",
+    "DeviceArrays",
+    "LoopMatrices",
+    "LoopState",
     "gemv_dot4",
     "gemv_t",
     "invert_inplace",
@@ -59,10 +72,23 @@ __all__ = [
 STATUS_OK = 0
 STATUS_NONFINITE = 1
 STATUS_DIVERGED = 2
+STATUS_UNKNOWN_KIND = 3  # a device's kind code has no branch in run_block
 
 FLAG_STARTED = 0  # flags[0]: a previous sample exists (else the next one is the rest state)
 FLAG_JINV = 1  # flags[1]: Jinv holds the inverse of a device Jacobian (possibly stale)
 FLAG_REFRESH = 2  # flags[2]: number of Jacobian refreshes (diagnostic counter)
+
+
+@njit(cache=True, inline="always")
+def _swap_rows(J, Jinv, k, piv):  # pragma: no cover - jitted
+    """Exchange rows k and piv of J and of Jinv."""
+    for j in range(J.shape[1]):
+        tmp = J[k, j]
+        J[k, j] = J[piv, j]
+        J[piv, j] = tmp
+        tmp = Jinv[k, j]
+        Jinv[k, j] = Jinv[piv, j]
+        Jinv[piv, j] = tmp
 
 
 @njit(cache=True)
@@ -84,13 +110,7 @@ def invert_inplace(J, Jinv):  # pragma: no cover - jitted
                 big = abs(J[i, k])
                 piv = i
         if piv != k:
-            for j in range(n):
-                tmp = J[k, j]
-                J[k, j] = J[piv, j]
-                J[piv, j] = tmp
-                tmp = Jinv[k, j]
-                Jinv[k, j] = Jinv[piv, j]
-                Jinv[piv, j] = tmp
+            _swap_rows(J, Jinv, k, piv)
         inv = 1.0 / J[k, k]
         for j in range(n):
             J[k, j] *= inv
@@ -174,54 +194,165 @@ def project_inputs(ag, k_begin, k_end, PinT, Ain):  # pragma: no cover - jitted
         gemv_t(row, PinT, ak)
 
 
+class LoopMatrices(NamedTuple):
+    """Constant matrices of the linear part the loop multiplies (float64, C-contiguous).
+
+    ns complex modes, nf = 2 n_dev device rows, n_in inputs (see :func:`run_block`).
+
+    Attributes
+    ----------
+    PinT : (n_in, 4 ns + 4 nf)
+        Transposed map from the inputs of a sample to everything of it that depends on its
+        input alone: rows [E1 g_k; E0 g_k; Ua1 a_k; Ua0 a_k] with g_k = Ga a_k (complex
+        vectors split [Re; Im]).
+    coef : (6, ns)
+        Rows Re / Im of exp(lambda dt) and of the first-order-hold weights E0, E1.
+    GfT : (nf, 2 ns)
+        Transposed force projection [Re; Im] V^-1 B_f.
+    Q : (2 nf, 2 ns)
+        P exp(Lambda dt), P the map modal state -> [u; v].
+    HfT : (nf, 2 nf)
+        Transposed map P (exp(Lambda dt) E1 + E0) Gf.
+    HT : (nf, 2 nf)
+        Transposed map P E1 Gf: ft -> [u; v] of the implicit step.
+    """
+
+    PinT: FloatArray
+    coef: FloatArray
+    GfT: FloatArray
+    Q: FloatArray
+    HfT: FloatArray
+    HT: FloatArray
+
+
+class DeviceArrays(NamedTuple):
+    """The devices as the loop sees them (n_dev devices; constant during a run).
+
+    Attributes
+    ----------
+    kinds : (n_dev,) int64
+        Kind codes, :data:`modal_twin.models.devices.registry.KINDS`.
+    bw_idx : (m,) int64
+        The Bouc-Wen devices, whose hysteretic variables are advanced together
+        (:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`).
+    params : (n_dev, N_PARAM)
+        Law parameters.
+    consts : (n_dev,)
+        Per-device constant of a law (ESB: its pressure factor).
+    Kr, Cr : (n_dev, 2, 2)
+        Reference stiffness and damping moved into the linear part.
+    kjump, cjump : (n_dev,)
+        Stiffness and damping a law may switch to that neither its tangent nor Kr shows
+        (contact, sticking), for the error bound of :func:`run_block`.
+    """
+
+    kinds: IntArray
+    bw_idx: IntArray
+    params: FloatArray
+    consts: FloatArray
+    Kr: FloatArray
+    Cr: FloatArray
+    kjump: FloatArray
+    cjump: FloatArray
+
+
+class LoopState(NamedTuple):
+    """What the loop carries from one sample (and one block) to the next, updated in place.
+
+    Attributes
+    ----------
+    Xh : (2 ns,)
+        The part ``exp(Lambda dt) xi_k + E0 w_k`` of the next predicted modal state known
+        after sample k (w_k: projected input and force).
+    base : (2 nf,)
+        The part ``Q xi_p + Ua0 a`` of the next drift prediction.
+    ft, ft_old : (nf,)
+        Residual device force ``f - Kr u - Cr v`` of the last two samples.
+    Jinv : (nf, nf)
+        Inverse device Jacobian kept between samples.
+    flags : (3,) int64
+        See FLAG_*.
+    states : (n_dev, N_STATE)
+        Committed device states.
+    """
+
+    Xh: FloatArray
+    base: FloatArray
+    ft: FloatArray
+    ft_old: FloatArray
+    Jinv: FloatArray
+    flags: IntArray
+    states: FloatArray
+
+
+class BlockRows(NamedTuple):
+    """Work and output rows of one kernel call (rows per sample of the block).
+
+    Attributes
+    ----------
+    Ain : (n_sub, 4 ns + 4 nf)
+        Work: the input projections of n_sub samples (:func:`project_inputs`), a sub-block
+        small enough to stay in the L2 cache.
+    Z : (k_end - k_begin, 2 ns + n_in + nf)
+        Rows [X; a_g; f] for the output products (the device forces are its last nf
+        columns).
+    U : (k_end - k_begin, nf)
+        The drifts (the caller transposes Z and U per chunk: writing (nf, nb) arrays here
+        would touch nf pages per sample).
+    out_it : (nb,) int64
+        Device evaluations per sample.
+    """
+
+    Ain: FloatArray
+    Z: FloatArray
+    U: FloatArray
+    out_it: IntArray
+
+
 # run_block stays one function on purpose: split along its steps (device laws, Newton
 # correction, modal commit) into numba helpers, its results were bitwise the same but the
 # per-sample loop took 1.51-1.56 us instead of 1.27-1.32 us with inline="always" helpers
-# and 1.84 us with separately compiled ones (bench_twin.py --repeat 9, 2026-11-24): the
-# twin's speed is a goal of its own (issue 14), so the steps are marked by comments below.
+# and 1.84 us with separately compiled ones (bench_twin.py --repeat 9, 2026-11-24); helpers
+# for only the rarely run parts (rest state, Newton correction) still cost 6-10 % of a
+# step (2026-11-25). The twin's speed is a goal of its own (issue 14), so the steps are
+# marked by comments below. Its arrays come in four typed groups (LoopMatrices,
+# DeviceArrays, LoopState, BlockRows), unpacked once per call: that costs nothing measurable.
 @njit(cache=True, fastmath={"reassoc", "contract"})
-def run_block(
-    ag, k_begin, k_end, PinT, Ain, coef, GfT, Q, HfT, HT,
-    kinds, bw_idx, params, consts, Kr, Cr, kjump, cjump, Xh, base, ft, ft_old, Jinv, flags,
-    states,
-    Z, U, out_it, rtol, max_iter,
+def run_block(  # noqa: C901 (one loop on purpose, see above)
+    ag, k_begin, k_end, lin, dev, st, rows, rtol, max_iter,
 ):  # pragma: no cover - jitted
     """Advance the modal state over samples ``k_begin <= k < k_end`` of a block.
 
-    Parameters (all float64 C-contiguous unless said otherwise; ns complex modes, nf = 2
-    n_dev device rows, n_in inputs):
+    Parameters
+    ----------
+    ag : (n_in, nb) float64
+        Input.
+    k_begin, k_end : int
+        Samples of ``ag`` to advance.
+    lin : LoopMatrices
+        The linear part. Everything of a sample that depends on its input alone is computed
+        by :func:`project_inputs` for n_sub samples at a time before their loop.
+    dev : DeviceArrays
+        The devices.
+    st : LoopState
+        The carried state, updated in place. The loop itself carries only what the device
+        forces feed back into.
+    rows : BlockRows
+        Work and output rows.
+    rtol : float
+        Newton tolerance relative to the largest device force.
+    max_iter : int
+        Device evaluations allowed per sample.
 
-    - ``ag`` (n_in, nb) input; ``PinT`` (n_in, 4 ns + 4 nf) and the work array ``Ain``
-      (n_sub, 4 ns + 4 nf): everything of a sample that depends on its input alone, computed
-      by :func:`project_inputs` for n_sub samples at a time before their loop (a sub-block
-      small enough to stay in the L2 cache): rows [E1 g_k; E0 g_k; Ua1 a_k; Ua0 a_k] with
-      g_k = Ga a_k (complex vectors split [Re; Im]); ``coef`` (6, ns) rows Re / Im of
-      exp(lambda dt) and of the first-order-hold weights E0, E1; ``GfT`` (nf, 2 ns) the
-      transposed force projection [Re; Im] V^-1 B_f; ``Q`` (2 nf, 2 ns) = P exp(Lambda dt)
-      with P the map modal state -> [u; v]; ``HfT`` (nf, 2 nf) the transposed map P
-      (exp(Lambda dt) E1 + E0) Gf; ``HT`` (nf, 2 nf) the transposed map P E1 Gf: ft -> [u;
-      v] of the implicit step. The loop itself carries only what the device forces feed back
-      into.
-    - ``kinds`` (n_dev,) int64, ``bw_idx`` (m,) int64 the Bouc-Wen devices (kinds 3, 4:
-      their hysteretic variables are advanced together, see
-      :func:`modal_twin.models.devices.bouc_wen.bw_advance_many`), ``params``,
-      ``states`` (n_dev, N_PARAM / N_STATE), ``consts`` (n_dev,) per-device constant of a
-      law (ESB: its pressure factor), ``Kr``,
-      ``Cr`` (n_dev, 2, 2) reference stiffness and damping moved into the linear part;
-      ``kjump``, ``cjump`` (n_dev,) stiffness and damping a law may switch to that neither
-      its tangent nor Kr shows (contact, sticking), for the error bound below.
-    - State, updated in place: ``Xh`` (2 ns) the part ``exp(Lambda dt) xi_k + E0 w_k`` of
-      the next predicted modal state known after sample k (w_k: projected input and
-      force); ``base`` (2 nf) the part ``Q xi_p + Ua0 a`` of the next drift prediction;
-      ``ft``, ``ft_old`` (nf) residual device force ``f - Kr u - Cr v`` of the last two
-      samples; ``Jinv`` (nf, nf) inverse device Jacobian kept between samples;
-      ``flags`` int64 (see FLAG_*).
-    - Outputs: ``Z`` (k_end - k_begin, 2 ns + n_in + nf) rows [X; a_g; f] for the output
-      products (the device forces are its last nf columns); ``U`` (k_end - k_begin, nf)
-      the drifts, rows per sample as Z (the caller transposes both per chunk: writing
-      (nf, nb) arrays here would touch nf pages per sample); ``out_it`` (nb,) int64
-      device evaluations per sample.
+    Returns
+    -------
+    status, index
+        ``(STATUS_OK, k_end)``; ``(STATUS_NONFINITE | STATUS_DIVERGED, k)`` with k the
+        failing sample; ``(STATUS_UNKNOWN_KIND, d)`` with d a device whose kind code has no
+        branch here (the caller names its law; nothing is run in its place).
 
+    Notes
+    -----
     Drift prediction: the drift [u; v] = P xi_p,k+1 of the next sample with its device force
     set to zero is ``Q xi_p,k + Ua0 a_k + Ua1 a_k+1 + Hf ft_k`` (expand xi_p,k+1 = Lambda
     xi_k + E0 w_k + E1 g_k+1 with xi_k = xi_p,k + E1 Gf ft_k and w_k = g_k + Gf ft_k). The
@@ -244,9 +375,13 @@ def run_block(
     force are reported (they are the ones the structure sees). The device coupling through
     H is weak at a building's time step (the force barely moves its own drift within one
     step), so most samples need one law evaluation per device.
-
-    Returns (status, k) with k the failing sample (k_end when all went well).
     """
+    PinT, coef, GfT, Q, HfT, HT = lin.PinT, lin.coef, lin.GfT, lin.Q, lin.HfT, lin.HT
+    kinds, bw_idx, params, consts = dev.kinds, dev.bw_idx, dev.params, dev.consts
+    Kr, Cr, kjump, cjump = dev.Kr, dev.Cr, dev.kjump, dev.cjump
+    Xh, base, ft, ft_old, Jinv = st.Xh, st.base, st.ft, st.ft_old, st.Jinv
+    flags, states = st.flags, st.states
+    Ain, Z, U, out_it = rows.Ain, rows.Z, rows.U, rows.out_it
     ns = coef.shape[1]
     n2 = 2 * ns
     nf = ft.shape[0]
@@ -355,7 +490,8 @@ def run_block(
                 pd = params[d]
                 sd = states[d]
                 sn = s_trial[d]
-                # direct calls (see module docstring); kinds as in devices.base.KIND_*
+                # one branch per kind code of the registry (direct calls, see the module
+                # docstring); a code without a branch is refused, never run as another law
                 if kind == KIND_BW_ESB:
                     bw_esb_force(pd, vd, fd, Kt, Ct, sn, bw_tan[d, 0], bw_tan[d, 1],
                                  bw_tan[d, 2], bw_tan[d, 3], consts[d])
@@ -374,16 +510,18 @@ def run_block(
                     law_cubic(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 elif kind == KIND_COULOMB:
                     law_coulomb(pd, sd, ud, vd, fd, Kt, Ct, sn)
-                else:  # KIND_GAP (the Simulator accepts only known kinds)
+                elif kind == KIND_GAP:
                     law_gap(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                else:
+                    return STATUS_UNKNOWN_KIND, d
                 for a in range(2):
-                    lin = (Kr[d, a, 0] * ud[0] + Kr[d, a, 1] * ud[1]
-                           + Cr[d, a, 0] * vd[0] + Cr[d, a, 1] * vd[1])
+                    lin_f = (Kr[d, a, 0] * ud[0] + Kr[d, a, 1] * ud[1]
+                             + Cr[d, a, 0] * vd[0] + Cr[d, a, 1] * vd[1])
                     for b in range(2):
                         DK[i0 + a, b] = Kt[a, b] - Kr[d, a, b]
                         DC[i0 + a, b] = Ct[a, b] - Cr[d, a, b]
                     fful[i0 + a] = fd[a]
-                    R[i0 + a] = ft[i0 + a] - (fd[a] - lin)
+                    R[i0 + a] = ft[i0 + a] - (fd[a] - lin_f)
                     scale = max(scale, abs(fd[a]))
             rmax = 0.0
             rsum = 0.0  # propagates a NaN that max() would drop

@@ -95,11 +95,17 @@ from modal_twin.models.devices.base import (
     N_STATE,
 )
 from modal_twin.models.devices.bouc_wen import esb_pressure_factor
+from modal_twin.models.devices.registry import KINDS
 from modal_twin.models.reduced import ReducedSystem, SimResult
 from modal_twin.progress import Progress
 from modal_twin.twin.kernels import (
     STATUS_DIVERGED,
     STATUS_NONFINITE,
+    STATUS_UNKNOWN_KIND,
+    BlockRows,
+    DeviceArrays,
+    LoopMatrices,
+    LoopState,
     run_block,
 )
 
@@ -114,7 +120,6 @@ _SHOW_PROGRESS = 64 * _CHUNK  # blocks from this length on report progress (not 
 # stiffness / damping a law can switch to that neither its tangent nor K_ref shows
 # (parameter index, -1 for none): Coulomb sticking (kt), gap contact (k, c), Prandtl Kb
 _JUMPS = {KIND_COULOMB: (2, -1), KIND_GAP: (0, 2), KIND_PRANDTL: (5, -1)}
-_N_KINDS = 9  # law kinds 0..8 the kernel dispatches (modal_twin.models.devices.base.KIND_*)
 
 
 def _discretise(lam: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -211,10 +216,10 @@ class Simulator:
         for d, att in enumerate(system.devices):
             dev = att.device
             nd_ = dev.n_dir
-            if not 0 <= dev.kind < _N_KINDS:
+            if dev.kind not in KINDS:
                 msg = (
-                    f"devices[{d}] ({dev.name}): expected a law kind in 0..{_N_KINDS - 1}, "
-                    f"got {dev.kind}"
+                    f"devices[{d}] ({dev.name}, {type(dev).__name__}): expected a law kind of "
+                    f"the device registry {sorted(KINDS)}, got {dev.kind}"
                 )
                 raise ModelError(msg)
             Bs[2 * d : 2 * d + nd_] = att.B
@@ -231,9 +236,9 @@ class Simulator:
                 rows.append(f"{dev.name}.{'xy'[a]}")
                 self._row_index.append(2 * d + a)
         self.rows = tuple(rows)
-        self._bw_idx = np.flatnonzero(np.isin(self.kinds, (KIND_BW_ESB, KIND_BW_SDP))).astype(
-            np.int64
-        )
+        bw_idx = np.flatnonzero(np.isin(self.kinds, (KIND_BW_ESB, KIND_BW_SDP))).astype(np.int64)
+        self._dev = DeviceArrays(self.kinds, bw_idx, self.params, self._consts, self.Kr,
+                                 self.Cr, self._kjump, self._cjump)
         self._Bs = Bs
         return Bs
 
@@ -304,6 +309,8 @@ class Simulator:
         e1Ga, e0Ga = e1[:, None] * Ga, e0[:, None] * Ga
         self._PinT = c(np.vstack([e1Ga.real, e1Ga.imag, e0Ga.real, e0Ga.imag,
                                   self._Ua1T.T, self._Ua0T.T]).T)  # (n_in, 4 ns + 4 nf)
+        self._lin = LoopMatrices(self._PinT, self._coef, self._GfT, self._Q, self._HfT,
+                                 self._HT)
 
     def _output_matrices(self, system: ReducedSystem, Bs: FloatArray, Vw: ComplexArray) -> None:
         """Build the outputs from the kernel rows ``z = [xi; a_g; f]``.
@@ -327,16 +334,25 @@ class Simulator:
         """Return to rest (virgin device states, zero motion, time 0)."""
         ns = self._ns
         nd = len(self.system.devices)
-        self._Xh = np.zeros(2 * ns)  # exp(Lambda dt) xi_k + E0 w_k of the last sample
-        self._base = np.zeros(4 * nd)  # Q xi_p,k + Ua0 a_k of the last sample
-        self._ft = np.zeros(2 * nd)
-        self._ft_old = np.zeros(2 * nd)
-        self._Jinv = np.zeros((2 * nd, 2 * nd))
-        self._flags = np.zeros(3, dtype=np.int64)  # started, Jinv valid, refreshes
-        self._states = np.zeros((nd, N_STATE))
+        states = np.zeros((nd, N_STATE))
         for d, att in enumerate(self.system.devices):
-            self._states[d] = att.device.initial_state()
+            states[d] = att.device.initial_state()
+        self._state = LoopState(
+            Xh=np.zeros(2 * ns),  # exp(Lambda dt) xi_k + E0 w_k of the last sample
+            base=np.zeros(4 * nd),  # Q xi_p,k + Ua0 a_k of the last sample
+            ft=np.zeros(2 * nd), ft_old=np.zeros(2 * nd), Jinv=np.zeros((2 * nd, 2 * nd)),
+            flags=np.zeros(3, dtype=np.int64),  # started, Jinv valid, refreshes
+            states=states)
         self._k0 = 0
+
+    def _unknown_kind(self, d: int) -> str:
+        """Message for a device whose kind code the kernel has no branch for."""
+        dev = self.system.devices[d].device
+        kind = int(self.kinds[d])
+        laws = KINDS.get(kind)
+        what = f"law {' / '.join(laws)}" if laws else f"{type(dev).__name__}"
+        return (f"devices[{d}] ({dev.name}): {what} (kind code {kind}) has no branch in the "
+                "twin kernel (modal_twin/twin/kernels.py:run_block); it was not run")
 
     def step_block(self, ag: FloatArray) -> SimResult:
         """Integrate one block of base-acceleration samples, continuing the stored state.
@@ -361,6 +377,8 @@ class Simulator:
             the state becomes non-finite.
         ConvergenceError
             If the device-force Newton iteration fails.
+        ModelError
+            If a device's law has no branch in the kernel (named; nothing is run for it).
         """
         sysm = self.system
         ag = np.asarray(ag, dtype=float)
@@ -379,15 +397,14 @@ class Simulator:
             raise SignalError(msg)
         ag = np.ascontiguousarray(ag)
         nb = ag.shape[1]
-        nf = self._ft.size
+        nf = 2 * len(sysm.devices)
         n, n_out = sysm.n, self._Wy.shape[0]
         out_u = np.empty((nf, nb))
         out_f = np.empty((nf, nb))
-        out_it = np.empty(nb, dtype=np.int64)
         W = self._Wall if self.modal_histories else self._Wy
-        Z = np.empty((min(nb, _CHUNK), W.shape[1]))
-        Ain = np.empty((_SUB, self._PinT.shape[1]))
-        U = np.empty((min(nb, _CHUNK), nf))
+        rows = BlockRows(Ain=np.empty((_SUB, self._PinT.shape[1])),
+                         Z=np.empty((min(nb, _CHUNK), W.shape[1])),
+                         U=np.empty((min(nb, _CHUNK), nf)), out_it=np.empty(nb, dtype=np.int64))
         col_f = W.shape[1] - nf  # Z rows: [xi; a_g; f]
         Y = np.empty((W.shape[0], nb))  # rows: y, then q, q', q'' if requested
         bar = Progress("simulation", nb, unit="sample") if nb >= _SHOW_PROGRESS else None
@@ -395,13 +412,10 @@ class Simulator:
             for k0 in range(0, nb, _CHUNK):
                 k1 = min(nb, k0 + _CHUNK)
                 m = k1 - k0
-                status, idx = run_block(
-                    ag, k0, k1, self._PinT, Ain, self._coef, self._GfT, self._Q, self._HfT,
-                    self._HT, self.kinds, self._bw_idx, self.params,
-                    self._consts, self.Kr, self.Cr, self._kjump, self._cjump, self._Xh,
-                    self._base, self._ft, self._ft_old, self._Jinv, self._flags, self._states,
-                    Z, U, out_it, self.rtol, self.max_iter,
-                )  # fmt: skip
+                status, idx = run_block(ag, k0, k1, self._lin, self._dev, self._state, rows,
+                                        self.rtol, self.max_iter)
+                if status == STATUS_UNKNOWN_KIND:
+                    raise ModelError(self._unknown_kind(idx))
                 if status == STATUS_NONFINITE:
                     msg = (
                         f"state became non-finite at sample {self._k0 + idx} "
@@ -414,9 +428,9 @@ class Simulator:
                         f"sample {self._k0 + idx} (rtol = {self.rtol:g})"
                     )
                     raise ConvergenceError(msg)
-                np.matmul(W, Z[:m].T, out=Y[:, k0:k1])  # one BLAS product per chunk
-                out_u[:, k0:k1] = U[:m].T
-                out_f[:, k0:k1] = Z[:m, col_f:].T
+                np.matmul(W, rows.Z[:m].T, out=Y[:, k0:k1])  # one BLAS product per chunk
+                out_u[:, k0:k1] = rows.U[:m].T
+                out_f[:, k0:k1] = rows.Z[:m, col_f:].T
                 if bar is not None:
                     bar.update(m)
         y = Y[:n_out]
@@ -428,7 +442,7 @@ class Simulator:
         ri = self._row_index
         return SimResult(
             t=t, y=y, q=q, qd=qd, qdd=qdd, drift=out_u[ri], force=out_f[ri], rows=self.rows,
-            newton_iterations=out_it, cond_V=self.cond_V, method="modal-foh",
+            newton_iterations=rows.out_it, cond_V=self.cond_V, method="modal-foh",
         )  # fmt: skip
 
 

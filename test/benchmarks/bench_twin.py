@@ -84,7 +84,7 @@ from modal_twin.models.devices import (
 from modal_twin.models.devices._dispatch import evaluate_law
 from modal_twin.models.devices.linear import LinearDevice
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
-from modal_twin.twin.kernels import gemv_dot4, gemv_t, project_inputs, run_block
+from modal_twin.twin.kernels import BlockRows, gemv_dot4, gemv_t, project_inputs, run_block
 from modal_twin.twin.simulator import Simulator
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -232,7 +232,7 @@ def chain_flops(sim: Simulator) -> int:
     projection Gf ft and the diagonal first-order-hold commit of the modal state. The
     correction is counted on every sample (the predictor rarely meets rtol by itself).
     """
-    ns, nf = sim._ns, sim._ft.size
+    ns, nf = sim._ns, sim._state.ft.size
     n2, nf2 = 2 * ns, 2 * nf
     predict = nf2 + 2 * nf * nf2 + 2 * nf2 * n2 + n2 + 2 * nf + 2 * nf * nf2
     residual = 8 * nf
@@ -288,7 +288,7 @@ def _same_shape_chain(nt, Q, GfT, HfT, HT, Jinv, coef, Xh, ft, out):  # pragma: 
 def machine_chain_gflops(sim: Simulator, repeat: int) -> float:
     """GFLOP/s of :func:`_same_shape_chain` with the simulator's matrices (best of repeat)."""
     nt = 20000
-    nf = sim._ft.size
+    nf = sim._state.ft.size
     Jinv = np.eye(nf) * 0.5
     out = np.empty(nt)
     _same_shape_chain(10, sim._Q, sim._GfT, sim._HfT, sim._HT, Jinv, sim._coef,
@@ -310,11 +310,9 @@ def loop_seconds(sim: Simulator, ag: np.ndarray, repeat: int) -> tuple[float, fl
     chunk = 1024
     m = sim._PinT.shape[1]
     ain_all = np.empty((chunk, m))
-    ain = np.empty((64, m))
-    nf = sim._ft.size
-    Z = np.empty((chunk, sim._Wy.shape[1]))
-    U = np.empty((chunk, nf))
-    out_it = np.empty(nb, dtype=np.int64)
+    nf = sim._state.ft.size
+    rows = BlockRows(Ain=np.empty((64, m)), Z=np.empty((chunk, sim._Wy.shape[1])),
+                     U=np.empty((chunk, nf)), out_it=np.empty(nb, dtype=np.int64))
     t_in = t_loop = np.inf
     for _ in range(repeat):
         c0 = time.process_time()
@@ -324,12 +322,8 @@ def loop_seconds(sim: Simulator, ag: np.ndarray, repeat: int) -> tuple[float, fl
         sim.reset()
         c0 = time.process_time()
         for k0 in range(0, nb, chunk):
-            run_block(
-                ag, k0, min(nb, k0 + chunk), sim._PinT, ain, sim._coef, sim._GfT, sim._Q,
-                sim._HfT, sim._HT, sim.kinds, sim._bw_idx, sim.params, sim._consts, sim.Kr,
-                sim.Cr, sim._kjump, sim._cjump, sim._Xh, sim._base, sim._ft, sim._ft_old,
-                sim._Jinv, sim._flags, sim._states, Z, U, out_it, sim.rtol, sim.max_iter,
-            )  # fmt: skip
+            run_block(ag, k0, min(nb, k0 + chunk), sim._lin, sim._dev, sim._state, rows,
+                      sim.rtol, sim.max_iter)
         t_loop = min(t_loop, time.process_time() - c0)
     return t_in, t_loop - t_in
 

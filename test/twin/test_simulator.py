@@ -335,7 +335,7 @@ def test_split_drift_prediction_equals_projection() -> None:
     s, *_ = _isolated_building()
     sim = Simulator(s, 1e-3)
     rng = np.random.default_rng(4)
-    ns, nf = sim._ns, sim._ft.size
+    ns, nf = sim._ns, sim._state.ft.size
     lam = sim._coef[0] + 1j * sim._coef[1]
     e0 = sim._coef[2] + 1j * sim._coef[3]
     e1 = sim._coef[4] + 1j * sim._coef[5]
@@ -351,12 +351,3 @@ def test_split_drift_prediction_equals_projection() -> None:
     got = (sim._Q @ np.concatenate([xi_p.real, xi_p.imag]) + sim._Ua0T.T @ a0
            + sim._Ua1T.T @ a1 + sim._HfT.T @ ft)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
-
-
-def test_unknown_device_kind_refused() -> None:
-    dev = LinearDevice([1.0], [0.0])
-    dev.kind = 42
-    s = ReducedSystem(np.eye(1), np.zeros((1, 1)), np.eye(1), np.eye(1),
-                      (DeviceAttachment(dev, np.eye(1)),), np.zeros((1, 3)), np.zeros((1, 1)))
-    with pytest.raises(ModelError, match=r"devices\[0\] \(linear\): expected a law kind .* 42"):
-        Simulator(s, 1e-3)

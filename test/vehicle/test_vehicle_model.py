@@ -8,10 +8,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
 import yaml
 
 from modal_twin.errors import ConfigError, ModelError, OptionError
 from modal_twin.models.craig_bampton import cb_check
+from modal_twin.models.fe import FEModel
 from modal_twin.models.vehicle import (
     INPUT_NAMES,
     assemble_vehicle,
@@ -19,9 +21,10 @@ from modal_twin.models.vehicle import (
     build_vehicle,
     equipment_mounted,
     load_vehicle,
+    rigid_mode_count,
     theta_names,
 )
-from modal_twin.models.vehicle_spec import DEFAULT_VEHICLE_YAML, apply_theta
+from modal_twin.models.vehicle_spec import DEFAULT_VEHICLE_YAML, SensorSpec, apply_theta
 from modal_twin.twin.simulator import simulate
 
 
@@ -63,6 +66,56 @@ def test_free_free_first_bending_is_873_hz(spec):
     mu = spec.shell_line_mass + spec.fittings_line_mass
     f_cf = 4.730041**2 / (2 * math.pi * spec.length**2) * math.sqrt(spec.EI / mu)
     assert build_carbody(bare, cutoff_hz=40.0).f_free_hz[2] == pytest.approx(f_cf, rel=1e-3)
+
+
+def _modal_damping(car):
+    """Frequencies (Hz) and modal damping coefficients c_r = phi_r' C phi_r (1/s) of the
+    Craig-Bampton carbody (mass-normalised modes)."""
+    lam, P = sla.eigh(car.cb.Kr, car.cb.Mr)
+    c = np.einsum("ir,ij,jr->r", P, car.C_cb, P)
+    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * math.pi), c
+
+
+def test_refined_mesh_keeps_every_flexible_mode_damped(spec):
+    # sensors between grid nodes add nodes (shortest element 0.18 m): the largest
+    # eigenvalue grows 4x, and a rule "rigid below 1e-8 of it" classed the 8.7 Hz first
+    # bending rigid and left it undamped (issue 20, item 8)
+    pos = (2.1, 2.35, 4.05, 6.4, 6.62, -3.3, -3.12, -6.05)
+    fine = replace(spec, sensors=spec.sensors + tuple(
+        SensorSpec(f"s{i}", x) for i, x in enumerate(pos)))
+    car0, car = build_carbody(spec), build_carbody(fine)
+    asm = car.assembly
+    assert asm.n_dof > car0.assembly.n_dof
+    lam = sla.eigh(asm.K.toarray(), asm.M.toarray(), eigvals_only=True)
+    assert lam[2] < 1e-8 * lam.max()  # the mesh of the issue
+    assert rigid_mode_count(asm) == rigid_mode_count(car0.assembly) == 2  # bounce, pitch
+    assert car.f_free_hz[2] == pytest.approx(8.73, rel=1e-3)
+    for c_ in (car0, car):
+        f, c = _modal_damping(c_)
+        flex = f > 1.0
+        assert np.count_nonzero(~flex) == 2 and f[flex][0] == pytest.approx(8.73, rel=2e-3)
+        # every flexible mode below the cutoff keeps its modal damping 2 zeta omega
+        zeta = c[flex] / (4 * math.pi * f[flex])
+        low = f[flex] < 40.0
+        np.testing.assert_allclose(zeta[low], spec.zeta_carbody, rtol=0.02)
+        assert np.abs(c[~flex]).max() < 1e-9 * c[flex][0]  # the rigid ones: none
+
+
+def test_rigid_mode_count_follows_the_supports():
+    # a free-free vertical beam has 2 rigid-body modes; pinned at one node, 1 (rotation
+    # about the pin); pinned at two, none; a rigid motion not in K's null space: none
+    def beam(pins):
+        fem = FEModel()
+        for i in range(5):
+            fem.add_node(i, (float(i), 0.0, 0.0))
+            fem.fix(i, ("ux", "uy", "rx", "rz"))
+        for i in range(4):
+            fem.add_frame(i, i + 1, E=70e9, G=27e9, A=1.0, Iy=1e-3, Iz=1e-3, J=1e-3, rho=100.0)
+        for j in pins:
+            fem.fix(j, ("uz",))
+        return fem.assemble()
+
+    assert [rigid_mode_count(beam(p)) for p in ((), (1,), (0, 4))] == [2, 1, 0]
 
 
 def test_craig_bampton_checks(spec):

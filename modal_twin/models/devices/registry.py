@@ -46,6 +46,7 @@ from modal_twin.models.devices.prandtl import PrandtlJoint, law_prandtl
 __all__ = [
     "ALIASES",
     "FAMILIES",
+    "KINDS",
     "LAWS",
     "LawEntry",
     "Site",
@@ -361,6 +362,12 @@ LAWS: Mapping[str, LawEntry] = MappingProxyType({e.name: e for e in _ENTRIES})
 ALIASES: Mapping[str, str] = MappingProxyType(
     {a: e.name for e in _ENTRIES for a in e.aliases})
 """Deprecated law name -> canonical name."""
+
+KINDS: Mapping[int, tuple[str, ...]] = MappingProxyType(
+    {kind: tuple(e.name for e in _ENTRIES if e.kind == kind)
+     for kind in sorted({e.kind for e in _ENTRIES})})
+"""Kind code of the jitted dispatch -> canonical names of the laws that use it (the twin
+kernel has one branch per code; test/twin/test_kernel_laws.py runs every law through it)."""
 
 _warned: set[str] = set()
 
