@@ -26,8 +26,9 @@ Equation of motion in the coupled coordinates ``x`` (absolute displacements)::
 (``g_i`` puts a unit force at wheel point i of its bogie), the sign convention of
 :mod:`modal_twin.twin.simulator` (``M q'' + C q' + K q = -Gamma u - sum B' f``). A
 constant lift ``z`` of all wheelsets lifts the whole vehicle by ``z`` (``K x_rigid =
-sum k_p g_i``). Carbody damping: modal damping ``zeta`` on every flexible free-free mode
-of the full beam, ``C_full = M Phi_e diag(2 zeta omega) Phi_e' M``, projected on the CB
+sum k_p g_i``). Carbody damping: modal damping ``zeta_k`` on the k-th flexible free-free
+mode of the full beam (``zeta_carbody``, or ``zeta_cb_<k>`` for the first few),
+``C_full = M Phi_e diag(2 zeta omega) Phi_e' M``, projected on the CB
 basis (``T' C_full T``); suspensions and mounts add their dashpots (non-classical).
 
 Reduction: the real undamped modes of the coupled model, ``x = Phi q`` with
@@ -230,7 +231,9 @@ def build_carbody(spec: VehicleSpec, *, cutoff_hz: float | None = None) -> Carbo
     flex = np.arange(lam.size) >= rigid_mode_count(asm)
     om = np.sqrt(lam[flex])
     MV = Md @ V[:, flex]
-    C_full = MV @ np.diag(2.0 * spec.zeta_carbody * om) @ MV.T  # modal damping zeta
+    # modal damping zeta_k of flexible mode k (zeta_carbody unless the spec sets it)
+    zeta = np.array([spec.zeta_mode(k + 1) for k in range(om.size)])
+    C_full = MV @ np.diag(2.0 * zeta * om) @ MV.T
     return Carbody(assembly=asm, node_x=xs, cb=cb, boundary_nodes=tuple(bnodes),
                    C_cb=cb.project(C_full), f_free_hz=np.sqrt(lam) / (2.0 * math.pi))
 

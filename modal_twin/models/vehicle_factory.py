@@ -4,8 +4,9 @@ The vehicle counterpart of :class:`~modal_twin.models.building_factory.BuildingF
 with the protocol :class:`~modal_twin.models.loading.ModelFactory` that the diagnosis and
 updating use (``plant``, ``with_theta``, ``parameters``, ``attachments``, ``sites``). The
 vehicle has no device sites (its suspensions are linear); its candidate effects are
-parameter changes (``EI_carbody``, ``m_<equipment>``) and elastic mounts of the rigidly
-bolted equipment (``elastic_mount``, Fig. 3b of [002]).
+parameter changes (``EI_carbody``, ``m_<equipment>``, the suspensions' ``k_`` / ``c_``, the
+modal damping ratio ``zeta_cb_<k>`` of the k-th flexible carbody mode) and elastic mounts
+of the rigidly bolted equipment (``elastic_mount``, Fig. 3b of [002]).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from modal_twin.models.parameter_info import Kind, ParameterInfo
 from modal_twin.models.plant import Plant, with_sensor_effects
 from modal_twin.models.vehicle import build_vehicle
 from modal_twin.models.vehicle_spec import (
+    CARBODY_MODE_PREFIX,
     VehicleSpec,
     apply_theta,
     equipment_mounted,
@@ -51,10 +53,11 @@ class VehicleFactory:
     """
 
     # parameters the diagnosis screens as candidates: equipment masses, carbody bending
-    # stiffness, primary and secondary suspension stiffness and damping
+    # stiffness, primary and secondary suspension stiffness and damping, the damping ratio
+    # of each of the first flexible carbody modes (zeta_cb_1 = first bending)
     base_effects: tuple[EffectSpec, ...] = ()  # a version's effects, kept in every plant
     label: str = ""  # the version's label, part of every plant's name
-    parameter_prefixes = ("m_", "EI_", "k_", "c_")
+    parameter_prefixes = ("m_", "EI_", "k_", "c_", CARBODY_MODE_PREFIX)
 
     def __init__(self, vehicle_file: str | Path, *,
                  theta: Mapping[str, float] | None = None) -> None:
@@ -95,6 +98,9 @@ class VehicleFactory:
             msg = f"parameter: expected one of {list(theta_names(self.spec))}, got {name!r}"
             raise OptionError(msg)
         v = float(parameter_value(self.spec, name))
+        if name.startswith(CARBODY_MODE_PREFIX):  # as the building's modal damping
+            return ParameterInfo(name, "damping", "carbody", v, 0.1 * v, 5.0 * v, "1",
+                                 "modal_damping")
         for prefix, (kind, unit, lo, hi) in _PREFIX_INFO.items():
             if name.startswith(prefix):
                 return ParameterInfo(name, kind, name[len(prefix):].replace("_", " "), v,
