@@ -51,7 +51,7 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.craig_bampton import CBReduction, craig_bampton
-from modal_twin.models.devices import CubicSpring, LinearDevice
+from modal_twin.models.devices import BilinearElastic, CubicSpring, Device, LinearDevice
 from modal_twin.models.fe import FEAssembly, FEModel
 from modal_twin.models.plant import Plant, Source
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
@@ -355,7 +355,7 @@ class VehicleModel:
                 dev = LinearDevice([ks], [cs], name=f"secondary_{side}")
                 atts.append(DeviceAttachment(device=dev, B=B))
             devices = tuple(atts)
-        K, C, mounts = self._hardening_mounts(Phi, K, C)
+        K, C, mounts = self._nonlinear_mounts(Phi, K, C)
         devices = devices + mounts
         SPhi = self.S @ Phi
         z = np.zeros_like(SPhi)
@@ -366,20 +366,30 @@ class VehicleModel:
                              output_names=tuple(c.name for c in self.channels))
 
 
-    def _hardening_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray
+    def _nonlinear_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray
                           ) -> tuple[FloatArray, FloatArray, tuple[DeviceAttachment, ...]]:
-        """Carry hardening mounts as 1-direction power springs (their linear part moved)."""
+        """Carry hardening and softening mounts as 1-direction devices (linear part moved).
+
+        A hardening mount is a power spring (:class:`CubicSpring`, exponent ``m``), a
+        softening one a bilinear elastic spring (:class:`BilinearElastic`, ``kb = r k``
+        beyond ``u_s``), each with the mount's dashpot.
+        """
         elastic = [e for e in self.spec.equipment if e.mount == "elastic"]
         atts = []
         for e, d in zip(elastic, self.D_mount, strict=True):
-            if e.u_h_mount <= 0.0:
+            dev: Device
+            if e.u_h_mount > 0.0:
+                k3 = e.k_mount / e.u_h_mount ** (e.m_mount - 1.0)
+                dev = CubicSpring(e.k_mount, k3, [e.c_mount], name=f"mount_{e.name}",
+                                  m=e.m_mount)
+            elif e.u_s_mount > 0.0 and e.r_mount < 1.0:
+                dev = BilinearElastic(e.k_mount, e.r_mount * e.k_mount, e.u_s_mount,
+                                      [e.c_mount], name=f"mount_{e.name}")
+            else:
                 continue
             B = (d @ Phi)[None, :]
             K = K - e.k_mount * B.T @ B
             C = C - e.c_mount * B.T @ B
-            k3 = e.k_mount / e.u_h_mount ** (e.m_mount - 1.0)
-            dev = CubicSpring(e.k_mount, k3, [e.c_mount], name=f"mount_{e.name}",
-                              m=e.m_mount)
             atts.append(DeviceAttachment(device=dev, B=B))
         return K, C, tuple(atts)
 

@@ -138,7 +138,9 @@ class VehicleFactory:
             spec = equipment_mounted(spec, e.component, float(e.params["f_hz"]),
                                      float(e.params.get("zeta", 0.05)),
                                      u_h=float(e.params.get("u_h", 0.0)),
-                                     m=float(e.params.get("m", 3.0)))
+                                     m=float(e.params.get("m", 3.0)),
+                                     u_s=float(e.params.get("u_s", 0.0)),
+                                     r=float(e.params.get("r", 1.0)))
         plant = build_vehicle(spec, theta=self.theta or None)
         plant = replace(plant, name=f"{plant.name}#{self.label}") if self.label else plant
         return with_sensor_effects(plant, sensors)

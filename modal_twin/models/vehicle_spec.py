@@ -81,6 +81,13 @@ class EquipmentSpec:
         drift ``d`` (the stiffening of rubber hangers); 0: linear (default), m.
     m_mount : float
         Exponent ``m`` of that hardening, in [2, 9].
+    u_s_mount : float
+        Softening of the mount: its spring force is ``k d`` for ``|d| <= u_s`` and
+        ``r k d + (1 - r) k u_s sign(d)`` beyond (Eq. (9) of [004], a bilinear elastic
+        spring with ``kb = r k``: rubber that softens, a hanger that slips into a softer
+        stage); 0: no softening (default), m.
+    r_mount : float
+        Tangent stiffness beyond ``u_s`` over ``k``, in (0, 1].
     """
 
     name: str
@@ -91,6 +98,8 @@ class EquipmentSpec:
     zeta_mount: float = 0.05
     u_h_mount: float = 0.0
     m_mount: float = 3.0
+    u_s_mount: float = 0.0
+    r_mount: float = 1.0
 
     @property
     def k_mount(self) -> float:
@@ -227,10 +236,12 @@ class VehicleSpec:
 
 
 def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float, *,
-                      u_h: float = 0.0, m: float = 3.0) -> VehicleSpec:
+                      u_h: float = 0.0, m: float = 3.0, u_s: float = 0.0,
+                      r: float = 1.0) -> VehicleSpec:
     """Return a copy of ``spec`` with equipment ``name`` on elastic mounts (f_hz, zeta).
 
-    ``u_h > 0`` makes the mount harden (:class:`EquipmentSpec`).
+    ``u_h > 0`` makes the mount harden, ``u_s > 0`` with ``r < 1`` soften
+    (:class:`EquipmentSpec`); not both.
 
     The "elastic attachment" candidate of the diagnosis (Fig. 3b of [002]).
 
@@ -251,8 +262,13 @@ def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float, *,
     if not (math.isfinite(u_h) and u_h >= 0.0 and 2.0 <= m <= 9.0):
         msg = f"u_h, m: expected u_h >= 0 m and m in [2, 9], got {u_h!r}, {m!r}"
         raise ModelError(msg)
+    if not (math.isfinite(u_s) and u_s >= 0.0 and 0.0 < r <= 1.0) or (u_s > 0 and u_h > 0):
+        msg = (f"u_s, r: expected u_s >= 0 m, r in (0, 1] and not both u_s and u_h, got "
+               f"{u_s!r}, {r!r} (u_h {u_h!r})")
+        raise ModelError(msg)
     eq = tuple(replace(e, mount="elastic", f_mount_hz=float(f_hz), zeta_mount=float(zeta),
-                       u_h_mount=float(u_h), m_mount=float(m))
+                       u_h_mount=float(u_h), m_mount=float(m), u_s_mount=float(u_s),
+                       r_mount=float(r))
                if e.name == name else e for e in spec.equipment)
     return replace(spec, equipment=eq)
 
