@@ -69,6 +69,7 @@ from modal_twin.models.vehicle_spec import (
 __all__ = [
     "DEFAULT_VEHICLE_YAML",
     "INPUT_NAMES",
+    "SUSPENSION_SITES",
     "Carbody",
     "EquipmentSpec",
     "SensorSpec",
@@ -83,6 +84,13 @@ __all__ = [
     "theta_names",
     "vehicle_info",
 ]
+
+SUSPENSION_SITES: tuple[str, ...] = ("secondary_front", "secondary_rear")
+"""Device sites of the car: the secondary suspension of each bogie (stroke ``u_pivot - z_b``).
+
+The primary suspensions are not sites: their stroke holds the track input, which a
+device's drift ``B q`` cannot.
+"""
 
 INPUT_NAMES: tuple[str, ...] = ("zt1", "zt2", "zt3", "zt4", "vt1", "vt2", "vt3", "vt4")
 """Track irregularity under wheelsets 1 (leading) .. 4 (m) and its rate (m/s)."""
@@ -318,7 +326,9 @@ class VehicleModel:
         return np.abs(lam) / (2.0 * math.pi), -lam.real / np.abs(lam), V
 
     def to_reduced_system(self, *, n_modes: int | None = None,
-                          secondary_devices: bool = False) -> ReducedSystem:
+                          secondary_devices: bool = False,
+                          site_devices: Mapping[str, Device] | None = None,
+                          device_outputs: bool = False) -> ReducedSystem:
         """Return the modal :class:`ReducedSystem` (module docstring).
 
         Parameters
@@ -329,6 +339,13 @@ class VehicleModel:
             Carry the secondary suspensions as 1-direction
             :class:`~modal_twin.models.devices.LinearDevice` attachments (their spring and
             dashpot removed from ``K_r``, ``C_r``) so that an effect can replace them.
+        site_devices : mapping, optional
+            Device site (:data:`SUSPENSION_SITES`) -> a device law of the registry that
+            replaces that secondary suspension's spring and dashpot; its first direction
+            takes the stroke ``u_pivot - z_b``, a second one (of a 2-direction law) none.
+        device_outputs : bool
+            Also output each site's stroke ``<site>_dz`` (m) and, where no device replaces
+            it, its force ``<site>_fz = k d + c d'`` (N) after the accelerations.
 
         Raises
         ------
@@ -344,26 +361,47 @@ class VehicleModel:
         K = np.diag(self.omega[:r] ** 2)
         C = Phi.T @ self.C @ Phi
         devices: tuple[DeviceAttachment, ...] = ()
-        if secondary_devices:
-            sp_ = self.spec
-            atts = []
-            for b, side in enumerate(("front", "rear")):
-                B = (self.D_sec[b] @ Phi)[None, :]
-                ks, cs = sp_.suspension("k_secondary", b), sp_.suspension("c_secondary", b)
-                K = K - ks * B.T @ B  # law supplies k_s d + c_s d'
-                C = C - cs * B.T @ B
-                dev = LinearDevice([ks], [cs], name=f"secondary_{side}")
-                atts.append(DeviceAttachment(device=dev, B=B))
-            devices = tuple(atts)
+        given = dict(site_devices or {})
+        unknown = sorted(set(given) - set(SUSPENSION_SITES))
+        if unknown:
+            msg = f"site_devices: expected sites from {list(SUSPENSION_SITES)}, got {unknown}"
+            raise OptionError(msg)
+        atts = []
+        for b, site in enumerate(SUSPENSION_SITES):
+            if site not in given and not secondary_devices:
+                continue
+            B1 = self.D_sec[b] @ Phi
+            ks, cs = self.spec.suspension("k_secondary", b), self.spec.suspension(
+                "c_secondary", b)
+            K = K - ks * np.outer(B1, B1)  # the law supplies the element's whole force
+            C = C - cs * np.outer(B1, B1)
+            dev = given.get(site) or LinearDevice([ks], [cs], name=site)
+            B = np.zeros((dev.n_dir, B1.size))
+            B[0] = B1
+            atts.append(DeviceAttachment(device=dev, B=B))
+        devices = tuple(atts)
         K, C, mounts = self._nonlinear_mounts(Phi, K, C)
         devices = devices + mounts
         SPhi = self.S @ Phi
         z = np.zeros_like(SPhi)
+        rows, names = [np.hstack([z, z, SPhi])], [c.name for c in self.channels]
+        if device_outputs:  # strokes, then the forces of the sites still linear
+            DPhi = self.D_sec @ Phi
+            zd = np.zeros_like(DPhi)
+            rows.append(np.hstack([DPhi, zd, zd]))
+            names += [f"{site}_dz" for site in SUSPENSION_SITES]
+            for b, site in enumerate(SUSPENSION_SITES):
+                if site in given or secondary_devices:
+                    continue  # its force is the device's
+                ks, cs = self.spec.suspension("k_secondary", b), self.spec.suspension(
+                    "c_secondary", b)
+                rows.append(np.hstack([ks * DPhi[b], cs * DPhi[b], np.zeros(r)])[None, :])
+                names.append(f"{site}_fz")
+        C_out = np.vstack(rows)
         return ReducedSystem(M=np.eye(r), C=0.5 * (C + C.T), K=0.5 * (K + K.T),
-                             Gamma=Phi.T @ self.Gamma, devices=devices,
-                             C_out=np.hstack([z, z, SPhi]),
-                             D_out=np.zeros((SPhi.shape[0], len(INPUT_NAMES))),
-                             output_names=tuple(c.name for c in self.channels))
+                             Gamma=Phi.T @ self.Gamma, devices=devices, C_out=C_out,
+                             D_out=np.zeros((C_out.shape[0], len(INPUT_NAMES))),
+                             output_names=tuple(names))
 
 
     def _nonlinear_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray
@@ -490,7 +528,9 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
 
 def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float] | None = None,
                   n_modes: int | None = None, cutoff_hz: float | None = None,
-                  secondary_devices: bool = False) -> Plant:
+                  secondary_devices: bool = False,
+                  site_devices: Mapping[str, Device] | None = None,
+                  device_channels: bool = False) -> Plant:
     """Build the trailer-car :class:`~modal_twin.models.plant.Plant` (module docstring).
 
     Parameters
@@ -507,6 +547,11 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
     secondary_devices : bool
         Secondary suspensions as linear devices (see
         :meth:`VehicleModel.to_reduced_system`).
+    site_devices : mapping, optional
+        Device laws at the suspension sites (:data:`SUSPENSION_SITES`).
+    device_channels : bool
+        Also the sites' stroke ``<site>_dz`` (role ``device_drift``, m) and force
+        ``<site>_fz`` (``device_force``, N: spring, dashpot and any law there) channels.
 
     Returns
     -------
@@ -521,14 +566,42 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
     """
     spec = load_vehicle() if spec is None else spec
     vm = assemble_vehicle(spec, theta=theta, cutoff_hz=cutoff_hz)
-    system = vm.to_reduced_system(n_modes=n_modes, secondary_devices=secondary_devices)
-    sources: tuple[Source, ...] = tuple(("y", i) for i in range(len(vm.channels)))
-    label = ",".join(f"{e.name}:elastic" for e in vm.spec.equipment
-                     if e.mount == "elastic") or "nominal"
+    system = vm.to_reduced_system(n_modes=n_modes, secondary_devices=secondary_devices,
+                                  site_devices=site_devices, device_outputs=device_channels)
+    channels, sources = _channels(vm, system, device_channels)
+    label = ",".join([*(f"{e.name}:elastic" for e in vm.spec.equipment
+                        if e.mount == "elastic"),
+                      *(f"{k}:{type(d).__name__}" for k, d in (site_devices or {}).items())]
+                     ) or "nominal"
     quantities = ("displacement",) * 4 + ("velocity",) * 4
-    return Plant(system, INPUT_NAMES, quantities, vm.channels, sources,
+    return Plant(system, INPUT_NAMES, quantities, channels, sources,
                  name=f"{vm.spec.name}@{label}")
 
+
+
+def _channels(vm: VehicleModel, system: ReducedSystem, devices: bool
+              ) -> tuple[tuple[ChannelSpec, ...], tuple[Source, ...]]:
+    """Channels and their sources: accelerations, then (``devices``) strokes and forces.
+
+    A site's force is an output row while its element is linear, else its device's force
+    (the first direction of the device at that site).
+    """
+    y_index = {n: i for i, n in enumerate(system.output_names)}
+    channels = list(vm.channels)
+    sources: list[Source] = [("y", y_index[c.name]) for c in vm.channels]
+    if not devices:
+        return tuple(channels), tuple(sources)
+    f_row, rows = {}, 0
+    for att in system.devices:
+        f_row[att.device.name] = rows
+        rows += att.device.n_dir
+    for qty, key, role in (("displacement", "d", "device_drift"),
+                           ("force", "f", "device_force")):
+        for site in SUSPENSION_SITES:
+            name = f"{site}_{key}z"
+            channels.append(ChannelSpec(name, qty, site, "z", role=role))
+            sources.append(("y", y_index[name]) if name in y_index else ("force", f_row[site]))
+    return tuple(channels), tuple(sources)
 
 
 def vehicle_info(model: VehicleModel, n_show: int = 12) -> dict[str, Any]:
