@@ -40,7 +40,7 @@ Reduction: the real undamped modes of the coupled model, ``x = Phi q`` with
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -328,7 +328,7 @@ class VehicleModel:
     def to_reduced_system(self, *, n_modes: int | None = None,
                           secondary_devices: bool = False,
                           site_devices: Mapping[str, Device] | None = None,
-                          device_outputs: bool = False) -> ReducedSystem:
+                          device_outputs: Sequence[str] = ()) -> ReducedSystem:
         """Return the modal :class:`ReducedSystem` (module docstring).
 
         Parameters
@@ -340,12 +340,13 @@ class VehicleModel:
             :class:`~modal_twin.models.devices.LinearDevice` attachments (their spring and
             dashpot removed from ``K_r``, ``C_r``) so that an effect can replace them.
         site_devices : mapping, optional
-            Device site (:data:`SUSPENSION_SITES`) -> a device law of the registry that
-            replaces that secondary suspension's spring and dashpot; its first direction
-            takes the stroke ``u_pivot - z_b``, a second one (of a 2-direction law) none.
-        device_outputs : bool
-            Also output each site's stroke ``<site>_dz`` (m) and, where no device replaces
-            it, its force ``<site>_fz = k d + c d'`` (N) after the accelerations.
+            Device site (:meth:`sites`: a secondary suspension or an elastic equipment
+            hanger) -> a device law of the registry that replaces that element's spring
+            and dashpot; its first direction takes the stroke (``u_pivot - z_b``,
+            ``z_e - u_floor``), a second one (of a 2-direction law) none.
+        device_outputs : sequence of str
+            Sites whose stroke ``<site>_dz`` (m) and, where the element is linear, force
+            ``<site>_fz = k d + c d'`` (N) are output after the accelerations.
 
         Raises
         ------
@@ -362,9 +363,9 @@ class VehicleModel:
         C = Phi.T @ self.C @ Phi
         devices: tuple[DeviceAttachment, ...] = ()
         given = dict(site_devices or {})
-        unknown = sorted(set(given) - set(SUSPENSION_SITES))
+        unknown = sorted(set(given) - set(self.sites()))
         if unknown:
-            msg = f"site_devices: expected sites from {list(SUSPENSION_SITES)}, got {unknown}"
+            msg = f"site_devices: expected sites from {list(self.sites())}, got {unknown}"
             raise OptionError(msg)
         atts = []
         for b, site in enumerate(SUSPENSION_SITES):
@@ -376,26 +377,24 @@ class VehicleModel:
             K = K - ks * np.outer(B1, B1)  # the law supplies the element's whole force
             C = C - cs * np.outer(B1, B1)
             dev = given.get(site) or LinearDevice([ks], [cs], name=site)
-            B = np.zeros((dev.n_dir, B1.size))
-            B[0] = B1
-            atts.append(DeviceAttachment(device=dev, B=B))
+            atts.append(_along(dev, B1))
         devices = tuple(atts)
-        K, C, mounts = self._nonlinear_mounts(Phi, K, C)
+        K, C, mounts = self._nonlinear_mounts(Phi, K, C, given)
         devices = devices + mounts
         SPhi = self.S @ Phi
         z = np.zeros_like(SPhi)
         rows, names = [np.hstack([z, z, SPhi])], [c.name for c in self.channels]
         if device_outputs:  # strokes, then the forces of the sites still linear
-            DPhi = self.D_sec @ Phi
+            carried = {a.device.name for a in devices}
+            sites = {k: v for k, v in self.sites().items() if k in device_outputs}
+            DPhi = np.vstack([d for d, _, _ in sites.values()]) @ Phi
             zd = np.zeros_like(DPhi)
             rows.append(np.hstack([DPhi, zd, zd]))
-            names += [f"{site}_dz" for site in SUSPENSION_SITES]
-            for b, site in enumerate(SUSPENSION_SITES):
-                if site in given or secondary_devices:
+            names += [f"{site}_dz" for site in sites]
+            for j, (site, (_, k, c)) in enumerate(sites.items()):
+                if site in carried or f"mount_{site}" in carried:
                     continue  # its force is the device's
-                ks, cs = self.spec.suspension("k_secondary", b), self.spec.suspension(
-                    "c_secondary", b)
-                rows.append(np.hstack([ks * DPhi[b], cs * DPhi[b], np.zeros(r)])[None, :])
+                rows.append(np.hstack([k * DPhi[j], c * DPhi[j], np.zeros(r)])[None, :])
                 names.append(f"{site}_fz")
         C_out = np.vstack(rows)
         return ReducedSystem(M=np.eye(r), C=0.5 * (C + C.T), K=0.5 * (K + K.T),
@@ -404,19 +403,38 @@ class VehicleModel:
                              output_names=tuple(names))
 
 
-    def _nonlinear_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray
+    def sites(self) -> dict[str, tuple[FloatArray, float, float]]:
+        """Return the device sites: name -> (stroke row on ``x``, spring k, dashpot c).
+
+        The secondary suspensions (:data:`SUSPENSION_SITES`), then every elastic equipment
+        hanger (by the item's name). The primary suspensions are not sites: their stroke
+        holds the track input, which a device's drift ``B q`` cannot.
+        """
+        out = {site: (self.D_sec[b], self.spec.suspension("k_secondary", b),
+                      self.spec.suspension("c_secondary", b))
+               for b, site in enumerate(SUSPENSION_SITES)}
+        elastic = [e for e in self.spec.equipment if e.mount == "elastic"]
+        for e, d in zip(elastic, self.D_mount, strict=True):
+            out[e.name] = (d, e.k_mount, e.c_mount)
+        return out
+
+    def _nonlinear_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray,
+                          given: Mapping[str, Device]
                           ) -> tuple[FloatArray, FloatArray, tuple[DeviceAttachment, ...]]:
-        """Carry hardening and softening mounts as 1-direction devices (linear part moved).
+        """Carry hardening, softening and given mount laws as devices (linear part moved).
 
         A hardening mount is a power spring (:class:`CubicSpring`, exponent ``m``), a
         softening one a bilinear elastic spring (:class:`BilinearElastic`, ``kb = r k``
-        beyond ``u_s``), each with the mount's dashpot.
+        beyond ``u_s``), each with the mount's dashpot; a law given for the item's hanger
+        replaces its spring and dashpot.
         """
         elastic = [e for e in self.spec.equipment if e.mount == "elastic"]
         atts = []
         for e, d in zip(elastic, self.D_mount, strict=True):
             dev: Device
-            if e.u_h_mount > 0.0:
+            if e.name in given:
+                dev = given[e.name]
+            elif e.u_h_mount > 0.0:
                 k3 = e.k_mount / e.u_h_mount ** (e.m_mount - 1.0)
                 dev = CubicSpring(e.k_mount, k3, [e.c_mount], name=f"mount_{e.name}",
                                   m=e.m_mount)
@@ -425,11 +443,18 @@ class VehicleModel:
                                       [e.c_mount], name=f"mount_{e.name}")
             else:
                 continue
-            B = (d @ Phi)[None, :]
-            K = K - e.k_mount * B.T @ B
-            C = C - e.c_mount * B.T @ B
-            atts.append(DeviceAttachment(device=dev, B=B))
+            B1 = d @ Phi
+            K = K - e.k_mount * np.outer(B1, B1)
+            C = C - e.c_mount * np.outer(B1, B1)
+            atts.append(_along(dev, B1))
         return K, C, tuple(atts)
+
+
+def _along(dev: Device, B1: FloatArray) -> DeviceAttachment:
+    """Attach ``dev`` along one stroke ``B1 q`` (a 2-direction law's second one at rest)."""
+    B = np.zeros((dev.n_dir, B1.size))
+    B[0] = B1
+    return DeviceAttachment(device=dev, B=B)
 
 
 def _add_pair(A: FloatArray, d: FloatArray, k: float) -> None:
@@ -530,7 +555,7 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
                   n_modes: int | None = None, cutoff_hz: float | None = None,
                   secondary_devices: bool = False,
                   site_devices: Mapping[str, Device] | None = None,
-                  device_channels: bool = False) -> Plant:
+                  device_channels: Sequence[str] = ()) -> Plant:
     """Build the trailer-car :class:`~modal_twin.models.plant.Plant` (module docstring).
 
     Parameters
@@ -548,10 +573,10 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
         Secondary suspensions as linear devices (see
         :meth:`VehicleModel.to_reduced_system`).
     site_devices : mapping, optional
-        Device laws at the suspension sites (:data:`SUSPENSION_SITES`).
-    device_channels : bool
-        Also the sites' stroke ``<site>_dz`` (role ``device_drift``, m) and force
-        ``<site>_fz`` (``device_force``, N: spring, dashpot and any law there) channels.
+        Device laws at the sites (:meth:`VehicleModel.sites`).
+    device_channels : sequence of str
+        Sites whose stroke ``<site>_dz`` (role ``device_drift``, m) and force ``<site>_fz``
+        (``device_force``, N: spring, dashpot and any law there) are channels too.
 
     Returns
     -------
@@ -579,9 +604,9 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
 
 
 
-def _channels(vm: VehicleModel, system: ReducedSystem, devices: bool
+def _channels(vm: VehicleModel, system: ReducedSystem, devices: Sequence[str]
               ) -> tuple[tuple[ChannelSpec, ...], tuple[Source, ...]]:
-    """Channels and their sources: accelerations, then (``devices``) strokes and forces.
+    """Channels and their sources: accelerations, then the sites' strokes and forces.
 
     A site's force is an output row while its element is linear, else its device's force
     (the first direction of the device at that site).
@@ -597,10 +622,11 @@ def _channels(vm: VehicleModel, system: ReducedSystem, devices: bool
         rows += att.device.n_dir
     for qty, key, role in (("displacement", "d", "device_drift"),
                            ("force", "f", "device_force")):
-        for site in SUSPENSION_SITES:
+        for site in (s for s in vm.sites() if s in devices):
             name = f"{site}_{key}z"
             channels.append(ChannelSpec(name, qty, site, "z", role=role))
-            sources.append(("y", y_index[name]) if name in y_index else ("force", f_row[site]))
+            sources.append(("y", y_index[name]) if name in y_index else
+                           ("force", f_row[site] if site in f_row else f_row[f"mount_{site}"]))
     return tuple(channels), tuple(sources)
 
 

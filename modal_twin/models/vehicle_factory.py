@@ -73,19 +73,20 @@ class VehicleFactory:
 
     @property
     def sites(self) -> dict[str, DeviceSpec]:
-        """Device sites: the secondary suspension of each bogie (its k and c now).
+        """Device sites: the secondary suspension of each bogie, each elastic hanger.
 
-        A device law of the registry placed there replaces the element's spring and
-        dashpot; a 2-direction law's second direction takes no stroke (the ``k`` and ``c``
-        of both directions are the element's).
+        With their k and c now. A device law of the registry placed there replaces the
+        element's spring and dashpot; a 2-direction law's second direction takes no stroke
+        (the ``k`` and ``c`` of both directions are the element's). An item the file
+        bolts rigidly is a candidate for an ``elastic_mount`` instead.
         """
         spec = apply_theta(self.spec, self.theta)
-        out = {}
-        for b, site in enumerate(SUSPENSION_SITES):
-            k, c = spec.suspension("k_secondary", b), spec.suspension("c_secondary", b)
-            out[site] = DeviceSpec(site, b, np.array([k, k]), np.array([c, c]), 0.0,
-                                   "linear")
-        return out
+        kc = {site: (spec.suspension("k_secondary", b), spec.suspension("c_secondary", b))
+              for b, site in enumerate(SUSPENSION_SITES)}
+        kc.update({e.name: (e.k_mount, e.c_mount) for e in spec.equipment
+                   if e.mount == "elastic"})
+        return {site: DeviceSpec(site, j, np.array([k, k]), np.array([c, c]), 0.0, "linear")
+                for j, (site, (k, c)) in enumerate(kc.items())}
 
     def with_theta(self, changes: Mapping[str, float]) -> VehicleFactory:
         """Return a factory of the same vehicle with some parameter values changed.
@@ -172,6 +173,6 @@ class VehicleFactory:
                                      u_s=float(e.params.get("u_s", 0.0)),
                                      r=float(e.params.get("r", 1.0)))
         plant = build_vehicle(spec, theta=self.theta or None, site_devices=devices,
-                              device_channels=True)
+                              device_channels=tuple(sites))
         plant = replace(plant, name=f"{plant.name}#{self.label}") if self.label else plant
         return with_sensor_effects(plant, sensors)

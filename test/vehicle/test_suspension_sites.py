@@ -26,6 +26,7 @@ from modal_twin.models.effects import EffectSpec
 from modal_twin.models.track import random_profile, wheelset_inputs
 from modal_twin.models.vehicle import SUSPENSION_SITES, build_vehicle
 from modal_twin.models.vehicle_factory import VehicleFactory
+from modal_twin.models.vehicle_spec import equipment_mounted
 
 ROOT = Path(__file__).resolve().parents[2]
 VEHICLE = ROOT / "config" / "vehicles" / "trailer_car.yaml"
@@ -40,8 +41,8 @@ def factory() -> VehicleFactory:
     return VehicleFactory(VEHICLE)
 
 
-def _empty_record(factory: VehicleFactory, seed: int = 3) -> Record:
-    p = factory.plant()
+def _empty_record(factory: VehicleFactory, seed: int = 3, plant=None) -> Record:
+    p = factory.plant() if plant is None else plant
     v = 300.0 / 3.6
     u = wheelset_inputs(random_profile(v * T + 40.0, rng=seed), factory.spec.axle_x, v, FS, T)
     return Record(FS, p.input_names, u, p.channel_names,
@@ -109,3 +110,43 @@ def test_screening_names_friction_at_the_front_secondary(factory: VehicleFactory
                             {"secondary_front": site}, {"secondary_front": 1.0}, FS,
                             laws=("regularised_friction", "bouc_wen"))
     assert scr[0].law == "regularised_friction", [(c.law, round(c.score, 3)) for c in scr]
+
+
+@pytest.fixture(scope="module")
+def hung(tmp_path_factory: pytest.TempPathFactory) -> VehicleFactory:
+    """The car with EQ1 on elastic hangers in its file (10 Hz, 5 %)."""
+    text = VEHICLE.read_text()
+    assert text.count("mount: rigid") == 1
+    path = tmp_path_factory.mktemp("car") / "hung_car.yaml"
+    path.write_text(text.replace("mount: rigid", "mount: elastic"))
+    return VehicleFactory(path)
+
+
+def test_an_elastic_hanger_is_a_site_with_its_stroke_and_force(hung: VehicleFactory) -> None:
+    assert list(hung.sites) == [*SUSPENSION_SITES, "EQ1"]
+    p = hung.plant()
+    rec = _empty_record(hung)
+    assert measured_device(p.channels, rec, "EQ1") == (["EQ1_dz"], ["EQ1_fz"])
+    y = simulate_record(p, rec)
+    d, f = y[p.channel_names.index("EQ1_dz")], y[p.channel_names.index("EQ1_fz")]
+    e = hung.spec.equipment_named("EQ1")
+    err = (f - (e.k_mount * d + e.c_mount * _rate(d)))[50:-50]
+    assert np.max(np.abs(err)) < 0.01 * np.max(np.abs(f))
+    y1 = simulate_record(hung.plant([EffectSpec("EQ1", "linear", {})]), rec)
+    assert np.max(np.abs(y1 - y) / np.max(np.abs(y), axis=1, keepdims=True)) < 1e-9
+
+
+def test_a_softening_hanger_reports_the_law_force(factory: VehicleFactory) -> None:
+    mount = EffectSpec("EQ1", "elastic_mount", {"f_hz": 10.0, "zeta": 0.0, "u_s": 4e-5,
+                                                "r": 0.35})
+    # bolted in the file: a mount candidate, not a site, and no channels of its own
+    assert "EQ1" not in factory.sites
+    assert "EQ1_dz" not in factory.plant([mount]).channel_names
+    spec = equipment_mounted(factory.spec, "EQ1", 10.0, 0.0, u_s=4e-5, r=0.35)
+    p = build_vehicle(spec, device_channels=("EQ1",))
+    y = simulate_record(p, _empty_record(factory, plant=p))
+    d, f = y[p.channel_names.index("EQ1_dz")], y[p.channel_names.index("EQ1_fz")]
+    k = factory.spec.equipment_named("EQ1").mass * (2 * np.pi * 10.0) ** 2
+    want = np.where(np.abs(d) <= 4e-5, k * d, 0.35 * k * d + 0.65 * k * 4e-5 * np.sign(d))
+    assert np.max(np.abs(d)) > 4e-5  # the record reaches the softer branch
+    assert np.max(np.abs(f - want)) < 1e-6 * np.max(np.abs(f))
