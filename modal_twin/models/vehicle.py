@@ -34,7 +34,10 @@ basis (``T' C_full T``); suspensions and mounts add their dashpots (non-classica
 Reduction: the real undamped modes of the coupled model, ``x = Phi q`` with
 ``Phi' M Phi = I``, give ``M_r = I``, ``K_r = diag(omega^2)``, ``C_r = Phi' C Phi`` (full),
 ``Gamma_r = Phi' Gamma``. Outputs: floor vertical absolute accelerations
-``y = S Phi q''`` (no feed-through: ``x`` is absolute).
+``y = S Phi q''`` (no feed-through: ``x`` is absolute); on request the stroke ``D x`` and
+force (``k d + c d'``, or the device's) of each device site: the secondary suspensions and
+the elastic equipment hangers, where a device law of the registry may replace the
+element's spring and dashpot (:meth:`VehicleModel.sites`).
 """
 
 from __future__ import annotations
@@ -581,7 +584,8 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
     Returns
     -------
     Plant
-        Inputs :data:`INPUT_NAMES`; channels ``floor_<label>_z`` (m/s^2, absolute).
+        Inputs :data:`INPUT_NAMES`; channels ``floor_<label>_z`` (m/s^2, absolute), then
+        ``<site>_dz`` (m) and ``<site>_fz`` (N) of the ``device_channels`` sites.
 
     Examples
     --------
