@@ -145,7 +145,7 @@ def channels_with_role(channels: Iterable[ChannelSpec], role: str) -> list[Chann
 
 
 def device_channels(channels: Iterable[ChannelSpec], device: str, role: str) -> list[str]:
-    """Return the names of the channels of ``role`` at ``device`` (its location), x then y.
+    """Return the names of the channels of ``role`` at ``device`` (its location), x, y, z.
 
     ``role`` is ``device_drift`` or ``device_force``; a device's drift and force are found
     by role and place, never by a channel name's pattern.
@@ -155,7 +155,7 @@ def device_channels(channels: Iterable[ChannelSpec], device: str, role: str) -> 
         raise ConfigError(msg)
     found = {c.direction: c.name for c in channels_with_role(channels, role)
              if c.location == device}
-    return [found[a] for a in "xy" if a in found]
+    return [found[a] for a in "xyz" if a in found]
 
 
 def channel_map_to_dict(channels: Iterable[ChannelSpec], **extra: Any) -> dict[str, Any]:

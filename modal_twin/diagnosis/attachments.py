@@ -8,7 +8,9 @@ around it (scenario S2). The same holds for any lumped mass a model attaches rig
 Screening: the mount frequency on a log grid (damping ratio 5 %), each trial simulated on
 the training record; the share of the normalised residual energy the best trial removes is
 the score. Fit: ``(ln f, zeta)`` by ``scipy.optimize.least_squares`` on the training record,
-judged on the held-out record, with the BIC of :mod:`.fitting`.
+judged on the held-out record, with the BIC of :mod:`.fitting`; then the same with a mount
+that hardens (a power spring) and one that softens (a bilinear elastic spring), the lowest
+BIC kept.
 
 A factory offers the masses it can hang through ``attachments()`` and builds the plant of an
 ``EffectSpec(name, "elastic_mount", {"f_hz": f, "zeta": z})`` in ``plant(effects)``.
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -26,7 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from modal_twin._types import FloatArray
-from modal_twin.diagnosis.effect_kind import Job, PlacedEffect, Round
+from modal_twin.diagnosis.effect_kind import Facts, Job, PlacedEffect, Round
 from modal_twin.diagnosis.fitting import (
     FittedEffect,
     Records,
@@ -130,46 +133,69 @@ def fit_attachment(factory: Any, component: str, start: dict[str, float], train:
                        factory.plant([_mount(component, **to_params(sol.x))]), factory.plant(),
                        sol, 2, train, test, objective, t0,
                        _parameter_std(sol, to_params, ["f_hz", "zeta"]))
-    hard = _fit_hardening(factory, component, sol.x, lo, hi, train, test, decimate, max_nfev)
-    return hard if hard is not None and hard.bic < linear.bic else linear
+    fits = [linear] + [_fit_nonlinear(factory, component, sol.x, lo, hi, train, test,
+                                      decimate, max_nfev, form) for form in _FORMS]
+    return min((f for f in fits if f is not None), key=lambda f: f.bic)
 
 
-def _fit_hardening(factory: Any, component: str, x_lin: FloatArray, lo: FloatArray,
+# the mount laws beyond the linear one: extra parameters (name, x -> value, lower, upper,
+# start); x is the optimiser's coordinate (log for a displacement)
+_FORMS: dict[str, tuple[tuple[str, Callable[[float], float], float, float, float], ...]] = {
+    # hardening power spring k d (1 + (|d| / u_h)^(m - 1))
+    "hardening": (("u_h", np.exp, np.log(1e-5), np.log(1.0), np.log(1e-2)),
+                  ("m", float, 2.0, 9.0, 3.0)),
+    # softening bilinear spring: k up to |d| = u_s, r k beyond (Eq. (9) of [004])
+    "softening": (("u_s", np.exp, np.log(1e-6), np.log(1e-2), np.log(1e-4)),
+                  ("r", float, 0.05, 0.99, 0.5)),
+}
+
+
+def _fit_nonlinear(factory: Any, component: str, x_lin: FloatArray, lo: FloatArray,
                    hi: FloatArray, train: Records, test: Record, decimate: int,
-                   max_nfev: int) -> FittedEffect | None:
-    """Refit a mount that hardens: ``k d (1 + (|d| / u_h)^(m - 1))``, from the linear fit.
+                   max_nfev: int, form: str) -> FittedEffect | None:
+    """Refit a mount that hardens or softens (:data:`_FORMS`), from the linear fit.
 
-    None when the model cannot carry a hardening mount.
+    None when the model cannot carry that mount.
     """
     t0 = time.perf_counter()
+    extra = _FORMS[form]
 
     def to_params(x: FloatArray) -> dict[str, float]:
         return {"f_hz": float(np.exp(x[0])), "zeta": float(x[1]),
-                "u_h": float(np.exp(x[2])), "m": float(x[3])}
+                **{n: float(f(v)) for (n, f, *_), v in zip(extra, x[2:], strict=True)}}
 
     objective = SimulationObjective(
         lambda x: factory.plant([_mount(component, **to_params(x))]), train, decimate)
-    lo4 = np.r_[lo, np.log(1e-5), 2.0]
-    hi4 = np.r_[hi, np.log(1.0), 9.0]
-    x0 = np.clip(np.r_[x_lin, np.log(1e-2), 3.0], lo4 + 1e-9, hi4 - 1e-9)
+    lo4 = np.r_[lo, [e[2] for e in extra]]
+    hi4 = np.r_[hi, [e[3] for e in extra]]
+    x0 = np.clip(np.r_[x_lin, [e[4] for e in extra]], lo4 + 1e-9, hi4 - 1e-9)
     try:
         sol = least_squares(objective, x0, bounds=(lo4, hi4), diff_step=1e-3,
                             max_nfev=max_nfev, x_scale="jac")
         effect = _mount(component, **to_params(sol.x))
         fitted = factory.plant([effect])
     except (ModalTwinError, ValueError) as err:
-        log.debug("hardening mount at %s not fitted: %s", component, err)
+        log.debug("%s mount at %s not fitted: %s", form, component, err)
         return None
-    names = ["f_hz", "zeta", "u_h", "m"]
-    return judge_fit(effect, fitted, factory.plant(), sol, 4, train, test, objective, t0,
-                     _parameter_std(sol, to_params, names))
+    names = ["f_hz", "zeta", *(e[0] for e in extra)]
+    return judge_fit(effect, fitted, factory.plant(), sol, len(names), train, test,
+                     objective, t0, _parameter_std(sol, to_params, names))
 
 
 class MountKind(PlacedEffect):
     """Effect kind ``mount``: a rigidly attached mass that hangs on an elastic mount."""
 
     name = "mount"
-    families: tuple[str, ...] = ("elastic_attachment",)
+    families: tuple[str, ...] = ("elastic_attachment", "softening")
+
+    def family(self, effect: EffectSpec, facts: Facts) -> str:
+        """Return the family of a fitted mount.
+
+        ``softening`` for a mount that softens (``r < 1`` beyond ``u_s``), else
+        ``elastic_attachment`` (a linear or hardening mount of a rigidly modelled mass).
+        """
+        soft = effect.params.get("u_s", 0.0) > 0.0 and effect.params.get("r", 1.0) < 1.0
+        return "softening" if soft else "elastic_attachment"
 
     def owns(self, law: str) -> bool:
         """:data:`MOUNT_LAW`."""

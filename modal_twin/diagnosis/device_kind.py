@@ -57,15 +57,16 @@ class DeviceCandidate:
 
 def measured_device(channels: Iterable[ChannelSpec], rec: Record, component: str
                     ) -> tuple[list[str], list[str]] | None:
-    """Names of the drift and force channels (x, y) of ``component`` measured in ``rec``.
+    """Names of the drift and force channels of ``component`` measured in ``rec``.
 
-    By role and location (:func:`modal_twin.channels.device_channels`); None unless both
-    directions of both are in the record.
+    By role and location (:func:`modal_twin.channels.device_channels`): x and y of an
+    isolator, z of a vehicle's suspension; None unless every direction the model gives
+    both of is in the record.
     """
     chans = tuple(channels)
     drift = device_channels(chans, component, "device_drift")
     force = device_channels(chans, component, "device_force")
-    if len(drift) == 2 and len(force) == 2 and all(
+    if drift and len(drift) == len(force) and all(
             c in rec.channel_names for c in drift + force):
         return drift, force
     return None

@@ -27,6 +27,7 @@ from modal_twin._types import FloatArray
 from modal_twin.diagnosis.evidence import velocity_cutoff
 from modal_twin.diagnosis.restoring_force import state_derivatives
 from modal_twin.errors import ModalTwinError
+from modal_twin.models.devices import Device
 from modal_twin.models.effects import EFFECT_LAWS, effect_device
 from modal_twin.models.structure_yaml import DeviceSpec
 
@@ -108,8 +109,8 @@ def screen_components(
 
     Parameters
     ----------
-    drifts, forces : mapping component -> (2, nt) array
-        Measured drift (m) and force (N) in x and y.
+    drifts, forces : mapping component -> (n_dir, nt) array
+        Measured drift (m) and force (N) in x and y (an isolator) or z (a suspension).
     sites : mapping component -> DeviceSpec
         Nominal linear law of each component (``k``, ``c``).
     weights : mapping component -> float
@@ -131,14 +132,14 @@ def screen_components(
         u = np.asarray(drifts[name], dtype=float)
         f = np.asarray(forces[name], dtype=float)
         v = drift_velocity(u, fs_hz, cutoff_hz or velocity_cutoff(u, fs_hz))
-        k, c = np.asarray(spec.k, float)[:, None], np.asarray(spec.c, float)[:, None]
+        n_dir = u.shape[0]  # 2 for an isolator (x, y), 1 for a vehicle's suspension (z)
+        k = np.asarray(spec.k, float)[:n_dir, None]
+        c = np.asarray(spec.c, float)[:n_dir, None]
         r = (f - (k * u + c * v)).ravel()  # residual restoring force, Eq. (20) of [003]
         f_var = float(np.sum((f - f.mean(axis=1, keepdims=True)) ** 2))
         if f_var <= 0:
             continue
-        lin = np.column_stack([np.concatenate([u[0], 0 * u[1]]), np.concatenate([0 * u[0], u[1]]),
-                               np.concatenate([v[0], 0 * v[1]]), np.concatenate([0 * v[0], v[1]]),
-                               np.ones(r.size)])
+        lin = np.column_stack([*_per_direction(u), *_per_direction(v), np.ones(r.size)])
         _, sse_lin = _lstsq(lin, r)
         sse0 = float(r @ r)
         lin_share = (sse0 - sse_lin) / f_var
@@ -154,7 +155,7 @@ def screen_components(
                                          float(weights.get(name, 0.0))):
                 try:
                     dev = effect_device(spec, law, params, weight=float(weights.get(name, 0.0)))
-                    g = (dev.respond(u, v).f - (k * u + c * v)).ravel()
+                    g = (_respond(dev, u, v) - (k * u + c * v)).ravel()
                 except (ModalTwinError, ValueError):
                     continue
                 if not np.all(np.isfinite(g)) or not np.any(g):
@@ -172,6 +173,26 @@ def screen_components(
             if best is not None:
                 out.append(best)
     return sorted(out, key=lambda s: (-s.score, s.gain))
+
+
+def _per_direction(u: FloatArray) -> list[FloatArray]:
+    """One column per direction: that direction's history, zeros over the others."""
+    n, nt = u.shape
+    cols = []
+    for i in range(n):
+        col = np.zeros(n * nt)
+        col[i * nt:(i + 1) * nt] = u[i]
+        cols.append(col)
+    return cols
+
+
+def _respond(dev: Device, u: FloatArray, v: FloatArray) -> FloatArray:
+    """Return the force of ``dev`` along ``u`` (a 2-direction law on one: the other at rest)."""
+    n = u.shape[0]
+    if dev.n_dir > n:
+        pad = np.zeros((dev.n_dir - n, u.shape[1]))
+        return dev.respond(np.vstack([u, pad]), np.vstack([v, pad])).f[:n]
+    return dev.respond(u, v).f
 
 
 def _lstsq(A: FloatArray, b: FloatArray) -> tuple[FloatArray, float]:

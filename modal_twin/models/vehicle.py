@@ -26,20 +26,24 @@ Equation of motion in the coupled coordinates ``x`` (absolute displacements)::
 (``g_i`` puts a unit force at wheel point i of its bogie), the sign convention of
 :mod:`modal_twin.twin.simulator` (``M q'' + C q' + K q = -Gamma u - sum B' f``). A
 constant lift ``z`` of all wheelsets lifts the whole vehicle by ``z`` (``K x_rigid =
-sum k_p g_i``). Carbody damping: modal damping ``zeta`` on every flexible free-free mode
-of the full beam, ``C_full = M Phi_e diag(2 zeta omega) Phi_e' M``, projected on the CB
+sum k_p g_i``). Carbody damping: modal damping ``zeta_k`` on the k-th flexible free-free
+mode of the full beam (``zeta_carbody``, or ``zeta_cb_<k>`` for the first few),
+``C_full = M Phi_e diag(2 zeta omega) Phi_e' M``, projected on the CB
 basis (``T' C_full T``); suspensions and mounts add their dashpots (non-classical).
 
 Reduction: the real undamped modes of the coupled model, ``x = Phi q`` with
 ``Phi' M Phi = I``, give ``M_r = I``, ``K_r = diag(omega^2)``, ``C_r = Phi' C Phi`` (full),
 ``Gamma_r = Phi' Gamma``. Outputs: floor vertical absolute accelerations
-``y = S Phi q''`` (no feed-through: ``x`` is absolute).
+``y = S Phi q''`` (no feed-through: ``x`` is absolute); on request the stroke ``D x`` and
+force (``k d + c d'``, or the device's) of each device site: the secondary suspensions and
+the elastic equipment hangers, where a device law of the registry may replace the
+element's spring and dashpot (:meth:`VehicleModel.sites`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,7 +54,7 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.craig_bampton import CBReduction, craig_bampton
-from modal_twin.models.devices import CubicSpring, LinearDevice
+from modal_twin.models.devices import BilinearElastic, CubicSpring, Device, LinearDevice
 from modal_twin.models.fe import FEAssembly, FEModel
 from modal_twin.models.plant import Plant, Source
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
@@ -68,6 +72,7 @@ from modal_twin.models.vehicle_spec import (
 __all__ = [
     "DEFAULT_VEHICLE_YAML",
     "INPUT_NAMES",
+    "SUSPENSION_SITES",
     "Carbody",
     "EquipmentSpec",
     "SensorSpec",
@@ -82,6 +87,13 @@ __all__ = [
     "theta_names",
     "vehicle_info",
 ]
+
+SUSPENSION_SITES: tuple[str, ...] = ("secondary_front", "secondary_rear")
+"""Device sites of the car: the secondary suspension of each bogie (stroke ``u_pivot - z_b``).
+
+The primary suspensions are not sites: their stroke holds the track input, which a
+device's drift ``B q`` cannot.
+"""
 
 INPUT_NAMES: tuple[str, ...] = ("zt1", "zt2", "zt3", "zt4", "vt1", "vt2", "vt3", "vt4")
 """Track irregularity under wheelsets 1 (leading) .. 4 (m) and its rate (m/s)."""
@@ -230,7 +242,9 @@ def build_carbody(spec: VehicleSpec, *, cutoff_hz: float | None = None) -> Carbo
     flex = np.arange(lam.size) >= rigid_mode_count(asm)
     om = np.sqrt(lam[flex])
     MV = Md @ V[:, flex]
-    C_full = MV @ np.diag(2.0 * spec.zeta_carbody * om) @ MV.T  # modal damping zeta
+    # modal damping zeta_k of flexible mode k (zeta_carbody unless the spec sets it)
+    zeta = np.array([spec.zeta_mode(k + 1) for k in range(om.size)])
+    C_full = MV @ np.diag(2.0 * zeta * om) @ MV.T
     return Carbody(assembly=asm, node_x=xs, cb=cb, boundary_nodes=tuple(bnodes),
                    C_cb=cb.project(C_full), f_free_hz=np.sqrt(lam) / (2.0 * math.pi))
 
@@ -315,7 +329,9 @@ class VehicleModel:
         return np.abs(lam) / (2.0 * math.pi), -lam.real / np.abs(lam), V
 
     def to_reduced_system(self, *, n_modes: int | None = None,
-                          secondary_devices: bool = False) -> ReducedSystem:
+                          secondary_devices: bool = False,
+                          site_devices: Mapping[str, Device] | None = None,
+                          device_outputs: Sequence[str] = ()) -> ReducedSystem:
         """Return the modal :class:`ReducedSystem` (module docstring).
 
         Parameters
@@ -326,6 +342,14 @@ class VehicleModel:
             Carry the secondary suspensions as 1-direction
             :class:`~modal_twin.models.devices.LinearDevice` attachments (their spring and
             dashpot removed from ``K_r``, ``C_r``) so that an effect can replace them.
+        site_devices : mapping, optional
+            Device site (:meth:`sites`: a secondary suspension or an elastic equipment
+            hanger) -> a device law of the registry that replaces that element's spring
+            and dashpot; its first direction takes the stroke (``u_pivot - z_b``,
+            ``z_e - u_floor``), a second one (of a 2-direction law) none.
+        device_outputs : sequence of str
+            Sites whose stroke ``<site>_dz`` (m) and, where the element is linear, force
+            ``<site>_fz = k d + c d'`` (N) are output after the accelerations.
 
         Raises
         ------
@@ -341,44 +365,99 @@ class VehicleModel:
         K = np.diag(self.omega[:r] ** 2)
         C = Phi.T @ self.C @ Phi
         devices: tuple[DeviceAttachment, ...] = ()
-        if secondary_devices:
-            sp_ = self.spec
-            atts = []
-            for b, side in enumerate(("front", "rear")):
-                B = (self.D_sec[b] @ Phi)[None, :]
-                ks, cs = sp_.suspension("k_secondary", b), sp_.suspension("c_secondary", b)
-                K = K - ks * B.T @ B  # law supplies k_s d + c_s d'
-                C = C - cs * B.T @ B
-                dev = LinearDevice([ks], [cs], name=f"secondary_{side}")
-                atts.append(DeviceAttachment(device=dev, B=B))
-            devices = tuple(atts)
-        K, C, mounts = self._hardening_mounts(Phi, K, C)
+        given = dict(site_devices or {})
+        unknown = sorted(set(given) - set(self.sites()))
+        if unknown:
+            msg = f"site_devices: expected sites from {list(self.sites())}, got {unknown}"
+            raise OptionError(msg)
+        atts = []
+        for b, site in enumerate(SUSPENSION_SITES):
+            if site not in given and not secondary_devices:
+                continue
+            B1 = self.D_sec[b] @ Phi
+            ks, cs = self.spec.suspension("k_secondary", b), self.spec.suspension(
+                "c_secondary", b)
+            K = K - ks * np.outer(B1, B1)  # the law supplies the element's whole force
+            C = C - cs * np.outer(B1, B1)
+            dev = given.get(site) or LinearDevice([ks], [cs], name=site)
+            atts.append(_along(dev, B1))
+        devices = tuple(atts)
+        K, C, mounts = self._nonlinear_mounts(Phi, K, C, given)
         devices = devices + mounts
         SPhi = self.S @ Phi
         z = np.zeros_like(SPhi)
+        rows, names = [np.hstack([z, z, SPhi])], [c.name for c in self.channels]
+        if device_outputs:  # strokes, then the forces of the sites still linear
+            carried = {a.device.name for a in devices}
+            sites = {k: v for k, v in self.sites().items() if k in device_outputs}
+            DPhi = np.vstack([d for d, _, _ in sites.values()]) @ Phi
+            zd = np.zeros_like(DPhi)
+            rows.append(np.hstack([DPhi, zd, zd]))
+            names += [f"{site}_dz" for site in sites]
+            for j, (site, (_, k, c)) in enumerate(sites.items()):
+                if site in carried or f"mount_{site}" in carried:
+                    continue  # its force is the device's
+                rows.append(np.hstack([k * DPhi[j], c * DPhi[j], np.zeros(r)])[None, :])
+                names.append(f"{site}_fz")
+        C_out = np.vstack(rows)
         return ReducedSystem(M=np.eye(r), C=0.5 * (C + C.T), K=0.5 * (K + K.T),
-                             Gamma=Phi.T @ self.Gamma, devices=devices,
-                             C_out=np.hstack([z, z, SPhi]),
-                             D_out=np.zeros((SPhi.shape[0], len(INPUT_NAMES))),
-                             output_names=tuple(c.name for c in self.channels))
+                             Gamma=Phi.T @ self.Gamma, devices=devices, C_out=C_out,
+                             D_out=np.zeros((C_out.shape[0], len(INPUT_NAMES))),
+                             output_names=tuple(names))
 
 
-    def _hardening_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray
+    def sites(self) -> dict[str, tuple[FloatArray, float, float]]:
+        """Return the device sites: name -> (stroke row on ``x``, spring k, dashpot c).
+
+        The secondary suspensions (:data:`SUSPENSION_SITES`), then every elastic equipment
+        hanger (by the item's name). The primary suspensions are not sites: their stroke
+        holds the track input, which a device's drift ``B q`` cannot.
+        """
+        out = {site: (self.D_sec[b], self.spec.suspension("k_secondary", b),
+                      self.spec.suspension("c_secondary", b))
+               for b, site in enumerate(SUSPENSION_SITES)}
+        elastic = [e for e in self.spec.equipment if e.mount == "elastic"]
+        for e, d in zip(elastic, self.D_mount, strict=True):
+            out[e.name] = (d, e.k_mount, e.c_mount)
+        return out
+
+    def _nonlinear_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray,
+                          given: Mapping[str, Device]
                           ) -> tuple[FloatArray, FloatArray, tuple[DeviceAttachment, ...]]:
-        """Carry hardening mounts as 1-direction power springs (their linear part moved)."""
+        """Carry hardening, softening and given mount laws as devices (linear part moved).
+
+        A hardening mount is a power spring (:class:`CubicSpring`, exponent ``m``), a
+        softening one a bilinear elastic spring (:class:`BilinearElastic`, ``kb = r k``
+        beyond ``u_s``), each with the mount's dashpot; a law given for the item's hanger
+        replaces its spring and dashpot.
+        """
         elastic = [e for e in self.spec.equipment if e.mount == "elastic"]
         atts = []
         for e, d in zip(elastic, self.D_mount, strict=True):
-            if e.u_h_mount <= 0.0:
+            dev: Device
+            if e.name in given:
+                dev = given[e.name]
+            elif e.u_h_mount > 0.0:
+                k3 = e.k_mount / e.u_h_mount ** (e.m_mount - 1.0)
+                dev = CubicSpring(e.k_mount, k3, [e.c_mount], name=f"mount_{e.name}",
+                                  m=e.m_mount)
+            elif e.u_s_mount > 0.0 and e.r_mount < 1.0:
+                dev = BilinearElastic(e.k_mount, e.r_mount * e.k_mount, e.u_s_mount,
+                                      [e.c_mount], name=f"mount_{e.name}")
+            else:
                 continue
-            B = (d @ Phi)[None, :]
-            K = K - e.k_mount * B.T @ B
-            C = C - e.c_mount * B.T @ B
-            k3 = e.k_mount / e.u_h_mount ** (e.m_mount - 1.0)
-            dev = CubicSpring(e.k_mount, k3, [e.c_mount], name=f"mount_{e.name}",
-                              m=e.m_mount)
-            atts.append(DeviceAttachment(device=dev, B=B))
+            B1 = d @ Phi
+            K = K - e.k_mount * np.outer(B1, B1)
+            C = C - e.c_mount * np.outer(B1, B1)
+            atts.append(_along(dev, B1))
         return K, C, tuple(atts)
+
+
+def _along(dev: Device, B1: FloatArray) -> DeviceAttachment:
+    """Attach ``dev`` along one stroke ``B1 q`` (a 2-direction law's second one at rest)."""
+    B = np.zeros((dev.n_dir, B1.size))
+    B[0] = B1
+    return DeviceAttachment(device=dev, B=B)
 
 
 def _add_pair(A: FloatArray, d: FloatArray, k: float) -> None:
@@ -477,7 +556,9 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
 
 def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float] | None = None,
                   n_modes: int | None = None, cutoff_hz: float | None = None,
-                  secondary_devices: bool = False) -> Plant:
+                  secondary_devices: bool = False,
+                  site_devices: Mapping[str, Device] | None = None,
+                  device_channels: Sequence[str] = ()) -> Plant:
     """Build the trailer-car :class:`~modal_twin.models.plant.Plant` (module docstring).
 
     Parameters
@@ -494,11 +575,17 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
     secondary_devices : bool
         Secondary suspensions as linear devices (see
         :meth:`VehicleModel.to_reduced_system`).
+    site_devices : mapping, optional
+        Device laws at the sites (:meth:`VehicleModel.sites`).
+    device_channels : sequence of str
+        Sites whose stroke ``<site>_dz`` (role ``device_drift``, m) and force ``<site>_fz``
+        (``device_force``, N: spring, dashpot and any law there) are channels too.
 
     Returns
     -------
     Plant
-        Inputs :data:`INPUT_NAMES`; channels ``floor_<label>_z`` (m/s^2, absolute).
+        Inputs :data:`INPUT_NAMES`; channels ``floor_<label>_z`` (m/s^2, absolute), then
+        ``<site>_dz`` (m) and ``<site>_fz`` (N) of the ``device_channels`` sites.
 
     Examples
     --------
@@ -508,14 +595,43 @@ def build_vehicle(spec: VehicleSpec | None = None, *, theta: Mapping[str, float]
     """
     spec = load_vehicle() if spec is None else spec
     vm = assemble_vehicle(spec, theta=theta, cutoff_hz=cutoff_hz)
-    system = vm.to_reduced_system(n_modes=n_modes, secondary_devices=secondary_devices)
-    sources: tuple[Source, ...] = tuple(("y", i) for i in range(len(vm.channels)))
-    label = ",".join(f"{e.name}:elastic" for e in vm.spec.equipment
-                     if e.mount == "elastic") or "nominal"
+    system = vm.to_reduced_system(n_modes=n_modes, secondary_devices=secondary_devices,
+                                  site_devices=site_devices, device_outputs=device_channels)
+    channels, sources = _channels(vm, system, device_channels)
+    label = ",".join([*(f"{e.name}:elastic" for e in vm.spec.equipment
+                        if e.mount == "elastic"),
+                      *(f"{k}:{type(d).__name__}" for k, d in (site_devices or {}).items())]
+                     ) or "nominal"
     quantities = ("displacement",) * 4 + ("velocity",) * 4
-    return Plant(system, INPUT_NAMES, quantities, vm.channels, sources,
+    return Plant(system, INPUT_NAMES, quantities, channels, sources,
                  name=f"{vm.spec.name}@{label}")
 
+
+
+def _channels(vm: VehicleModel, system: ReducedSystem, devices: Sequence[str]
+              ) -> tuple[tuple[ChannelSpec, ...], tuple[Source, ...]]:
+    """Channels and their sources: accelerations, then the sites' strokes and forces.
+
+    A site's force is an output row while its element is linear, else its device's force
+    (the first direction of the device at that site).
+    """
+    y_index = {n: i for i, n in enumerate(system.output_names)}
+    channels = list(vm.channels)
+    sources: list[Source] = [("y", y_index[c.name]) for c in vm.channels]
+    if not devices:
+        return tuple(channels), tuple(sources)
+    f_row, rows = {}, 0
+    for att in system.devices:
+        f_row[att.device.name] = rows
+        rows += att.device.n_dir
+    for qty, key, role in (("displacement", "d", "device_drift"),
+                           ("force", "f", "device_force")):
+        for site in (s for s in vm.sites() if s in devices):
+            name = f"{site}_{key}z"
+            channels.append(ChannelSpec(name, qty, site, "z", role=role))
+            sources.append(("y", y_index[name]) if name in y_index else
+                           ("force", f_row[site] if site in f_row else f_row[f"mount_{site}"]))
+    return tuple(channels), tuple(sources)
 
 
 def vehicle_info(model: VehicleModel, n_show: int = 12) -> dict[str, Any]:

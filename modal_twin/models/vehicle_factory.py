@@ -3,9 +3,12 @@
 The vehicle counterpart of :class:`~modal_twin.models.building_factory.BuildingFactory`,
 with the protocol :class:`~modal_twin.models.loading.ModelFactory` that the diagnosis and
 updating use (``plant``, ``with_theta``, ``parameters``, ``attachments``, ``sites``). The
-vehicle has no device sites (its suspensions are linear); its candidate effects are
-parameter changes (``EI_carbody``, ``m_<equipment>``) and elastic mounts of the rigidly
-bolted equipment (``elastic_mount``, Fig. 3b of [002]).
+vehicle's device sites are its secondary suspensions (a device law of the registry can
+replace one; the diagnosis screens a site only where its stroke and force are measured in
+x and y, which a vertical-plane car does not give yet); its candidate effects are
+parameter changes (``EI_carbody``, ``m_<equipment>``, the suspensions' ``k_`` / ``c_``, the
+modal damping ratio ``zeta_cb_<k>`` of the k-th flexible carbody mode) and elastic mounts
+of the rigidly bolted equipment (``elastic_mount``, Fig. 3b of [002]).
 """
 
 from __future__ import annotations
@@ -15,13 +18,17 @@ from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 from modal_twin.errors import OptionError
-from modal_twin.models.effects import MOUNT_LAW, EffectSpec
+from modal_twin.models.effects import MOUNT_LAW, EffectSpec, effect_device
 from modal_twin.models.loading import merge_effects, split_sensor_effects
 from modal_twin.models.parameter_info import Kind, ParameterInfo
 from modal_twin.models.plant import Plant, with_sensor_effects
-from modal_twin.models.vehicle import build_vehicle
+from modal_twin.models.structure_yaml import DeviceSpec
+from modal_twin.models.vehicle import SUSPENSION_SITES, build_vehicle
 from modal_twin.models.vehicle_spec import (
+    CARBODY_MODE_PREFIX,
     VehicleSpec,
     apply_theta,
     equipment_mounted,
@@ -51,10 +58,11 @@ class VehicleFactory:
     """
 
     # parameters the diagnosis screens as candidates: equipment masses, carbody bending
-    # stiffness, primary and secondary suspension stiffness and damping
+    # stiffness, primary and secondary suspension stiffness and damping, the damping ratio
+    # of each of the first flexible carbody modes (zeta_cb_1 = first bending)
     base_effects: tuple[EffectSpec, ...] = ()  # a version's effects, kept in every plant
     label: str = ""  # the version's label, part of every plant's name
-    parameter_prefixes = ("m_", "EI_", "k_", "c_")
+    parameter_prefixes = ("m_", "EI_", "k_", "c_", CARBODY_MODE_PREFIX)
 
     def __init__(self, vehicle_file: str | Path, *,
                  theta: Mapping[str, float] | None = None) -> None:
@@ -62,7 +70,23 @@ class VehicleFactory:
         self.theta = dict(theta or {})
         self.spec: VehicleSpec = load_vehicle(vehicle_file)
         apply_theta(self.spec, self.theta)  # refuses unknown names and bad values now
-        self.sites: dict[str, object] = {}  # no nonlinear device sites
+
+    @property
+    def sites(self) -> dict[str, DeviceSpec]:
+        """Device sites: the secondary suspension of each bogie, each elastic hanger.
+
+        With their k and c now. A device law of the registry placed there replaces the
+        element's spring and dashpot; a 2-direction law's second direction takes no stroke
+        (the ``k`` and ``c`` of both directions are the element's). An item the file
+        bolts rigidly is a candidate for an ``elastic_mount`` instead.
+        """
+        spec = apply_theta(self.spec, self.theta)
+        kc = {site: (spec.suspension("k_secondary", b), spec.suspension("c_secondary", b))
+              for b, site in enumerate(SUSPENSION_SITES)}
+        kc.update({e.name: (e.k_mount, e.c_mount) for e in spec.equipment
+                   if e.mount == "elastic"})
+        return {site: DeviceSpec(site, j, np.array([k, k]), np.array([c, c]), 0.0, "linear")
+                for j, (site, (k, c)) in enumerate(kc.items())}
 
     def with_theta(self, changes: Mapping[str, float]) -> VehicleFactory:
         """Return a factory of the same vehicle with some parameter values changed.
@@ -95,6 +119,9 @@ class VehicleFactory:
             msg = f"parameter: expected one of {list(theta_names(self.spec))}, got {name!r}"
             raise OptionError(msg)
         v = float(parameter_value(self.spec, name))
+        if name.startswith(CARBODY_MODE_PREFIX):  # as the building's modal damping
+            return ParameterInfo(name, "damping", "carbody", v, 0.1 * v, 5.0 * v, "1",
+                                 "modal_damping")
         for prefix, (kind, unit, lo, hi) in _PREFIX_INFO.items():
             if name.startswith(prefix):
                 return ParameterInfo(name, kind, name[len(prefix):].replace("_", " "), v,
@@ -106,24 +133,34 @@ class VehicleFactory:
         return tuple(e.name for e in self.spec.equipment if e.mount == "rigid")
 
     def weight(self, component: str) -> float:
-        """Weight of an equipment item, N."""
-        return 9.81 * apply_theta(self.spec, self.theta).equipment_named(component).mass
+        """Weight of an equipment item or on a secondary suspension (half the carbody), N."""
+        spec = apply_theta(self.spec, self.theta)
+        if component in SUSPENSION_SITES:
+            return 0.5 * 9.81 * spec.carbody_mass
+        return 9.81 * spec.equipment_named(component).mass
 
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
-        """Return the plant with ``effects`` (elastic mounts) applied.
+        """Return the plant with ``effects`` (elastic mounts, device laws at sites) applied.
 
         Raises
         ------
         OptionError
-            An effect other than ``elastic_mount``, or at an unknown / already elastic item.
+            An effect other than ``elastic_mount`` or a device law at a site, or a mount at
+            an unknown / already elastic item.
         """
         spec = self.spec
         effects, sensors = split_sensor_effects(merge_effects(self.base_effects, effects))
+        devices = {}
+        sites = self.sites
         for e in effects:
+            if e.component in sites and e.law != MOUNT_LAW:
+                devices[e.component] = effect_device(sites[e.component], e.law, e.params,
+                                                     weight=self.weight(e.component))
+                continue
             if e.law != MOUNT_LAW:
                 msg = (f"effect {e.law!r} at {e.component!r}: a vehicle takes "
-                       f"{MOUNT_LAW!r} effects at {list(self.attachments())} and parameter "
-                       "changes")
+                       f"{MOUNT_LAW!r} effects at {list(self.attachments())}, device laws "
+                       f"at {list(sites)} and parameter changes")
                 raise OptionError(msg)
             if e.component not in self.attachments():
                 msg = (f"{MOUNT_LAW}: unknown or already elastic item {e.component!r}; "
@@ -132,7 +169,10 @@ class VehicleFactory:
             spec = equipment_mounted(spec, e.component, float(e.params["f_hz"]),
                                      float(e.params.get("zeta", 0.05)),
                                      u_h=float(e.params.get("u_h", 0.0)),
-                                     m=float(e.params.get("m", 3.0)))
-        plant = build_vehicle(spec, theta=self.theta or None)
+                                     m=float(e.params.get("m", 3.0)),
+                                     u_s=float(e.params.get("u_s", 0.0)),
+                                     r=float(e.params.get("r", 1.0)))
+        plant = build_vehicle(spec, theta=self.theta or None, site_devices=devices,
+                              device_channels=tuple(sites))
         plant = replace(plant, name=f"{plant.name}#{self.label}") if self.label else plant
         return with_sensor_effects(plant, sensors)

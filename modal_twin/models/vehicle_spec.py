@@ -81,6 +81,13 @@ class EquipmentSpec:
         drift ``d`` (the stiffening of rubber hangers); 0: linear (default), m.
     m_mount : float
         Exponent ``m`` of that hardening, in [2, 9].
+    u_s_mount : float
+        Softening of the mount: its spring force is ``k d`` for ``|d| <= u_s`` and
+        ``r k d + (1 - r) k u_s sign(d)`` beyond (Eq. (9) of [004], a bilinear elastic
+        spring with ``kb = r k``: rubber that softens, a hanger that slips into a softer
+        stage); 0: no softening (default), m.
+    r_mount : float
+        Tangent stiffness beyond ``u_s`` over ``k``, in (0, 1].
     """
 
     name: str
@@ -91,6 +98,8 @@ class EquipmentSpec:
     zeta_mount: float = 0.05
     u_h_mount: float = 0.0
     m_mount: float = 3.0
+    u_s_mount: float = 0.0
+    r_mount: float = 1.0
 
     @property
     def k_mount(self) -> float:
@@ -166,6 +175,13 @@ class VehicleSpec:
     # per-bogie factors (front, rear) on the suspensions' k and c: one worn damper or a
     # sagging spring is a change at one bogie, not at the car
     bogie_factors: tuple[tuple[str, float, float], ...] = ()
+    # (k, zeta_k): the damping ratio of the k-th flexible free-free carbody mode (1 = first
+    # bending) where it is not ``zeta_carbody`` (theta ``zeta_cb_<k>``)
+    zeta_modes: tuple[tuple[int, float], ...] = ()
+
+    def zeta_mode(self, k: int) -> float:
+        """Damping ratio of the ``k``-th flexible carbody mode (1-based)."""
+        return next((z for j, z in self.zeta_modes if j == k), self.zeta_carbody)
 
     def suspension(self, name: str, bogie: int) -> float:
         """Value of ``k_primary`` / ``c_primary`` / ``k_secondary`` / ``c_secondary`` at a bogie.
@@ -220,10 +236,12 @@ class VehicleSpec:
 
 
 def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float, *,
-                      u_h: float = 0.0, m: float = 3.0) -> VehicleSpec:
+                      u_h: float = 0.0, m: float = 3.0, u_s: float = 0.0,
+                      r: float = 1.0) -> VehicleSpec:
     """Return a copy of ``spec`` with equipment ``name`` on elastic mounts (f_hz, zeta).
 
-    ``u_h > 0`` makes the mount harden (:class:`EquipmentSpec`).
+    ``u_h > 0`` makes the mount harden, ``u_s > 0`` with ``r < 1`` soften
+    (:class:`EquipmentSpec`); not both.
 
     The "elastic attachment" candidate of the diagnosis (Fig. 3b of [002]).
 
@@ -244,8 +262,13 @@ def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float, *,
     if not (math.isfinite(u_h) and u_h >= 0.0 and 2.0 <= m <= 9.0):
         msg = f"u_h, m: expected u_h >= 0 m and m in [2, 9], got {u_h!r}, {m!r}"
         raise ModelError(msg)
+    if not (math.isfinite(u_s) and u_s >= 0.0 and 0.0 < r <= 1.0) or (u_s > 0 and u_h > 0):
+        msg = (f"u_s, r: expected u_s >= 0 m, r in (0, 1] and not both u_s and u_h, got "
+               f"{u_s!r}, {r!r} (u_h {u_h!r})")
+        raise ModelError(msg)
     eq = tuple(replace(e, mount="elastic", f_mount_hz=float(f_hz), zeta_mount=float(zeta),
-                       u_h_mount=float(u_h), m_mount=float(m))
+                       u_h_mount=float(u_h), m_mount=float(m), u_s_mount=float(u_s),
+                       r_mount=float(r))
                if e.name == name else e for e in spec.equipment)
     return replace(spec, equipment=eq)
 
@@ -257,17 +280,23 @@ _SUSPENSIONS = ("k_primary", "c_primary", "k_secondary", "c_secondary")
 BOGIES = ("front", "rear")
 # the suspension of one bogie (N/m or N s/m): k_primary_front ... c_secondary_rear
 _BOGIE_THETA = {f"{n}_{b}": (n, i) for n in _SUSPENSIONS for i, b in enumerate(BOGIES)}
+N_CARBODY_MODES = 3
+"""Flexible carbody modes with a damping ratio of their own (``zeta_cb_1`` .. ``_3``)."""
+CARBODY_MODE_PREFIX = "zeta_cb_"
+_MODE_THETA = {f"{CARBODY_MODE_PREFIX}{k}": k for k in range(1, N_CARBODY_MODES + 1)}
 
 
 def theta_names(spec: VehicleSpec) -> tuple[str, ...]:
     """Parameter names :func:`apply_theta` accepts for ``spec``.
 
     ``EI_carbody``, ``zeta_carbody``, ``k_/c_primary``, ``k_/c_secondary``, the same per
-    bogie (``c_secondary_front``, ``k_primary_rear`` ...), and per equipment item
+    bogie (``c_secondary_front``, ``k_primary_rear`` ...), the damping ratio of each of the
+    first :data:`N_CARBODY_MODES` flexible carbody modes (``zeta_cb_1`` = first vertical
+    bending; default ``zeta_carbody``), and per equipment item
     ``m_<name>``; per elastic item also ``f_<name>`` (mount frequency, Hz)
     and ``zeta_<name>``.
     """
-    names = [*_SCALAR_THETA, *_BOGIE_THETA]
+    names = [*_SCALAR_THETA, *_BOGIE_THETA, *_MODE_THETA]
     for e in spec.equipment:
         names.append(f"m_{e.name}")
         if e.mount == "elastic":
@@ -307,6 +336,10 @@ def apply_theta(spec: VehicleSpec, theta: Mapping[str, float] | None) -> Vehicle
                if f"{p}_{e.name}" in theta}
         eq.append(replace(e, **upd) if upd else e)
     out = replace(spec, equipment=tuple(eq), **changes)
+    modes = {**dict(spec.zeta_modes),
+             **{_MODE_THETA[k]: float(v) for k, v in theta.items() if k in _MODE_THETA}}
+    if modes:
+        out = replace(out, zeta_modes=tuple(sorted(modes.items())))
     return _with_bogie_values(out, {k: float(v) for k, v in theta.items() if k in _BOGIE_THETA})
 
 
@@ -390,6 +423,8 @@ def parameter_value(spec: VehicleSpec, name: str) -> float:
         return float(getattr(spec, _SCALAR_THETA[name]))
     if name in _BOGIE_THETA:
         return spec.suspension(*_BOGIE_THETA[name])
+    if name in _MODE_THETA:
+        return spec.zeta_mode(_MODE_THETA[name])
     prefix, _, item = name.partition("_")
     field_of = {"m": "mass", "f": "f_mount_hz", "zeta": "zeta_mount"}
     if prefix in field_of and name in theta_names(spec):
