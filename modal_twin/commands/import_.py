@@ -11,7 +11,6 @@ inputs and every other sensor an output; else :func:`modal_twin.channels.default
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 from collections import Counter
 from dataclasses import replace
@@ -31,8 +30,6 @@ UFF = (".uff", ".unv")
 STRONG_MOTION = (".zip", ".v1", ".v2", ".smc")
 LARGE_MB = 2.0
 """Files and records from this size on get progress lines (stderr)."""
-GROUND = re.compile(r"grnd|ground|basement|free.?field|^abutment", re.IGNORECASE)
-"""Sensor locations that measure the structure's input (base motion)."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -58,6 +55,7 @@ Part = tuple[list[ChannelSpec], float, np.ndarray]
 
 
 def _strong_motion(path: Path, az: float | None, meta: dict[str, Any]) -> Part:
+    from modal_twin.io.channel_map import roles_from_locations
     from modal_twin.io.strong_motion import StructureFrame, read_record, to_structure_frame
 
     raw, spectra = read_record(path)
@@ -74,14 +72,16 @@ def _strong_motion(path: Path, az: float | None, meta: dict[str, Any]) -> Part:
     if len(fs) != 1:
         msg = f"{path}: channels differ in sample rate {sorted(fs)}"
         raise SignalError(msg)
+    roles = roles_from_locations([c.location for c in raw], [c.orientation for c in raw],
+                                 [float(np.max(np.abs(c.data))) for c in raw])
     specs = []
-    for c, d in zip(chans, dirs, strict=True):
+    for c, d, (role, why) in zip(chans, dirs, roles, strict=True):
         m = {"file": path.name, "volume": c.volume, "orientation": c.orientation,
              "azimuth_deg": c.azimuth_deg, "filter_hz": list(c.filter_hz),
-             "unit_in_file": c.unit_in_file, "start_utc": c.start_utc, "station": c.station}
+             "unit_in_file": c.unit_in_file, "start_utc": c.start_utc, "station": c.station,
+             "structure": c.structure, "role_from": f"{c.location!r}: {why}"}
         if c.name in spectra:
             m["spectra_file"] = spectra[c.name]["file"]
-        role = "input" if GROUND.search(c.location) else "output"
         specs.append(ChannelSpec(c.name, "acceleration", c.location, d, node=c.location,
                                  role=role, meta=tuple(sorted(m.items()))))
     return specs, fs.pop(), np.array([c.data for c in chans])
@@ -190,6 +190,46 @@ def _positions(chans: list[ChannelSpec], extra: dict[str, Any]) -> list[ChannelS
     return [at(c) if c.node in nodes else c for c in chans]
 
 
+def _mapped(chans: list[ChannelSpec], before: list[ChannelSpec], given: Path,
+            keys: list[set[str]], names: list[str]) -> list[ChannelSpec]:
+    """Mark the channels whose role the map states (``role_from``; what the headers said)."""
+    by_map = {n for n, k in zip(names, keys, strict=True) if "role" in k}
+    out = []
+    for c, b in zip(chans, before, strict=True):
+        if c.name in by_map:
+            m = dict(c.meta)
+            was = f"; headers: {b.role or 'cannot tell'}" if "role_from" in m else ""
+            m["role_from"] = f"--map {given}{was}"
+            c = replace(c, meta=tuple(sorted(m.items())))
+        out.append(c)
+    return out
+
+
+def _check_roles(chans: list[ChannelSpec], given: Path | None) -> None:
+    """Refuse channels the headers cannot give a role and no map names (one line)."""
+    untold = [c for c in chans if not c.role and "role_from" in dict(c.meta)]
+    if untold:
+        first = untold[0]
+        msg = (f"cannot tell the role of {len(untold)} channel(s) {[c.name for c in untold]} "
+               f"from their headers ({first.name}: {dict(first.meta)['role_from']}); give "
+               f"them a role with --map FILE ({{channels: [{{name, role}}]}})"
+               + (f" (not in {given})" if given is not None else ""))
+        raise ConfigError(msg)
+
+
+def _print_roles(chans: list[ChannelSpec], given: Path | None) -> None:
+    """One line per channel: role and the header words (or the map) that decided it."""
+    structures = sorted({str(dict(c.meta)["structure"]) for c in chans
+                         if dict(c.meta).get("structure")})
+    if structures:
+        print(f"import: roles from the headers of {', '.join(structures)}"
+              + (f" and {given}" if given is not None else ""))
+    width = max(len(c.name) for c in chans)
+    for c in chans:
+        why = dict(c.meta).get("role_from") or f"name rule ({c.name!r})"
+        print(f"  {c.name:<{width}}  {c.effective_role:<9}  {why}")
+
+
 def run(a: argparse.Namespace) -> int:
     """Import the files (module docstring)."""
     from modal_twin.io.channel_map import apply_map, map_keys, read_channel_map
@@ -220,7 +260,10 @@ def run(a: argparse.Namespace) -> int:
     chans, fs, X = _join(parts)
     chans = _positions(chans, extra)
     if a.map is not None:
-        chans = apply_map(chans, read_channel_map(a.map), map_keys(a.map), str(a.map))
+        user, keys = read_channel_map(a.map), map_keys(a.map)
+        chans = _mapped(apply_map(chans, user, keys, str(a.map)), chans, a.map, keys,
+                        [u.name for u in user])
+    _check_roles(chans, a.map)
     bad = [c.name for c, x in zip(chans, X, strict=True) if not np.all(np.isfinite(x))]
     if bad:
         msg = f"{a.files[0]}: channels {bad} hold NaN or Inf samples"
@@ -230,6 +273,7 @@ def run(a: argparse.Namespace) -> int:
     out = write_imported(a.out, block, chans, extra_files=extra, record_meta=meta,
                          progress=(lambda q: _progress(f"writing {a.out}: {100 * q:.0f} %"))
                          if large else None)
+    _print_roles(chans, a.map)
     roles: dict[str, int] = {}
     for c in chans:
         roles[c.effective_role] = roles.get(c.effective_role, 0) + 1
