@@ -4,8 +4,11 @@ Formats by file name: ``.uff`` / ``.unv`` (UFF 58 / 58b time data and spectra, U
 geometry), ``.zip`` / ``.v1`` / ``.v2`` / ``.smc`` (CSMIP and USGS strong-motion
 records, rotated to one structure frame), ``.csv`` and ``.npz`` (a channel table with
 units). Time channels of all files must share the sample rate and length. Roles: a user
-map (``--map``) first; else strong-motion sensors at ground level / in the basement are
-inputs and every other sensor an output; else :func:`modal_twin.channels.default_role`.
+map (``--map``) first; else the file's own headers (strong-motion sensor locations:
+:func:`modal_twin.io.channel_map.roles_from_locations`; UFF 58 data types and reference
+nodes: :func:`modal_twin.io.uff.uff_role`); else :func:`modal_twin.channels.default_role`
+(CSV, NPZ). The assignment is printed with the header words that decided each channel; a
+channel the headers cannot tell and no map names is refused in one line (exit 2).
 """
 
 from __future__ import annotations

@@ -237,7 +237,7 @@ def _one_per_support(out: list[tuple[str, str]], idx: list[int], what: str,
         if k == keep:
             continue
         mk = _member(locations[k])
-        because = (f"{mk!r} also carries a structure sensor (a drift pair)"
+        because = (f"{mk!r} also carries a structure sensor: a drift pair"
                    if mk in members and _member(locations[keep]) not in members
                    else f"peak {peaks[keep]:.3g} > {peaks[k]:.3g}")
         out[k] = ("reference", f"{out[k][1]}; one input per support: {what} kept at "
