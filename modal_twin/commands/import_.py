@@ -14,6 +14,7 @@ channel the headers cannot tell and no map names is refused in one line (exit 2)
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections import Counter
 from dataclasses import replace
@@ -33,6 +34,8 @@ UFF = (".uff", ".unv")
 STRONG_MOTION = (".zip", ".v1", ".v2", ".smc")
 LARGE_MB = 2.0
 """Files and records from this size on get progress lines (stderr)."""
+PRINT_ROLES_MAX = 64
+"""Up to this many channels the roles are printed one line each, above it one per reason."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -227,10 +230,19 @@ def _print_roles(chans: list[ChannelSpec], given: Path | None) -> None:
     if structures:
         print(f"import: roles from the headers of {', '.join(structures)}"
               + (f" and {given}" if given is not None else ""))
-    width = max(len(c.name) for c in chans)
-    for c in chans:
-        why = dict(c.meta).get("role_from") or f"name rule ({c.name!r})"
-        print(f"  {c.name:<{width}}  {c.effective_role:<9}  {why}")
+    rule = "name rule (table_* input, *_dx/_dy, *_fx/_fy device, others output)"
+    rows = [(c.name, c.effective_role, str(dict(c.meta).get("role_from") or rule))
+            for c in chans]
+    if len(rows) > PRINT_ROLES_MAX:  # one line per role and reason (dataset numbers aside)
+        groups: dict[tuple[str, str], list[str]] = {}
+        for name, role, why in rows:
+            groups.setdefault((role, re.sub(r"dataset \d+", "dataset n", why)), []).append(name)
+        rows = [(f"{len(v)} channel{'s' * (len(v) > 1)} ({', '.join(v[:3])}"
+                 f"{', ...' if len(v) > 3 else ''})", role, why)
+                for (role, why), v in groups.items()]
+    width = max(len(r[0]) for r in rows)
+    for name, role, why in rows:
+        print(f"  {name:<{width}}  {role:<9}  {why}")
 
 
 def run(a: argparse.Namespace) -> int:

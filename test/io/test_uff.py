@@ -107,3 +107,21 @@ def test_uff58_roles_from_data_type_and_reference_node(tmp_path: Path) -> None:
     assert [c.role for c, *_ in read_uff(q).time] == ["input", ""]
     assert main(["import", str(q), "--out", str(tmp_path / "b")]) == ExitCode.USAGE
     assert not (tmp_path / "b").exists()
+
+
+def test_many_channels_print_one_line_per_role_and_reason(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from modal_twin.cli import main
+
+    x = np.random.default_rng(3).standard_normal(32)
+    sets = [_time_set(n, 3, x, 1 / 256, "m/s2") for n in range(1, 71)]
+    sets.append(_time_set(99, 2, x, 1 / 256, "N", ordinate_spec_data_type=13))
+    p = tmp_path / "many.uff"
+    pyuff.UFF(str(p)).write_sets(sets, mode="overwrite")
+    assert main(["import", str(p), "--out", str(tmp_path / "b")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["70", "channels", "(1+Z,", "2+Z,", "3+Z,", "...)", "output",
+                                "many.uff", "dataset", "n:", "UFF", "58", "data", "type", "12",
+                                "(acceleration):", "a", "response"]
+    assert lines[1].split()[:4] == ["1", "channel", "(99+Z)", "input"]
+    assert "roles {'output': 70, 'input': 1}" in lines[2]
