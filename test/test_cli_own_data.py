@@ -265,9 +265,51 @@ def test_hayward_bridge_both_events_from_the_command_line(shared_dir: Path,
         bag = tmp_path / event
         assert main(["import", str(z), "--map", str(zmap / "csmip58658_hayward.yaml"),
                      "--out", str(bag)]) == 0
-        f1.append(_first_modes(bag, tmp_path / f"id{event}")[0])
-    # measured: 3.279 and 3.325 Hz (test/identification/test_real_records.py: 3.252, 3.317)
+        # without the map the headers' location words give the map's roles
+        assert main(["import", str(z), "--out", str(tmp_path / f"{event}-own")]) == 0
+        roles = [[(c["name"], c["role"]) for c in
+                  json.loads((b / "channel_map.json").read_text())["channels"]]
+                 for b in (bag, tmp_path / f"{event}-own")]
+        assert roles[0] == roles[1]
+        assert sum(r == "input" for _, r in roles[1]) == 6
+        f1.append(_first_modes(tmp_path / f"{event}-own", tmp_path / f"id{event}")[0])
+    # measured: 3.274 and 3.333 Hz (test/identification/test_real_records.py: 3.252, 3.317)
     np.testing.assert_allclose(f1, [3.25, 3.32], rtol=0.015)
+
+
+def _v2_file(loc: str, chan: int) -> str:
+    rng = np.random.default_rng(chan)
+    vals = "".join(f"{v:10.6f}" for v in rng.standard_normal(400))
+    body = "\n".join(vals[k : k + 80] for k in range(0, len(vals), 80))
+    return ("Corrected accelerogram   99999-X.01       Chan  1:  Long\n"
+            "Station No. 99999   37.691N, 122.099W    Granit  s/n  133 (2 Chns of 2 at Sta)\n"
+            "Somewhere - Test Overpass  CGS   Data: Acceleration\n"
+            f"Chan  {chan}:  Long                      Location: {loc}\n"
+            f" 400 points of accel data equally spaced at 0.01 sec, in cm/sec2. (8f10.6)\n"
+            f"{body}\n")
+
+
+def test_import_prints_roles_and_refuses_what_headers_cannot_tell(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    import zipfile
+
+    z = tmp_path / "rec.zip"
+    with zipfile.ZipFile(z, "w") as f:
+        f.writestr("chan001.v2", _v2_file("Free Field", 1))
+        f.writestr("chan002.v2", _v2_file("Bent 3", 2))
+    assert main(["import", str(z), "--out", str(tmp_path / "a")]) == ExitCode.USAGE
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "cannot tell the role of 1 channel(s) ['99999.ch02']" in err
+    assert "no base or structure word in 'Bent 3'" in err and "--map" in err
+    assert not (tmp_path / "a").exists()
+    m = tmp_path / "m.yaml"
+    m.write_text("channels:\n  - {name: 99999.ch02, role: output}\n")
+    assert main(["import", str(z), "--map", str(m), "--out", str(tmp_path / "b")]) == 0
+    out = capsys.readouterr().out
+    assert "roles from the headers of Somewhere - Test Overpass and" in out
+    assert "99999.ch01  input      'Free Field': base word 'Free Field'" in out
+    assert f"99999.ch02  output     --map {m}; headers: cannot tell" in out
 
 
 def test_berkeley_building_with_azimuths(shared_dir: Path, tmp_path: Path) -> None:

@@ -4,8 +4,11 @@ Formats by file name: ``.uff`` / ``.unv`` (UFF 58 / 58b time data and spectra, U
 geometry), ``.zip`` / ``.v1`` / ``.v2`` / ``.smc`` (CSMIP and USGS strong-motion
 records, rotated to one structure frame), ``.csv`` and ``.npz`` (a channel table with
 units). Time channels of all files must share the sample rate and length. Roles: a user
-map (``--map``) first; else strong-motion sensors at ground level / in the basement are
-inputs and every other sensor an output; else :func:`modal_twin.channels.default_role`.
+map (``--map``) first; else the file's own headers (strong-motion sensor locations:
+:func:`modal_twin.io.channel_map.roles_from_locations`; UFF 58 data types and reference
+nodes: :func:`modal_twin.io.uff.uff_role`); else :func:`modal_twin.channels.default_role`
+(CSV, NPZ). The assignment is printed with the header words that decided each channel; a
+channel the headers cannot tell and no map names is refused in one line (exit 2).
 """
 
 from __future__ import annotations
@@ -31,8 +34,8 @@ UFF = (".uff", ".unv")
 STRONG_MOTION = (".zip", ".v1", ".v2", ".smc")
 LARGE_MB = 2.0
 """Files and records from this size on get progress lines (stderr)."""
-GROUND = re.compile(r"grnd|ground|basement|free.?field|^abutment", re.IGNORECASE)
-"""Sensor locations that measure the structure's input (base motion)."""
+PRINT_ROLES_MAX = 64
+"""Up to this many channels the roles are printed one line each, above it one per reason."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -58,6 +61,7 @@ Part = tuple[list[ChannelSpec], float, np.ndarray]
 
 
 def _strong_motion(path: Path, az: float | None, meta: dict[str, Any]) -> Part:
+    from modal_twin.io.channel_map import roles_from_locations
     from modal_twin.io.strong_motion import StructureFrame, read_record, to_structure_frame
 
     raw, spectra = read_record(path)
@@ -74,14 +78,16 @@ def _strong_motion(path: Path, az: float | None, meta: dict[str, Any]) -> Part:
     if len(fs) != 1:
         msg = f"{path}: channels differ in sample rate {sorted(fs)}"
         raise SignalError(msg)
+    roles = roles_from_locations([c.location for c in raw], [c.orientation for c in raw],
+                                 [float(np.max(np.abs(c.data))) for c in raw])
     specs = []
-    for c, d in zip(chans, dirs, strict=True):
+    for c, d, (role, why) in zip(chans, dirs, roles, strict=True):
         m = {"file": path.name, "volume": c.volume, "orientation": c.orientation,
              "azimuth_deg": c.azimuth_deg, "filter_hz": list(c.filter_hz),
-             "unit_in_file": c.unit_in_file, "start_utc": c.start_utc, "station": c.station}
+             "unit_in_file": c.unit_in_file, "start_utc": c.start_utc, "station": c.station,
+             "structure": c.structure, "role_from": f"{c.location!r}: {why}"}
         if c.name in spectra:
             m["spectra_file"] = spectra[c.name]["file"]
-        role = "input" if GROUND.search(c.location) else "output"
         specs.append(ChannelSpec(c.name, "acceleration", c.location, d, node=c.location,
                                  role=role, meta=tuple(sorted(m.items()))))
     return specs, fs.pop(), np.array([c.data for c in chans])
@@ -190,6 +196,55 @@ def _positions(chans: list[ChannelSpec], extra: dict[str, Any]) -> list[ChannelS
     return [at(c) if c.node in nodes else c for c in chans]
 
 
+def _mapped(chans: list[ChannelSpec], before: list[ChannelSpec], given: Path,
+            keys: list[set[str]], names: list[str]) -> list[ChannelSpec]:
+    """Mark the channels whose role the map states (``role_from``; what the headers said)."""
+    by_map = {n for n, k in zip(names, keys, strict=True) if "role" in k}
+    out = []
+    for c, b in zip(chans, before, strict=True):
+        if c.name in by_map:
+            m = dict(c.meta)
+            was = f"; headers: {b.role or 'cannot tell'}" if "role_from" in m else ""
+            m["role_from"] = f"--map {given}{was}"
+            c = replace(c, meta=tuple(sorted(m.items())))
+        out.append(c)
+    return out
+
+
+def _check_roles(chans: list[ChannelSpec], given: Path | None) -> None:
+    """Refuse channels the headers cannot give a role and no map names (one line)."""
+    untold = [c for c in chans if not c.role and "role_from" in dict(c.meta)]
+    if untold:
+        first = untold[0]
+        msg = (f"cannot tell the role of {len(untold)} channel(s) {[c.name for c in untold]} "
+               f"from their headers ({first.name}: {dict(first.meta)['role_from']}); give "
+               f"them a role with --map FILE ({{channels: [{{name, role}}]}})"
+               + (f" (not in {given})" if given is not None else ""))
+        raise ConfigError(msg)
+
+
+def _print_roles(chans: list[ChannelSpec], given: Path | None) -> None:
+    """One line per channel: role and the header words (or the map) that decided it."""
+    structures = sorted({str(dict(c.meta)["structure"]) for c in chans
+                         if dict(c.meta).get("structure")})
+    if structures:
+        print(f"import: roles from the headers of {', '.join(structures)}"
+              + (f" and {given}" if given is not None else ""))
+    rule = "name rule (table_* input, *_dx/_dy, *_fx/_fy device, others output)"
+    rows = [(c.name, c.effective_role, str(dict(c.meta).get("role_from") or rule))
+            for c in chans]
+    if len(rows) > PRINT_ROLES_MAX:  # one line per role and reason (dataset numbers aside)
+        groups: dict[tuple[str, str], list[str]] = {}
+        for name, role, why in rows:
+            groups.setdefault((role, re.sub(r"dataset \d+", "dataset n", why)), []).append(name)
+        rows = [(f"{len(v)} channel{'s' * (len(v) > 1)} ({', '.join(v[:3])}"
+                 f"{', ...' if len(v) > 3 else ''})", role, why)
+                for (role, why), v in groups.items()]
+    width = max(len(r[0]) for r in rows)
+    for name, role, why in rows:
+        print(f"  {name:<{width}}  {role:<9}  {why}")
+
+
 def run(a: argparse.Namespace) -> int:
     """Import the files (module docstring)."""
     from modal_twin.io.channel_map import apply_map, map_keys, read_channel_map
@@ -220,7 +275,10 @@ def run(a: argparse.Namespace) -> int:
     chans, fs, X = _join(parts)
     chans = _positions(chans, extra)
     if a.map is not None:
-        chans = apply_map(chans, read_channel_map(a.map), map_keys(a.map), str(a.map))
+        user, keys = read_channel_map(a.map), map_keys(a.map)
+        chans = _mapped(apply_map(chans, user, keys, str(a.map)), chans, a.map, keys,
+                        [u.name for u in user])
+    _check_roles(chans, a.map)
     bad = [c.name for c, x in zip(chans, X, strict=True) if not np.all(np.isfinite(x))]
     if bad:
         msg = f"{a.files[0]}: channels {bad} hold NaN or Inf samples"
@@ -230,6 +288,7 @@ def run(a: argparse.Namespace) -> int:
     out = write_imported(a.out, block, chans, extra_files=extra, record_meta=meta,
                          progress=(lambda q: _progress(f"writing {a.out}: {100 * q:.0f} %"))
                          if large else None)
+    _print_roles(chans, a.map)
     roles: dict[str, int] = {}
     for c in chans:
         roles[c.effective_role] = roles.get(c.effective_role, 0) + 1

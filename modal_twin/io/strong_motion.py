@@ -87,6 +87,8 @@ class StrongMotionChannel:
     data: FloatArray
     filter_hz: tuple[float, float] = (np.nan, np.nan)
     volume: str = "V2"
+    structure: str = ""
+    """Station description as written (``"Hayward - Hwy 580/238 Interchange Bridge"``)."""
 
 
 def _fixed(lines: list[str], n: int, width: int, what: str) -> FloatArray:
@@ -159,9 +161,11 @@ def read_v2(text: str, name: str = "v2") -> StrongMotionChannel:
     corners = re.search(r"3 dB pts at\s+([\d.]+)\s+and\s+([\d.]+)\s+cyc/sec", text)
     filt = (float(corners.group(1)), float(corners.group(2))) if corners else (np.nan, np.nan)
     vol = "V1" if re.match(r"\s*Uncorrected accelerogram", text, flags=re.IGNORECASE) else "V2"
+    desc = re.search(r"^Station No\..*\n(?!Chan\s)(.*?)(?:\s{2,}|$)", text, flags=re.MULTILINE)
     return StrongMotionChannel(
         f"{sta}.ch{st_ch:02d}", sta, ch.group(4), orient, az, 1.0 / dt,
         start.group(1) if start else "", unit, data, filt, vol,
+        desc.group(1).strip() if desc else "",
     )
 
 
@@ -209,7 +213,7 @@ def read_smc(text: str, name: str = "smc") -> StrongMotionChannel:
     return StrongMotionChannel(
         scnl.group(1) if scnl else name, stam.group(1).strip() if stam else "",
         loc.group(1).strip() if loc else "", orient, az % 360.0, fs, start, "cm/s^2",
-        data_cm * 0.01, (np.nan, np.nan), "SMC",
+        data_cm * 0.01, (np.nan, np.nan), "SMC", stam.group(1).strip() if stam else "",
     )
 
 

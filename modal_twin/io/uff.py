@@ -8,7 +8,13 @@ Read (:func:`read_uff`):
 - datasets 15 / 2411 (nodes), 18 / 2420 (coordinate systems), 82 (trace lines),
   164 / 151 (units, header): the test geometry.
 
-Other dataset types are listed as skipped. Written: dataset 55 (modes) and 58 (FRFs).
+Other dataset types are listed as skipped. Each time channel gets its role from its own
+record (:func:`uff_role`): an excitation force (data type 13), or a channel at a reference
+node / direction that a 58 record of the file names (an FRF's or a time record's
+``ref_node`` / ``ref_dir``), is ``input``; a response (displacement, velocity, acceleration,
+reaction force, stress, strain, sound pressure) is ``output``; a temperature is
+``reference``; an unknown type cannot be told (no role: the import asks for ``--map``).
+Written: dataset 55 (modes) and 58 (FRFs).
 The 58 direction code ``rsp_dir`` (1..3 = +x..+z, -1..-3 = -x..-z, 4..6 = rotations) gives
 the channel direction.
 """
@@ -27,7 +33,8 @@ from modal_twin.array_files import check_text_file
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
 
-__all__ = ["AXIS_CODES", "UffContents", "read_uff", "read_uff55", "write_uff55", "write_uff58_frf"]
+__all__ = ["AXIS_CODES", "UffContents", "read_uff", "read_uff55", "uff_role", "write_uff55",
+           "write_uff58_frf"]
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +48,43 @@ _QUANT = {8: "displacement", 11: "velocity", 12: "acceleration", 13: "force",
 _UNIT_SCALE = {"m/s2": 1.0, "m/s^2": 1.0, "g": 9.80665, "mm/s2": 1e-3, "m": 1.0, "mm": 1e-3,
                "m/s": 1.0, "mm/s": 1e-3, "n": 1.0, "kn": 1e3, "pa": 1.0}
 _GEOMETRY = {15, 2411, 18, 2420, 82, 164, 151}
+_RESPONSE = {2: "stress", 3: "strain", 8: "displacement", 9: "reaction force",
+             11: "velocity", 12: "acceleration", 15: "pressure", 21: "sound pressure"}
+"""UFF 58 specific data types (record 8, field 1) of a measured response."""
+
+
+def uff_role(data_type: int, label: str, at_reference: str = "") -> tuple[str, str]:
+    """Role of a UFF 58 time channel from its own record (module docstring).
+
+    Parameters
+    ----------
+    data_type : int
+        Ordinate specific data type (record 8 field 1: 12 acceleration, 13 excitation
+        force ...).
+    label : str
+        Ordinate axis label (``"Acceleration"``), used when the type is 0 / 1 (unknown /
+        general).
+    at_reference : str
+        Non-empty (``"dataset 3"``) when a 58 record of the file names this channel's node and
+        direction as its reference.
+
+    Returns
+    -------
+    (role, why)
+        ``role`` is ``""`` where the record cannot tell.
+    """
+    lab = label.strip().lower()
+    if data_type == 13 or (data_type in (0, 1) and lab in ("force", "excitation force")):
+        return "input", f"UFF 58 data type {data_type} ({label or 'excitation force'})"
+    if at_reference:
+        return "input", f"reference node / direction of {at_reference}"
+    if data_type in _RESPONSE:
+        return "output", f"UFF 58 data type {data_type} ({_RESPONSE[data_type]}): a response"
+    if data_type == 5:
+        return "reference", "UFF 58 data type 5 (temperature)"
+    if data_type in (0, 1) and lab in {*_RESPONSE.values(), "accel"}:
+        return "output", f"UFF 58 ordinate label {label!r}: a response"
+    return "", f"UFF 58 data type {data_type}, label {label!r}: neither excitation nor response"
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,6 +192,26 @@ def _geometry(sets: list[dict[str, Any]]) -> dict[str, Any]:
     return g
 
 
+def _with_roles(time: list[tuple[ChannelSpec, float, float, FloatArray]],
+                sets: list[dict[str, Any]]) -> list[tuple[ChannelSpec, float, float, FloatArray]]:
+    """Each time channel with its :func:`uff_role` (and ``role_from`` in its meta)."""
+    refs: dict[tuple[int, int], int] = {}
+    for k, s in enumerate(sets):
+        if s["type"] == 58 and int(s.get("ref_node", 0) or 0) > 0:
+            refs.setdefault((int(s["ref_node"]), int(s.get("ref_dir", 0) or 0)), k)
+    out = []
+    for c, fs, t0, x in time:
+        m = dict(c.meta)
+        s = sets[int(m["dataset"])]
+        dof = (int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0))
+        at = f"dataset {refs[dof]}" if dof in refs and dof[0] > 0 else ""
+        role, why = uff_role(int(s.get("ordinate_spec_data_type", 0) or 0),
+                             str(s.get("ordinate_axis_lab", "")), at)
+        m["role_from"] = f"{m['file']} dataset {m['dataset']}: {why}"
+        out.append((replace(c, role=role, meta=tuple(m.items())), fs, t0, x))
+    return out
+
+
 def read_uff(path: str | Path) -> UffContents:
     """Read a UFF file (module docstring).
 
@@ -179,6 +243,7 @@ def read_uff(path: str | Path) -> UffContents:
                             "rsp": f"{s.get('rsp_node', 0)}{_DIRS.get(s.get('rsp_dir', 0), '')}",
                             "ref": f"{s.get('ref_node', 0)}{_DIRS.get(s.get('ref_dir', 0), '')}",
                             "unit": str(s.get("ordinate_axis_units_lab", "")).strip()})
+    time = _with_roles(time, sets)
     geo = _geometry([s for s in sets if s["type"] in _GEOMETRY and not s.get("_skipped")])
     if skipped:
         log.info("%s: dataset types %s skipped (not read)", p, sorted(set(skipped)))

@@ -97,3 +97,53 @@ def test_imported_bag_round_trip_and_atomic_writes(tmp_path: Path) -> None:
     with pytest.raises(RuntimeError, match="boom"):
         half_written()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bag", "m.json"]
+
+
+# Roles from the header's location words (modal_twin.io.channel_map.roles_from_locations):
+# snippets in the vocabulary of CSMIP bridge and building headers and USGS SMC <loclbl=>.
+from modal_twin.io.channel_map import roles_from_locations  # noqa: E402
+
+
+def _roles(rows: list[tuple[str, str, float]]) -> list[str]:
+    locs, oris, peaks = zip(*rows, strict=True)
+    return [r for r, _ in roles_from_locations(list(locs), list(oris), list(peaks))]
+
+
+def test_base_words_are_inputs_and_structure_words_outputs() -> None:
+    rows = [("Free Field", "Long", 1.0), ("Basement, east side", "351", 1.0),
+            ("Ground floor", "81", 1.0), ("Pier 2 footing", "Tran", 1.0),
+            ("Roof, SW corner", "171", 1.0), ("4th floor, east core", "171", 1.0),
+            ("Deck: Middle of West Span", "Up", 1.0), ("Bent 4: North Column, Top", "Long", 1.0)]
+    assert _roles(rows) == ["input"] * 4 + ["output"] * 4
+
+
+def test_a_location_without_words_or_with_both_cannot_be_told() -> None:
+    calls = roles_from_locations(["Bent 3", "Basement roof", ""], ["Long"] * 3, [1.0] * 3)
+    assert [r for r, _ in calls] == ["", "", ""]
+    assert "no base or structure word in 'Bent 3'" in calls[0][1]
+    assert "both base 'Basement' and structure 'roof'" in calls[1][1]
+
+
+def test_one_input_per_support_and_direction() -> None:
+    # two column bases of bent 4: the one under a column-top sensor is the drift pair's
+    # lower end, the other (even with the smaller peak) stays the support's input
+    rows = [("Bent 4: North Column, Grnd Level", "Long", 9.0),
+            ("Bent 4: North Column, Top", "Long", 1.0),
+            ("Bent 4: South Column, Grnd Level", "Long", 2.0),
+            ("Bent 4: South Column, Grnd Level", "Tran", 2.0),
+            ("Pier 7 footing, east", "Tran", 1.0), ("Pier 7 footing, west", "Tran", 3.0)]
+    assert _roles(rows) == ["reference", "output", "input", "input", "reference", "input"]
+
+
+def test_deck_vertical_over_a_support_and_a_partial_vertical_input() -> None:
+    rows = [("Abutment 1", "Up", 1.0), ("Abutment 1", "Long", 1.0),
+            ("Bent 3: South Column, Grnd Level", "Long", 1.0),
+            ("Deck Level near Abut 1", "Up", 1.0), ("Bent 4: Deck Level", "Up", 1.0),
+            ("Midspan between Bents 3&4: Deck", "Up", 1.0)]
+    assert _roles(rows) == ["reference", "input", "input", "reference", "reference", "output"]
+    # vertical base motion at two supports is a full input; a building's basement has no
+    # named support and keeps every sensor
+    rows2 = [("On Ground: Near East Abutment", "Up", 1.0),
+             ("On Ground: Near West Abutment", "Up", 1.0),
+             ("Basement, east side", "UP", 1.0), ("Basement, west core", "UP", 1.0)]
+    assert _roles(rows2) == ["input"] * 4

@@ -10,8 +10,9 @@ from modal_twin.errors import ConfigError
 from modal_twin.io.uff import read_uff, read_uff55, write_uff55, write_uff58_frf
 
 
-def _time_set(node: int, direction: int, data: np.ndarray, dt: float, unit: str) -> dict:
-    return pyuff.prepare_58(
+def _time_set(node: int, direction: int, data: np.ndarray, dt: float, unit: str,
+              **kw: object) -> dict:
+    s = pyuff.prepare_58(
         binary=0, id1=f"pt{node}", id2="NONE", id3="NONE", id4="NONE", id5="NONE",
         func_type=1, ver_num=0, load_case_id=0, rsp_ent_name=f"{node}+Z", rsp_node=node,
         rsp_dir=direction, ref_ent_name="NONE", ref_node=0, ref_dir=0, ord_data_type=4,
@@ -24,6 +25,8 @@ def _time_set(node: int, direction: int, data: np.ndarray, dt: float, unit: str)
         orddenom_axis_units_lab="NONE", z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
         z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE",
         data=data, x=np.arange(data.size) * dt)
+    s.update(kw)
+    return s
 
 
 def test_uff58_time_data_in_si(tmp_path: Path) -> None:
@@ -81,3 +84,44 @@ def test_not_uff(tmp_path: Path) -> None:
     p.write_text("hello\n")
     with pytest.raises(ConfigError, match=r"x\.uff"):
         read_uff(p)
+
+
+def test_uff58_roles_from_data_type_and_reference_node(tmp_path: Path) -> None:
+    from modal_twin.cli import main
+    from modal_twin.exit_codes import ExitCode
+
+    x = np.random.default_rng(2).standard_normal(64)
+    sets = [_time_set(5, 3, x, 1 / 256, "N", ordinate_spec_data_type=13),  # hammer force
+            _time_set(3, 3, x, 1 / 256, "m/s2", ref_node=7, ref_dir=2),  # response ref 7+y
+            _time_set(7, 2, x, 1 / 256, "V", ordinate_spec_data_type=0),  # at that reference
+            _time_set(8, 1, x, 1 / 256, "C", ordinate_spec_data_type=5)]  # a temperature
+    p = tmp_path / "r.uff"
+    pyuff.UFF(str(p)).write_sets(sets, mode="overwrite")
+    u = read_uff(p)
+    assert [c.role for c, *_ in u.time] == ["input", "output", "input", "reference"]
+    assert "reference node / direction of dataset 1" in dict(u.time[2][0].meta)["role_from"]
+    q = tmp_path / "q.uff"  # an untyped channel nobody references: cannot tell
+    pyuff.UFF(str(q)).write_sets([sets[0], _time_set(9, 1, x, 1 / 256, "V",
+                                                     ordinate_spec_data_type=0)],
+                                 mode="overwrite")
+    assert [c.role for c, *_ in read_uff(q).time] == ["input", ""]
+    assert main(["import", str(q), "--out", str(tmp_path / "b")]) == ExitCode.USAGE
+    assert not (tmp_path / "b").exists()
+
+
+def test_many_channels_print_one_line_per_role_and_reason(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from modal_twin.cli import main
+
+    x = np.random.default_rng(3).standard_normal(32)
+    sets = [_time_set(n, 3, x, 1 / 256, "m/s2") for n in range(1, 71)]
+    sets.append(_time_set(99, 2, x, 1 / 256, "N", ordinate_spec_data_type=13))
+    p = tmp_path / "many.uff"
+    pyuff.UFF(str(p)).write_sets(sets, mode="overwrite")
+    assert main(["import", str(p), "--out", str(tmp_path / "b")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["70", "channels", "(1+Z,", "2+Z,", "3+Z,", "...)", "output",
+                                "many.uff", "dataset", "n:", "UFF", "58", "data", "type", "12",
+                                "(acceleration):", "a", "response"]
+    assert lines[1].split()[:4] == ["1", "channel", "(99+Z)", "input"]
+    assert "roles {'output': 70, 'input': 1}" in lines[2]
