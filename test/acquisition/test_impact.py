@@ -1,0 +1,141 @@
+"""Hammer tests ([000]): hits found, double hits and overloads rejected, FRFs averaged.
+
+Known answers: a single-degree-of-freedom oscillator's receptance in closed form, and the
+pole shift an exponential window adds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from modal_twin.acquisition.impact import (
+    check_hit,
+    exponential_damping,
+    find_hits,
+    hammer_pulse,
+    impact_frf,
+)
+from modal_twin.errors import SignalError
+
+FS = 1000.0
+M, FN, ZETA = 2.0, 12.0, 0.01
+WN = 2 * np.pi * FN
+K, C = M * WN**2, 2 * ZETA * M * WN
+
+
+def receptance(f_hz: np.ndarray, sigma: float | None = None) -> np.ndarray:
+    """x / F of the oscillator; with ``sigma`` its pole's real part replaced (same w_d)."""
+    s = 2j * np.pi * f_hz
+    if sigma is None:
+        return 1.0 / (M * s**2 + C * s + K)
+    wd2 = WN**2 * (1 - ZETA**2)
+    return 1.0 / (M * (s**2 + 2 * sigma * s + sigma**2 + wd2))
+
+
+def respond(force: np.ndarray) -> np.ndarray:
+    sys = signal.lti([1.0], [M, C, K])
+    t = np.arange(force.size) / FS
+    _, x, _ = signal.lsim(sys, force, t)
+    return np.asarray(x)[None, :]
+
+
+def hits(n_hits: int, spacing_s: float, *, peaks: list[float] | None = None,
+         extra: dict[int, float] | None = None) -> np.ndarray:
+    n = round(n_hits * spacing_s * FS)
+    f = np.zeros(n)
+    for i in range(n_hits):
+        pk = (peaks or [100.0] * n_hits)[i]
+        f += hammer_pulse(n, FS, peak_n=pk, tip_stiffness_n_m=2e4, hammer_mass_kg=0.3,
+                          at_s=0.1 + i * spacing_s)
+        if extra and i in extra:  # a second contact 30 ms later
+            f += hammer_pulse(n, FS, peak_n=extra[i] * pk, tip_stiffness_n_m=2e4,
+                              hammer_mass_kg=0.3, at_s=0.13 + i * spacing_s)
+    return f
+
+
+def test_pulse_lasts_pi_sqrt_m_over_k() -> None:
+    f = hammer_pulse(4000, 100_000.0, peak_n=50.0, tip_stiffness_n_m=1e7, hammer_mass_kg=0.1)
+    tc = np.pi * np.sqrt(0.1 / 1e7)
+    assert np.count_nonzero(f) / 100_000.0 == pytest.approx(tc, rel=0.02)
+    assert f.max() == pytest.approx(50.0, rel=1e-3)
+
+
+def test_averaged_hits_give_the_closed_form_receptance() -> None:
+    force = hits(4, 20.0)
+    est = impact_frf(force, respond(force), FS, block_s=16.0)
+    assert est.n_averages == 4
+    band = (est.f_hz > 2.0) & (est.f_hz < 40.0)
+    ref = receptance(est.f_hz[band])
+    for h in (est.H1, est.H2, est.Hv):
+        err = np.abs(h[0, band] - ref) / np.abs(ref)
+        assert float(np.max(err)) < 0.01
+    assert float(np.min(est.coherence[0, band])) > 0.999
+
+
+def test_exponential_window_adds_the_damping_it_is_corrected_for() -> None:
+    # a 2 s block: the oscillator has not decayed (exp(-zeta wn 2) = 0.22); the window with
+    # tau = 0.3 s moves the pole by 1 / tau, which exponential_damping takes off again
+    force = hits(6, 8.0)  # each hit has decayed before the next (exp(-6))
+    tau = 0.3
+    est = impact_frf(force, respond(force), FS, block_s=2.0, tau_s=tau)
+    sigma = ZETA * WN + 1.0 / tau
+    band = (est.f_hz > 4.0) & (est.f_hz < 40.0)
+    ref = receptance(est.f_hz[band], sigma=sigma)
+    err = np.abs(est.H1[0, band] - ref) / np.abs(ref)
+    assert float(np.max(err)) < 0.03
+    wd = WN * np.sqrt(1 - ZETA**2)
+    w_id = np.hypot(wd, sigma)
+    zeta_id = sigma / w_id
+    assert exponential_damping(np.array([zeta_id]), np.array([w_id / (2 * np.pi)]),
+                               tau)[0] == pytest.approx(ZETA, abs=2e-3)
+
+
+def test_double_hits_and_overloads_are_rejected_and_said() -> None:
+    force = hits(5, 20.0, extra={1: 0.5})  # hit 2 bounces
+    clipped = force.copy()
+    third = slice(round(40.1 * FS), round(40.2 * FS))
+    clipped[third] = np.minimum(clipped[third], 80.0)  # hit 3 clipped at 80 N
+    est = impact_frf(clipped, respond(force), FS, block_s=16.0)
+    verdicts = [h.accepted for h in est.hits]
+    assert verdicts == [True, False, False, True, True]
+    reasons = est.rejected()
+    assert "double hit" in reasons[0] and "50 %" in reasons[0]
+    assert "overload" in reasons[1]
+    band = (est.f_hz > 2.0) & (est.f_hz < 40.0)
+    ref = receptance(est.f_hz[band])
+    assert float(np.max(np.abs(est.H1[0, band] - ref) / np.abs(ref))) < 0.01
+    # a force range names the overload without a flat top
+    chk = check_hit(force[: 16000], respond(force)[:, :16000], FS, force_range=100.0)
+    assert not chk.accepted and "range" in chk.reason
+
+
+def test_no_accepted_hit_is_an_error_naming_why() -> None:
+    force = hits(2, 20.0, extra={0: 0.5, 1: 0.5})
+    with pytest.raises(SignalError, match="double hit"):
+        impact_frf(force, respond(force), FS, block_s=16.0)
+
+
+def test_find_hits_skips_a_block_running_past_the_end() -> None:
+    force = hits(3, 10.0)
+    assert find_hits(force, FS, block_s=9.0) == [96, 10096, 20096]
+    assert find_hits(force, FS, block_s=12.0) == [96, 10096]
+
+
+def test_noise_on_the_response_biases_h2_not_h1() -> None:
+    rng = np.random.default_rng(4)
+    force = hits(30, 8.0)
+    y = respond(force)
+    y = y + 0.2 * np.std(y) * rng.standard_normal(y.shape)
+    est = impact_frf(force, y, FS, block_s=2.5, tau_s=0.5)
+    sigma = ZETA * WN + 1.0 / 0.5
+    hi = (est.f_hz > 40.0) & (est.f_hz < 70.0)  # little response: noise dominates y there
+    ref = np.abs(receptance(est.f_hz[hi], sigma=sigma))
+    r1 = float(np.median(np.abs(est.H1[0, hi]) / ref))
+    r2 = float(np.median(np.abs(est.H2[0, hi]) / ref))
+    rv = float(np.median(np.abs(est.Hv[0, hi]) / ref))
+    assert abs(r1 - 1) < 0.05 and r2 > 1.5
+    # Hv weighs force and response noise alike in their own units: with forces of 100 N and
+    # responses of micrometres it stays by H1
+    assert 0.99 * r1 <= rv <= r2
