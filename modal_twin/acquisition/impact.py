@@ -29,11 +29,11 @@ A hammer test records, per hit, the force of the tip and the responses. Each hit
    to comparable noise first if that is what you want (with forces of newtons and responses
    of micrometres it stays by ``H1``).
 
-The hammer's pulse (:func:`hammer_pulse`) is a half sine whose duration is fixed by the
-tip: a hammer of mass :math:`m_h` on a tip of contact stiffness :math:`k_t` stays in contact
-half a period, :math:`T_c = \pi \sqrt{m_h / k_t}`; its spectrum is flat to about
-:math:`1/T_c` and falls to its first zero at :math:`1.5/T_c`, so a harder tip excites a
-wider band.
+The hammer's pulse (:func:`modal_twin.excitation.signals.hammer_pulse`) is a half sine
+whose duration is fixed by the tip: a hammer of mass :math:`m_h` on a tip of contact
+stiffness :math:`k_t` stays in contact half a period, :math:`T_c = \pi \sqrt{m_h / k_t}`;
+its spectrum is flat to about :math:`1/T_c` and falls to its first zero at
+:math:`1.5/T_c`, so a harder tip excites a wider band.
 """
 
 from __future__ import annotations
@@ -48,43 +48,9 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import OptionError, ShapeError, SignalError
 
 __all__ = ["HitCheck", "ImpactFRF", "check_hit", "exponential_damping", "exponential_window",
-           "find_hits", "force_window", "hammer_pulse", "impact_frf"]
+           "find_hits", "force_window", "impact_frf"]
 
 Estimator = Literal["H1", "H2", "Hv"]
-
-
-def hammer_pulse(n: int, fs_hz: float, *, peak_n: float, tip_stiffness_n_m: float,
-                 hammer_mass_kg: float, at_s: float = 0.0) -> FloatArray:
-    r"""Force of one hit: a half sine of ``peak_n`` lasting ``pi sqrt(m_h / k_t)`` from ``at_s``.
-
-    Parameters
-    ----------
-    n : int
-        Samples of the returned force.
-    fs_hz : float
-        Sample rate.
-    peak_n : float
-        Peak force in N.
-    tip_stiffness_n_m, hammer_mass_kg : float
-        Contact stiffness of the tip and mass of the hammer head: the contact lasts
-        :math:`T_c = \pi \sqrt{m_h / k_t}` (a mass on a spring for half a period).
-    at_s : float
-        Time the contact starts.
-
-    Returns
-    -------
-    (n,) array of the force in N.
-    """
-    if not (tip_stiffness_n_m > 0 and hammer_mass_kg > 0 and fs_hz > 0):
-        msg = (f"hammer: expected positive tip stiffness, mass and rate, got "
-               f"{tip_stiffness_n_m}, {hammer_mass_kg}, {fs_hz}")
-        raise OptionError(msg)
-    tc = np.pi * np.sqrt(hammer_mass_kg / tip_stiffness_n_m)
-    t = np.arange(n) / fs_hz - at_s
-    on = (t >= 0) & (t <= tc)
-    out = np.zeros(n)
-    out[on] = peak_n * np.sin(np.pi * t[on] / tc)
-    return out
 
 
 def find_hits(force: FloatArray, fs_hz: float, *, trigger: float = 0.1,

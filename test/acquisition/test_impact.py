@@ -14,10 +14,11 @@ from modal_twin.acquisition.impact import (
     check_hit,
     exponential_damping,
     find_hits,
-    hammer_pulse,
     impact_frf,
 )
 from modal_twin.errors import SignalError
+from modal_twin.excitation.drive import ExcitationConfig, make_drive
+from modal_twin.excitation.signals import hammer_pulse
 
 FS = 1000.0
 M, FN, ZETA = 2.0, 12.0, 0.01
@@ -139,3 +140,19 @@ def test_noise_on_the_response_biases_h2_not_h1() -> None:
     # Hv weighs force and response noise alike in their own units: with forces of 100 N and
     # responses of micrometres it stays by H1
     assert 0.99 * r1 <= rv <= r2
+
+
+def test_the_excitation_drives_roving_hits_with_bounces_and_clipping() -> None:
+    cfg = ExcitationConfig(kind="impact", channels=("F1", "F2"), fs_hz=FS, duration_s=20.0,
+                           rms=(100.0, 50.0), impact_spacing_s=4.0, hits_per_point=3,
+                           double_hit_every=2, overload_n=90.0, tip_stiffness_n_m=2e4)
+    drive = make_drive(cfg)
+    starts = [find_hits(drive[i], FS, block_s=3.0) for i in range(2)]
+    assert starts == [[496, 4496, 8496], [12496, 16496]]  # hits 1-3 on F1, 4-5 on F2
+    # F1: clipped at 90 N (overload, flat top); F2: hit 4 bounces, hit 5 is clean
+    c1 = check_hit(drive[0, 496:3496], np.zeros((1, 3000)), FS)
+    assert "overload" in c1.reason
+    c4 = check_hit(drive[1, 12496:15496], np.zeros((1, 3000)), FS)
+    c5 = check_hit(drive[1, 16496:19496], np.zeros((1, 3000)), FS)
+    assert "double hit" in c4.reason and c5.accepted
+    assert float(drive[1].max()) == pytest.approx(50.0, rel=1e-3)
