@@ -48,7 +48,7 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import OptionError, ShapeError, SignalError
 
 __all__ = ["HitCheck", "ImpactFRF", "check_hit", "exponential_damping", "exponential_window",
-           "find_hits", "force_window", "impact_frf"]
+           "find_hits", "force_window", "impact_frf", "roving_hammer_frf"]
 
 Estimator = Literal["H1", "H2", "Hv"]
 
@@ -287,3 +287,36 @@ def impact_frf(force: FloatArray, responses: FloatArray, fs_hz: float, *, block_
     fr = np.asarray(np.fft.rfftfreq(n, 1.0 / fs_hz), dtype=np.float64)
     return ImpactFRF(fr, pick, h1, h2, hv, np.nan_to_num(coh), estimator, len(X), tau_s,
                      tuple(checks))
+
+
+def roving_hammer_frf(forces: FloatArray, responses: FloatArray, fs_hz: float, *,
+                      block_s: float, estimator: Estimator = "H1",
+                      tau_s: float | None = None, **checks: float | None
+                      ) -> tuple[ComplexArray, FloatArray, FloatArray, tuple[ImpactFRF, ...]]:
+    """FRF matrix of a roving-hammer test: one force channel per hit point, hit in turn.
+
+    Parameters
+    ----------
+    forces : (n_in, nt) array
+        The force measured at each hit point (zero while the hammer is elsewhere).
+    responses : (n_out, nt) array
+        The fixed accelerometers.
+    checks
+        ``double_hit``, ``force_range``, ``trigger`` ... as :func:`impact_frf`.
+
+    Returns
+    -------
+    H : (n_out, n_in, n_f) complex array
+        Column ``i``: the FRFs of the hits at point ``i`` (the chosen estimator).
+    f_hz : (n_f,) array
+    coherence : (n_out, n_in, n_f) array
+    per_point : tuple of ImpactFRF
+        Each point's estimate with its hits and their verdicts.
+    """
+    fa = np.atleast_2d(np.asarray(forces, float))
+    per_point = tuple(impact_frf(fa[i], responses, fs_hz, block_s=block_s,
+                                 estimator=estimator, tau_s=tau_s, **checks)  # type: ignore[arg-type]
+                      for i in range(fa.shape[0]))
+    H = np.stack([p.H for p in per_point], axis=1)
+    coh = np.stack([p.coherence for p in per_point], axis=1)
+    return H, per_point[0].f_hz, coh, per_point

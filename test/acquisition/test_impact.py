@@ -15,6 +15,7 @@ from modal_twin.acquisition.impact import (
     exponential_damping,
     find_hits,
     impact_frf,
+    roving_hammer_frf,
 )
 from modal_twin.errors import SignalError
 from modal_twin.excitation.drive import ExcitationConfig, make_drive
@@ -156,3 +157,53 @@ def test_the_excitation_drives_roving_hits_with_bounces_and_clipping() -> None:
     c5 = check_hit(drive[1, 16496:19496], np.zeros((1, 3000)), FS)
     assert "double hit" in c4.reason and c5.accepted
     assert float(drive[1].max()) == pytest.approx(50.0, rel=1e-3)
+
+
+def test_a_roving_hammer_test_of_a_three_mass_chain_identified_by_polymax(tmp_path) -> None:
+    """Hits at each of three masses, accelerometers on all three: the FRF matrix, written as
+    UFF 58 and read back, gives the chain's eigenfrequencies and modes by PolyMAX."""
+    import pyuff
+    from scipy import linalg
+
+    from modal_twin.identification.polymax import polymax
+    from modal_twin.io.uff import write_uff58_frf
+
+    m = np.diag([2.0, 1.5, 1.0])
+    k1, k2, k3 = 4e4, 3e4, 2e4
+    kk = np.array([[k1 + k2, -k2, 0], [-k2, k2 + k3, -k3], [0, -k3, k3]])
+    w2, phi = linalg.eigh(kk, m)
+    fn = np.sqrt(w2) / (2 * np.pi)
+    cc = 2 * 0.02 * m @ phi @ np.diag(np.sqrt(w2)) @ phi.T @ m  # 2 % modal damping
+    a = np.block([[np.zeros((3, 3)), np.eye(3)],
+                  [-np.linalg.solve(m, kk), -np.linalg.solve(m, cc)]])
+    b = np.vstack([np.zeros((3, 3)), np.linalg.inv(m)])
+    c_acc, d_acc = a[3:], b[3:]  # accelerations
+    n_hits, spacing = 3, 6.0
+    nt = round(3 * n_hits * spacing * FS)
+    forces = np.zeros((3, nt))
+    for i in range(3):
+        for h in range(n_hits):
+            forces[i] += hammer_pulse(nt, FS, peak_n=50.0, tip_stiffness_n_m=2e4,
+                                      hammer_mass_kg=0.3,
+                                      at_s=0.2 + (i * n_hits + h) * spacing)
+    t = np.arange(nt) / FS
+    _, acc, _ = signal.lsim(signal.StateSpace(a, b, c_acc, d_acc), forces.T, t)
+    H, f, coh, points = roving_hammer_frf(forces, acc.T, FS, block_s=5.0)
+    assert [p.n_averages for p in points] == [3, 3, 3]
+    band = (f > 2.0) & (f < 40.0)
+    assert float(np.min(coh[:, :, band])) > 0.99  # noise-free: every line coherent
+    path = write_uff58_frf(tmp_path / "frf.uff", f[band], H[:, :, band],
+                           [(j + 1, 1) for j in range(3)], [(j + 1, 1) for j in range(3)])
+    back = pyuff.UFF(str(path)).read_sets()
+    Hr = np.array([[back[o * 3 + i]["data"] for i in range(3)] for o in range(3)])
+    np.testing.assert_allclose(Hr, H[:, :, band], rtol=1e-5)
+    sweep = polymax(Hr, f[band], orders=[8])
+    found = sweep.poles[0]
+    for r in range(3):
+        j = int(np.argmin(np.abs(found.f_hz - fn[r])))
+        assert found.f_hz[j] == pytest.approx(fn[r], rel=0.005)
+        assert found.zeta[j] == pytest.approx(0.02, abs=0.004)
+        shape = found.shapes[:, j]
+        mac = abs(np.vdot(shape, phi[:, r])) ** 2 / (np.vdot(shape, shape).real
+                                                    * float(phi[:, r] @ phi[:, r]))
+        assert mac > 0.99
