@@ -15,7 +15,7 @@ import numpy as np
 
 from modal_twin.diagnosis.attachments import MOUNT_LAW, fit_attachment, screen_attachments
 from modal_twin.diagnosis.fitting import FittedEffect, fit_effect, simulate_record
-from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floor
+from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floors
 from modal_twin.diagnosis.noise import nrmse
 from modal_twin.diagnosis.parameters import PARAMETER_LAWS, ParameterCandidate, fit_parameter
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
@@ -142,7 +142,7 @@ def add_effect(model_file: str | Path, component: str, law: str, start: dict[str
     factory = load_model(model_file)
     fitted = _fit(factory, component, law, start, train, test)
     records = [train, test, *levels]
-    noises = [record_noise_floor(factory.plant(), r) for r in records]
+    noises = record_noise_floors(factory.plant(), records)
     before = figures_on(factory.plant(), records, noises)
     plant = (factory.with_theta(fitted.effect.params).plant() if law in PARAMETER_LAWS
              else factory.plant([fitted.effect]))
