@@ -16,7 +16,12 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from modal_twin._types import FloatArray
-from modal_twin.diagnosis.fitting import FittedEffect, SimulationObjective, _transform
+from modal_twin.diagnosis.fitting import (
+    FittedEffect,
+    SimulationObjective,
+    _transform,
+    as_records,
+)
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.effects import EffectSpec
@@ -71,8 +76,14 @@ def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
                   decimate: int = 5, max_nfev: int = 30) -> list[FittedEffect]:
     """``found`` with the parameters of its device-law and parameter effects refitted together.
 
-    On ``train``; unchanged when the joint fit does not lower the training error.
+    On ``train`` (on the channels the model has: a record may carry others, e.g. device
+    strokes and forces the model has no site for); unchanged when the joint fit does not
+    lower the training error.
     """
+    have = set(factory.plant().channel_names)
+    train = [r if set(r.channel_names) <= have else
+             r.with_channels([c for c in r.channel_names if c in have])
+             for r in as_records(train)]
     parts = [(_pieces(factory, f), f) for f in found]
     free = [(p, f) for p, f in parts if p is not None]
     fixed = [f.effect for p, f in parts if p is None]

@@ -232,3 +232,134 @@ def test_bench_scores_families_places_and_false_claims() -> None:
     gain = cases["control_sensor_gain_F2_C2_x"]
     got = score(gain, {"effects": [eff("sensor", "F2_C2_x"), eff("damping", "SDP1")]})
     assert got["both"] and got["false_claims"] == 1
+
+
+# --- the truth's pieces of the new cases (issue 20) -----------------------------------
+
+
+def test_sensor_delay_and_turned_axes() -> None:
+    from _truth.records import delayed, rotated
+
+    fs, tau = 500.0, 0.010
+    t = np.arange(2000) / fs
+    x = np.sin(2 * np.pi * 1.5 * t)
+    # a whole number of samples: an exact shift, zero before the start
+    np.testing.assert_allclose(delayed(x, fs, tau)[5:], x[:-5], atol=1e-12)
+    assert np.all(delayed(x, fs, tau)[:5] == 0.0)
+    # half a sample: the sine delayed, within the error of linear interpolation
+    half = delayed(x, fs, 0.001)
+    np.testing.assert_allclose(half[1:], np.sin(2 * np.pi * 1.5 * (t[1:] - 0.001)),
+                               atol=(2 * np.pi * 1.5 / fs) ** 2)
+    # a pure x motion read by axes turned by 6 degrees: (cos, -sin); turned back: itself
+    xy = np.vstack([x, np.zeros_like(x)])
+    turned = rotated(xy, 6.0)
+    np.testing.assert_allclose(turned[0], np.cos(np.radians(6.0)) * x)
+    np.testing.assert_allclose(turned[1], -np.sin(np.radians(6.0)) * x)
+    np.testing.assert_allclose(rotated(turned, -6.0), xy, atol=1e-15)
+
+
+def test_arctan_friction_force_and_loop_energy() -> None:
+    law = laws.ArctanFriction(F=800.0, v_eps=0.003)
+    f = law.force(np.zeros(2), np.array([6.3 * 0.003, -1.0]), np.zeros(0))[0]
+    assert f[0] == pytest.approx(0.9 * 800.0, rel=2e-3)  # 90 % at 6.3 v_eps
+    assert f[1] == pytest.approx(-800.0 * 2 / np.pi * np.arctan(1.0 / 0.003))
+    # at a sliding speed far above v_eps a cycle dissipates the Coulomb 4 F a
+    e = _cycle_energy(law, 0.01, 2.0, n_cycles=2)
+    assert e == pytest.approx(4 * 800.0 * 0.01, rel=0.03)
+
+
+def test_per_channel_noise_levels() -> None:
+    from _truth.records import measured
+
+    rng = np.random.default_rng(1)
+    clean = rng.standard_normal((3, 20000))
+    names = ("a_x", "RB1_dx", "RB1_fx")
+    rec = measured(("ax",), np.zeros((1, 20000)), names, clean, 500.0, 2.0, 3, "t",
+                   pct_of={"RB1_dx": 0.02, "RB1_fx": 0.02})
+    np.testing.assert_allclose(rec.noise_floor, [0.02, 2e-4, 2e-4], rtol=0.03)
+
+
+def test_added_bending_damping_raises_the_first_bending_mode_only() -> None:
+    import scipy.linalg as sla
+
+    base, more = VehicleTruth(), VehicleTruth(bending_zeta_add=0.03)
+    phi, w = more.bending_mode()
+    assert w / (2 * np.pi) == pytest.approx(more.vm.carbody.f_free_hz[2], rel=0.05)
+    floor = dict(zip(more.channel_names(), more.vm.S @ phi, strict=True))
+    # bending: the ends move against the middle (nodes at 0.22 L from the ends)
+    assert np.sign(floor["floor_front_end_z"]) == np.sign(floor["floor_rear_end_z"]) \
+        != np.sign(floor["floor_mid_z"])
+
+    def zetas(t: VehicleTruth) -> tuple[np.ndarray, np.ndarray]:
+        K, C, _ = t.matrices()
+        n = K.shape[0]
+        A = np.block([[np.zeros((n, n)), np.eye(n)],
+                      [-np.linalg.solve(t.vm.M, K), -np.linalg.solve(t.vm.M, C)]])
+        lam = sla.eigvals(A)
+        lam = lam[lam.imag > 1e-6]
+        return np.abs(lam), -lam.real / np.abs(lam)
+
+    (w0, z0), (w1, z1) = zetas(base), zetas(more)
+    j0, j1 = np.argmin(np.abs(w0 - w)), np.argmin(np.abs(w1 - w))
+    assert z1[j1] - z0[j0] == pytest.approx(0.03, abs=0.005)  # damped modes: nearly 0.03
+    others0 = np.delete(z0[np.argsort(w0)], np.argsort(np.argsort(w0))[j0])
+    others1 = np.delete(z1[np.argsort(w1)], np.argsort(np.argsort(w1))[j1])
+    np.testing.assert_allclose(others1[:4], others0[:4], atol=0.005)
+
+
+def test_car_device_channels_are_stroke_and_spring_dashpot_friction_force() -> None:
+    fs = 200.0
+    fric = laws.ArctanFriction(800.0, 0.003)
+    truth = VehicleTruth(damper_law=(0, fric), device_channels=True)
+    u = track_inputs(truth.spec.axle_x, 300.0, 3.0, fs, 1.5e-3, seed=5)
+    y = truth.simulate(u, fs)
+    names = truth.channel_names()
+    s, f = y[names.index("secondary_rear_dz")], y[names.index("secondary_rear_fz")]
+    rate = np.gradient(s, 1.0 / fs)
+    lin = truth.spec.k_secondary * s + truth.spec.c_secondary * rate
+    # the rate by central differences at 200 Hz: a few % off the exact one
+    assert _nrmse(lin[None, 10:-10], f[None, 10:-10])[0] < 0.05  # no friction at the rear
+    s, f = y[names.index("secondary_front_dz")], y[names.index("secondary_front_fz")]
+    rate = np.gradient(s, 1.0 / fs)
+    extra = (f - truth.spec.k_secondary * s - truth.spec.c_secondary * rate)[10:-10]
+    fr = fric.force(np.vstack([np.zeros_like(rate), np.zeros_like(rate)]),
+                    np.vstack([rate, np.zeros_like(rate)]), np.zeros(0))[0][0][10:-10]
+    assert np.corrcoef(extra, fr)[0, 1] > 0.9  # the front force carries the friction
+    assert 0.5 * 800.0 < np.sqrt(np.mean(extra**2)) < 800.0
+
+
+def test_bench_scores_new_cases_strictly() -> None:
+    from _truth.cases import NEW_CASES
+    from bench_hidden_effects import score_strict
+
+    cases = {c.name: c for c in NEW_CASES}
+    assert len(cases) >= 12 and all(c.new for c in NEW_CASES)
+
+    def eff(family: str, place: str, law: str = "x") -> dict:
+        return {"family": family, "place": place, "law": law, "params": {}}
+
+    two = cases["new_two_stribeck_ESB2_bw1_RB1"]
+    right = [eff("friction", "ESB2"), eff("hysteresis", "RB1")]
+    assert score_strict(two, {"effects": right}) == {
+        "family": True, "place": True, "both": True, "false_claims": 0, "extra_claims": 0}
+    # anything named beside the hidden effects makes the case wrong and is a false claim
+    got = score_strict(two, {"effects": [*right, eff("damping", "SDP1")]})
+    assert not got["both"] and got["false_claims"] == 1
+    got = score_strict(two, {"effects": [eff("friction", "ESB2")]})
+    assert not got["both"] and got["false_claims"] == 0
+    # a sensor effect must be of the hidden kind, on a channel of that sensor
+    delay = cases["new_sensor_delay_F3_C2"]
+    assert score_strict(delay, {"effects": [eff("sensor", "F3_C2_x", "sensor_delay"),
+                                            eff("sensor", "F3_C2_y", "sensor_delay")]})["both"]
+    got = score_strict(delay, {"effects": [eff("sensor", "F3_C2_x", "sensor_gain")]})
+    assert not got["family"] and got["place"] and got["false_claims"] == 1
+    turn = cases["new_sensor_orientation_F1_C3"]
+    assert score_strict(turn, {"effects": [eff("sensor", "F1_C3_x", "sensor_angle")]})["both"]
+    # a mass one floor too low: family right, place wrong
+    got = score_strict(cases["new_mass_F3_quiet_devices"], {"effects": [eff("mass", "F2")]})
+    assert got["family"] and not got["place"] and got["false_claims"] == 1
+    assert score_strict(cases["new_veh_carbody_bending_damping"],
+                        {"effects": [eff("damping", "zeta_carbody", "damping")]})["both"]
+    ctrl = cases["new_veh_control_devices"]
+    assert score_strict(ctrl, {"effects": []})["both"]
+    assert score_strict(ctrl, {"effects": [eff("damping", "secondary")]})["false_claims"] == 1

@@ -52,6 +52,28 @@ def test_joint_refit_recovers_two_masses_found_apart(factory: BuildingFactory) -
     assert got["m_F3"] == pytest.approx(truth["m_F3"], rel=0.01)
 
 
+def test_joint_refit_of_a_record_with_channels_the_model_lacks(factory: BuildingFactory
+                                                               ) -> None:
+    # issue 20, item 9: a multi-effect diagnosis of a record with channels the model has no
+    # site for (a car's damper stroke and force) failed in the joint refit with
+    # "ValueError: tuple.index(x)"; the extra channels are left out, the masses recovered
+    nominal = factory.parameters()
+    truth = {"m_F1": 1.3 * nominal["m_F1"], "m_F3": 1.25 * nominal["m_F3"]}
+    extra = ("secondary_front_dz", "secondary_front_fz")
+    assert not set(extra) & set(factory.plant().channel_names)
+    recs = []
+    for seed in (1, 2):
+        r = record_of(factory, truth, seed)
+        junk = np.random.default_rng(seed).standard_normal((2, r.data.shape[1]))
+        recs.append(Record(r.fs_hz, r.input_names, r.inputs, r.channel_names + extra,
+                           np.vstack([r.data, junk]), r.source))
+    first = [found("m_F1", 1.12 * nominal["m_F1"]), found("m_F3", 1.45 * nominal["m_F3"])]
+    out = refit_jointly(factory, first, recs)
+    got = {f.effect.component: f.effect.params[f.effect.component] for f in out}
+    assert got["m_F1"] == pytest.approx(truth["m_F1"], rel=0.01)
+    assert got["m_F3"] == pytest.approx(truth["m_F3"], rel=0.01)
+
+
 def test_a_single_effect_is_left_as_found(factory: BuildingFactory) -> None:
     train = record_of(factory, {}, seed=2)
     one = [found("m_F1", 20000.0)]

@@ -19,7 +19,8 @@ Bouc-Wen ``n = 2`` style, bilinear, cubic, piecewise-linear gap, linear k-c):
 * :class:`TanhSoftening`, :class:`QuinticHardening`, :class:`SinhHardening` -- smooth
   elastic non-linearities;
 * :class:`HertzGap` -- contact of power 1.5 beyond a clearance;
-* :class:`LinearKC` -- a spring-dashpot with changed values (damping change).
+* :class:`LinearKC` -- a spring-dashpot with changed values (damping change);
+* :class:`ArctanFriction` -- friction alone (a damper's seals), arctangent-regularised.
 """
 
 from __future__ import annotations
@@ -229,3 +230,17 @@ class HertzGap(Law):
         else:
             fc = self.k_h * np.maximum(np.abs(u) - self.g, 0.0) ** 1.5 * np.sign(u)
         return self.k * u + self.c * v + fc, z[:0]
+
+
+@dataclass
+class ArctanFriction(Law):
+    """Dry friction alone, regularised by an arctangent, per direction:
+    ``f = F (2 / pi) arctan(v / v_eps)`` (``F`` the sliding force, N; 90 % of it is
+    reached at ``|v| = 6.3 v_eps``). Meant in parallel with a linear spring-dashpot (the
+    friction of a hydraulic damper's seals)."""
+
+    F: float
+    v_eps: float
+
+    def force(self, u, v, z):
+        return self.F * (2.0 / np.pi) * np.arctan(v / self.v_eps), z[:0]

@@ -4,8 +4,11 @@ Building: 6-DOF table accelerations (x, y, 0.3 z), a band-limited random trainin
 an earthquake-like held-out record (enveloped filtered noise) and a low-level random record
 (1/20 of the training level). Vehicle: a random track profile (band 3-80 m wavelengths)
 seen by the four wheelsets with their delays, at two speeds and a low level.
-Noise: white Gaussian, ``pct`` % of each clean channel's RMS, seeded; the achieved floor
-RMS(noise) / RMS(measured) is returned per channel.
+Noise: white Gaussian, ``pct`` % of each clean channel's RMS (per channel when asked: e.g.
+nearly noise-free drift and force channels beside 1-3 % accelerometers), seeded; the
+achieved floor RMS(noise) / RMS(measured) is returned per channel. Sensor faults: a gain,
+a time delay (:func:`delayed`), the two horizontal axes of a sensor turned
+(:func:`rotated`).
 """
 
 from __future__ import annotations
@@ -77,17 +80,51 @@ class Noisy:
     noise_floor: FloatArray
 
 
+def delayed(x: FloatArray, fs_hz: float, tau_s: float) -> FloatArray:
+    """``x(t - tau)`` by linear interpolation between samples (zero before the start): the
+    reading of a sensor whose clock lags by ``tau``."""
+    t = np.arange(x.shape[-1]) / fs_hz
+    return np.interp(t - tau_s, t, x, left=0.0)
+
+
+def rotated(xy: FloatArray, angle_deg: float) -> FloatArray:
+    """Readings ``(a_x', a_y')`` of a two-axis sensor turned by ``angle_deg`` about z: its
+    axes are the structure's axes rotated, ``a_x' = a . e_x'`` with
+    ``e_x' = (cos, sin)``, ``e_y' = (-sin, cos)``."""
+    c, s = np.cos(np.radians(angle_deg)), np.sin(np.radians(angle_deg))
+    return np.array([c * xy[0] + s * xy[1], -s * xy[0] + c * xy[1]])
+
+
 def measured(inputs: tuple[str, ...], u: FloatArray, names: tuple[str, ...],
              clean: FloatArray, fs_hz: float, pct: float, seed: int, source: str,
-             gains: dict[str, float] | None = None) -> Noisy:
+             gains: dict[str, float] | None = None, *,
+             pct_of: dict[str, float] | None = None,
+             delays: dict[str, float] | None = None,
+             turns: dict[str, float] | None = None) -> Noisy:
     """Add a sensor gain error (``gains``: channel -> factor) and white noise of ``pct`` %
-    of each channel's clean RMS."""
+    of each channel's clean RMS.
+
+    ``pct_of`` (channel -> %) overrides ``pct`` for some channels (e.g. nearly noise-free
+    drift and force channels); ``delays`` (channel -> s) delays channels
+    (:func:`delayed`); ``turns`` (sensor stem -> degrees) turns the ``_x`` / ``_y`` pair
+    of a sensor (:func:`rotated`). Delays and turns act on the clean signal, before the
+    noise (the noise of a sensor is its own).
+    """
     y = clean.copy()
     for ch, g in (gains or {}).items():
         y[names.index(ch)] *= g
+    for stem, ang in (turns or {}).items():
+        ix, iy = names.index(f"{stem}_x"), names.index(f"{stem}_y")
+        y[[ix, iy]] = rotated(y[[ix, iy]], ang)
+    for ch, tau in (delays or {}).items():
+        y[names.index(ch)] = delayed(y[names.index(ch)], fs_hz, tau)
     rng = np.random.default_rng(10_000 + seed)
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
-    noise = rng.standard_normal(y.shape) * rms * pct / 100.0
+    if pct_of:
+        level = np.array([pct_of.get(n, pct) for n in names])[:, None]
+        noise = rng.standard_normal(y.shape) * rms * level / 100.0
+    else:
+        noise = rng.standard_normal(y.shape) * rms * pct / 100.0
     meas = y + noise
     floor = np.sqrt(np.mean(noise**2, axis=1)) / np.sqrt(np.mean(meas**2, axis=1))
     return Noisy(fs_hz, inputs, u, names, meas, source, floor)
