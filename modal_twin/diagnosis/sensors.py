@@ -8,8 +8,8 @@ are fitted in closed form (least squares on the training record), the delay from
 of the cross-correlation of measured and predicted (parabolic interpolation between
 samples). They are kept as candidates only for channels whose error is significant while
 the other channels at the same place are not -- a structural effect shows at every channel
-of a place, a sensor fault at one -- or, for an orientation, at both channels of a
-horizontal pair (a turned sensor spoils both of its axes).
+of a place, a sensor fault at one -- or at both channels of a horizontal pair (a turned
+or late sensor spoils both of its axes).
 """
 
 from __future__ import annotations
@@ -106,15 +106,13 @@ def screen_sensors(names: Sequence[str], measured: FloatArray, predicted: FloatA
             sh = 1.0 - float(np.sum((y - A @ np.array([c, s])) ** 2)) / e0
             if sh > share + 0.1 and abs(np.hypot(c, s) - 1.0) < 0.05:
                 best = SensorCandidate(ch, "sensor_angle", ang, sh)
-        if fs_hz is not None and not pair_only:
+        if fs_hz is not None:
             tau = delay_of(y, p, fs_hz)
             if tau > 0:
                 late = DelayLine([(0, tau)], fs_hz).apply(p[None, :])[0]
                 sh = 1.0 - float(np.sum((y - late) ** 2)) / e0
                 if sh > best.gain + 0.1:
                     best = SensorCandidate(ch, "sensor_delay", tau, sh)
-        if pair_only and best.law != "sensor_angle":
-            continue  # both axes of one sensor off: only a turned sensor explains that
         if best.gain >= min_share:
             out.append(best)
     return sorted(out, key=lambda c: -c.gain)

@@ -118,3 +118,13 @@ def test_a_plant_with_a_late_sensor_live_and_offline() -> None:
     np.testing.assert_allclose(pred[j], off_late[i], atol=1e-12 * np.abs(off_nom[i]).max())
     with pytest.raises(OptionError, match="delay_line"):
         late.measure(Simulator(late.system, 1 / fs).step_block(ag))
+
+
+def test_both_axes_of_a_late_sensor_make_delay_candidates() -> None:
+    rng = np.random.default_rng(10)
+    sos = signal.butter(4, 12.0, fs=FS, output="sos")
+    pred = signal.sosfiltfilt(sos, rng.standard_normal((2, 8000)))
+    meas = DelayLine([(0, 0.01), (1, 0.01)], FS).apply(pred)
+    cands = screen_sensors(("S_x", "S_y"), meas, pred, ("S_x", "S_y"), fs_hz=FS)
+    assert {c.law for c in cands} == {"sensor_delay"}
+    assert sorted(c.value for c in cands) == pytest.approx([0.01, 0.01], abs=0.1 / FS)
