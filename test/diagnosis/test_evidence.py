@@ -166,8 +166,8 @@ def fitted(component: str, law: str, params: dict[str, float], held: float, bic:
     eff = EffectSpec(component, law, params)
     return FittedEffect(eff, len(params), 1.0, held, 10.0, bic, 1, 0.0, at_bound=at_bound,
                         family=family_of(eff), place=place_of(eff), rejected=rejected,
-                        flags=flags, records=(("train", 0.3, 0.1, 2.0),
-                                              ("held", 0.3, held, 2.0)))
+                        flags=flags, records=(("train", 0.3, 0.1, 2.0, 30.0, 10.0),
+                                              ("held", 0.3, held, 2.0, 30.0, 100 * held)))
 
 
 def test_rank_usable_first_ties_by_bic_and_evidence() -> None:
