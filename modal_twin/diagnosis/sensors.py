@@ -8,8 +8,9 @@ are fitted in closed form (least squares on the training record), the delay from
 of the cross-correlation of measured and predicted (parabolic interpolation between
 samples). They are kept as candidates only for channels whose error is significant while
 the other channels at the same place are not -- a structural effect shows at every channel
-of a place, a sensor fault at one -- or at both channels of a horizontal pair (a turned
-or late sensor spoils both of its axes).
+of a place, a sensor fault at one -- or at several channels of one place when that place
+holds more than half of the significant channels' residual (the residual concentrates on
+one sensor: a turned or late sensor spoils all of its axes).
 """
 
 from __future__ import annotations
@@ -72,6 +73,25 @@ def delay_of(measured: FloatArray, predicted: FloatArray, fs_hz: float, *,
     return max(0.0, (k + frac) / fs_hz)
 
 
+def _concentrated(names: Sequence[str], measured: FloatArray, predicted: FloatArray,
+                  significant: Sequence[str], share: float = 0.5) -> set[str]:
+    """Places (sensors) holding more than ``share`` of the significant channels' residual.
+
+    The residual of each channel is taken relative to its own RMS (NRMSE squared); a
+    structural effect spreads it over many places, a faulty sensor concentrates it on the
+    channels of one.
+    """
+    idx = {n: i for i, n in enumerate(names)}
+    energy: dict[str, float] = {}
+    for ch in significant:
+        y, p = measured[idx[ch]], predicted[idx[ch]]
+        e = float(np.sum((y - p) ** 2)) / max(float(np.sum(y**2)), 1e-300)
+        place = ch.rpartition("_")[0]
+        energy[place] = energy.get(place, 0.0) + e
+    total = sum(energy.values())
+    return {pl for pl, e in energy.items() if total > 0 and e > share * total}
+
+
 def screen_sensors(names: Sequence[str], measured: FloatArray, predicted: FloatArray,
                    significant: Sequence[str], *, min_share: float = 0.6,
                    fs_hz: float | None = None) -> list[SensorCandidate]:
@@ -81,14 +101,13 @@ def screen_sensors(names: Sequence[str], measured: FloatArray, predicted: FloatA
     """
     idx = {n: i for i, n in enumerate(names)}
     sig = set(significant)
+    one_sensor = _concentrated(names, measured, predicted, significant)
     out: list[SensorCandidate] = []
     for ch in significant:
-        place, _, axis0 = ch.rpartition("_")
+        place = ch.rpartition("_")[0]
         mates = [n for n in names if n != ch and n.rpartition("_")[0] == place]
-        partner0 = f"{place}_{'y' if axis0 == 'x' else 'x'}"
-        pair_only = axis0 in ("x", "y") and {m for m in mates if m in sig} == {partner0}
-        if any(m in sig for m in mates) and not pair_only:
-            continue  # the whole place is off: structural, not one sensor
+        if any(m in sig for m in mates) and place not in one_sensor:
+            continue  # the place is off with others: structural, not one sensor
         i = idx[ch]
         y, p = measured[i], predicted[i]
         e0 = float(np.sum((y - p) ** 2))
