@@ -54,8 +54,9 @@ class FittedEffect:
     place: str = ""
     flags: tuple[str, ...] = ()  # why --auto must not write it (bound, implausible value)
     rejected: str = ""  # the record it made worse, when it did
-    records: tuple[tuple[str, float, float, float], ...] = ()  # (record, NRMSE before,
-    # after, after / noise floor), NRMSE as the RMS over channels
+    records: tuple[tuple[str, float, float, float, float, float], ...] = ()  # (record,
+    # NRMSE before, after, after / noise floor median, whitened RMS before, after), NRMSE as
+    # the RMS over channels, the whitened RMS as in noise.ErrorFigures.score
 
     def parameter_text(self) -> str:
         """Format ``name=value ±std`` per parameter.
@@ -90,7 +91,7 @@ def simulate_record(plant: Plant, rec: Record) -> FloatArray:
     ag = plant.input_matrix(rec.input_names, rec.inputs)  # unmeasured inputs: zero
     _say_missing(rec.source, [n for n in plant.input_names if n not in have])
     sim = Simulator(plant.system, 1.0 / rec.fs_hz, modal_histories=False)
-    y = plant.measure(sim.step_block(ag))
+    y = plant.measure(sim.step_block(ag), plant.delay_line(rec.fs_hz))
     names = plant.channel_names
     return y[[names.index(n) for n in rec.channel_names]]
 

@@ -1,17 +1,21 @@
 """Decisions a test engineer can trust: every candidate judged on every record given.
 
-- The figure is the normalised RMS of the residual (:mod:`.noise`), per channel, pooled as
-  the RMS over the channels, on every record (training, held-out, and any other level).
-- A candidate must **lower** the error on the training and the held-out record (by 1 %
-  at least, pooled over the channels; the median channel must not rise) and must **not raise**
-  it on any other record (by more than three standard errors of an RMS estimated from its
-  samples, 3 / sqrt(2 N), at least 1 %, either way: a record at a
-  level where the effect does not engage, such as a low-level record for a friction
-  effect, cannot be improved); otherwise it is rejected, naming the record it failed on.
+- The figure is the normalised RMS of the residual (:mod:`.noise`) per channel, whitened by
+  the noise model (each channel in units of its noise and the model-form tolerance) and
+  pooled as the RMS over the channels (:attr:`.noise.ErrorFigures.score`), on every record
+  (training, held-out, and any other level). Channels of very different noise (noisy
+  accelerometers beside near-noise-free drift and force channels) thus weigh by what they
+  can tell, and no single channel's median decides.
+- A candidate must **lower** that figure on the training and the held-out record (by 1 %
+  at least) and must **not raise** it on any other record (by more than three standard
+  errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %, either way: a
+  record at a level where the effect does not engage, such as a low-level record for a
+  friction effect, cannot be improved); otherwise it is rejected, naming the record it
+  failed on and the figure before and after.
 - A fit that ends on a bound of its parameters, or with an implausible value (an added mass
   below 1 % of the floor mass it joins, or negative), is flagged; flagged candidates are
   reported but never chosen (nor written by ``effects add --auto``).
-- Ranking: accepted and unflagged first; among them, those whose held-out error is within
+- Ranking: accepted and unflagged first; among them, those whose held-out figure is within
   5 % of the best are ranked by the Bayesian information criterion (simpler wins), with the
   family the evidence named at that place preferred; the rest follow by held-out error.
 """
@@ -26,28 +30,50 @@ import numpy as np
 from modal_twin.diagnosis.effect_kind import Facts
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.kinds import kind_of
-from modal_twin.diagnosis.noise import ErrorFigures, error_figures, noise_floor
+from modal_twin.diagnosis.noise import (
+    RESOLUTION,
+    ErrorFigures,
+    channel_noise,
+    error_figures,
+    noise_floor,
+)
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.plant import Plant
 
-__all__ = ["figures_on", "judge", "rank", "record_noise_floor", "worse_tolerance"]
+__all__ = ["figures_on", "judge", "rank", "record_noise_floor", "record_noise_floors",
+           "verdict", "worse_tolerance"]
 
 LOWER_BY = 0.01  # training and held-out: at least 1 % lower
 WORSE_BY = 0.01  # other records: at most 1 % higher
 TIED = 0.05  # held-out errors within 5 % of the best are ranked by BIC
 
 
-def record_noise_floor(plant: Plant, rec: Record, *, seed: int = 0) -> np.ndarray:
+def record_noise_floor(plant: Plant, rec: Record, *, seed: int = 0,
+                       sensor_sd: Mapping[str, float] | None = None,
+                       input_sd: Mapping[str, float] | None = None) -> np.ndarray:
     """Noise floor of a model-versus-record comparison, per channel (fraction of RMS).
 
-    Two parts, added in quadrature: the sensors' own noise (:func:`.noise.noise_floor` of
-    the measured channels) and the response of the model to the noise of the measured
-    inputs (their floor, as white noise of the same RMS, driven through ``plant``): a model
-    driven by noisy inputs can do no better than that either.
+    Two parts, added in quadrature: the sensors' own noise and the response of the model to
+    the noise of the measured inputs (their floor, as white noise of the same RMS, driven
+    through ``plant``): a model driven by noisy inputs can do no better than that either.
+    Without ``sensor_sd`` / ``input_sd`` (absolute standard deviations by channel name, the
+    noise model of :func:`record_noise_floors`) both come from this record alone
+    (:func:`.noise.noise_floor`); with them, a channel that shows no noise has the floor
+    of its resolution (:data:`.noise.RESOLUTION`).
     """
-    sensors = noise_floor(rec.scored, rec.fs_hz)
-    sd_in = noise_floor(rec.inputs, rec.fs_hz) * np.sqrt(np.mean(rec.inputs**2, axis=1))
+    rms = np.sqrt(np.mean(rec.scored**2, axis=1))
+    if sensor_sd is None:
+        sensors = noise_floor(rec.scored, rec.fs_hz)
+    else:
+        sd = np.array([sensor_sd.get(c, np.inf) for c in rec.channel_names])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sensors = np.clip(np.where(rms > 0, sd / rms, 1.0), RESOLUTION, 1.0)
+    if input_sd is None:
+        sd_in = noise_floor(rec.inputs, rec.fs_hz) * np.sqrt(np.mean(rec.inputs**2, axis=1))
+    else:
+        sd_in = np.array([input_sd.get(c, 0.0) for c in rec.input_names])
+        sd_in = np.where(np.isfinite(sd_in), sd_in, 0.0)
     if not np.any(sd_in > 0):
         return sensors
     rng = np.random.default_rng(seed)
@@ -58,9 +84,27 @@ def record_noise_floor(plant: Plant, rec: Record, *, seed: int = 0) -> np.ndarra
         y = simulate_record(plant, noisy)[:, rec.skip:]
     except ModalTwinError:
         return sensors
-    rms = np.sqrt(np.mean(rec.scored**2, axis=1))
     from_inputs = np.sqrt(np.mean(y**2, axis=1)) / np.maximum(rms, 1e-300)
     return np.clip(np.sqrt(sensors**2 + from_inputs**2), 0.0, 1.0)
+
+
+def record_noise_floors(plant: Plant, records: Sequence[Record], *, seed: int = 0
+                        ) -> list[np.ndarray]:
+    """Noise floors of every record, each from its own quiet stretches.
+
+    Each channel's (and each input's) noise is the flat-top level of the record's quiet
+    stretches (:func:`.noise.noise_sd`: robust to a response that fills the top of the band
+    only while it is strong), then turned into a floor by :func:`record_noise_floor`. Each
+    record keeps its own: a sensor's noise need not be the same at another level (a
+    conditioner's range set for the level, noise stated relative to the signal).
+    """
+    out = []
+    for r in records:
+        sensors = channel_noise([(r.channel_names, r.scored, r.fs_hz)])
+        inputs = channel_noise([(r.input_names, r.inputs, r.fs_hz)])
+        out.append(record_noise_floor(plant, r, seed=seed, sensor_sd=sensors,
+                                      input_sd=inputs))
+    return out
 
 
 def figures_on(plant: Plant, records: Sequence[Record], noises: Sequence[np.ndarray]
@@ -79,6 +123,25 @@ def worse_tolerance(rec: Record) -> float:
     Three standard errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %.
     """
     return max(WORSE_BY, 3.0 / np.sqrt(2.0 * rec.scored.shape[-1]))
+
+
+def verdict(before: Sequence[ErrorFigures], after: Sequence[ErrorFigures],
+            tolerances: Sequence[float], lower_by: float = LOWER_BY) -> str:
+    """Why a candidate is rejected ("" when it is not), on the whitened figures.
+
+    ``before[0]`` / ``after[0]`` are the training record and ``[1]`` the held-out one: both
+    must fall by ``lower_by``; no other record may rise by more than its tolerance.
+    """
+    for i, (b, a) in enumerate(zip(before, after, strict=True)):
+        name = b.record or f"record {i}"
+        vb, va = b.score, a.score
+        if i < 2 and not va < (1 - lower_by) * vb:
+            return (f"does not lower the error on {name} (whitened RMS x{vb:.2f} -> "
+                    f"x{va:.2f}; NRMSE {100 * b.total:.2f} % -> {100 * a.total:.2f} %)")
+        if i >= 2 and va > (1 + tolerances[i]) * vb:
+            return (f"makes {name} worse (whitened RMS x{vb:.2f} -> x{va:.2f}; NRMSE "
+                    f"{100 * b.total:.2f} % -> {100 * a.total:.2f} %)")
+    return ""
 
 
 def _flags(f: FittedEffect, facts: Facts) -> tuple[str, ...]:
@@ -104,26 +167,9 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
         after = figures_on(plant, records, noises)
     except ModalTwinError as err:
         return replace(f, rejected=f"does not simulate: {err}")
-    rows = tuple((b.record, b.total, a.total, a.median_over_noise)
+    rows = tuple((b.record, b.total, a.total, a.median_over_noise, b.score, a.score)
                  for b, a in zip(before, after, strict=True))
-    rejected = ""
-    for i, (b, a) in enumerate(zip(before, after, strict=True)):
-        must_lower = i < 2
-        name = b.record or f"record {i}"
-        # pooled over the channels, and the median channel: neither may get worse
-        for what, vb, va in (("", b.total, a.total),
-                             ("median ", b.median_nrmse, a.median_nrmse)):
-            if must_lower and what and va <= vb * (1 + worse_tolerance(records[i])):
-                continue  # the median channel need not fall (a sensor fault is one channel)
-            if must_lower and not va < (1 - lower_by) * vb:
-                rejected = (f"does not lower the {what}error on {name} "
-                            f"({100 * vb:.2f} % -> {100 * va:.2f} %)")
-            elif not must_lower and va > (1 + worse_tolerance(records[i])) * vb:
-                rejected = f"makes {what}{name} worse ({100 * vb:.2f} % -> {100 * va:.2f} %)"
-            if rejected:
-                break
-        if rejected:
-            break
+    rejected = verdict(before, after, [worse_tolerance(r) for r in records], lower_by)
     kind, facts = kind_of(f.effect.law), facts or Facts()
     return replace(f, family=kind.family(f.effect, facts),
                    place=place or kind.place(f.effect), records=rows, rejected=rejected,
@@ -131,8 +177,8 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
 
 
 def held_out(f: FittedEffect) -> float:
-    """Held-out NRMSE after (RMS over channels); inf when not judged."""
-    return f.records[1][2] if len(f.records) > 1 else float("inf")
+    """Held-out figure after (whitened RMS over channels); inf when not judged."""
+    return f.records[1][5] if len(f.records) > 1 else float("inf")
 
 
 def rank(fits: Sequence[FittedEffect], evidence_family: Mapping[str, str] | None = None

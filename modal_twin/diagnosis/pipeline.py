@@ -38,7 +38,13 @@ from modal_twin.diagnosis.effect_kind import Job, Round
 from modal_twin.diagnosis.evidence import DeviceEvidence
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
-from modal_twin.diagnosis.judge import figures_on, judge, rank, record_noise_floor, worse_tolerance
+from modal_twin.diagnosis.judge import (
+    figures_on,
+    judge,
+    rank,
+    record_noise_floors,
+    worse_tolerance,
+)
 from modal_twin.diagnosis.kinds import KINDS, kind_of
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
 from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures
@@ -106,7 +112,7 @@ class Diagnosis:
         out += ["", "FITTED BY SIMULATION (NRMSE as RMS over channels: train / held-out, before "
                 "-> after; ranked)"]
         for f in self.fitted:
-            recs = "; ".join(f"{100 * b:.2f}->{100 * a:.2f} %" for _, b, a, _ in f.records[:2])
+            recs = "; ".join(f"{100 * b:.2f}->{100 * a:.2f} %" for _, b, a, *_ in f.records[:2])
             state = ("REJECTED: " + f.rejected) if f.rejected else (
                 "FLAGGED: " + "; ".join(f.flags) if f.flags else "accepted")
             out.append(f"  {f.place:<10} {f.family:<12} {f.effect.law:<20} {recs:<28} "
@@ -146,7 +152,7 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     records, skipped = _common_channels(factory, records)
     test = records[1]
     nominal = factory.plant()
-    noises = [record_noise_floor(nominal, r) for r in records]
+    noises = record_noise_floors(nominal, records)
     say("simulating the model on every record")
     before = figures_on(nominal, records, noises)
     where, modal = _where_and_modal(nominal, test, skipped)
@@ -255,7 +261,7 @@ def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Seq
         rest = [g for g in keep if g is not f]
         with_all = figures_on(_apply_all(factory, keep).plant(), records, noises)
         without = figures_on(_apply_all(factory, rest).plant(), records, noises)
-        if all(b.total <= a.total * (1.0 + worse_tolerance(r))
+        if all(b.score <= a.score * (1.0 + worse_tolerance(r))
                for a, b, r in zip(with_all, without, records, strict=True)):
             say(f"dropped {f.family} at {f.place}: the other effects do its work")
             keep = rest

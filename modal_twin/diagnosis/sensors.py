@@ -1,11 +1,16 @@
-"""Sensor candidates: a channel whose error is its own reading scaled or turned.
+"""Sensor candidates: a channel whose error is its own reading scaled, turned or late.
 
 A gain error ``g`` on a channel makes its residual ``y - y_hat = (g - 1) y_hat`` (plus
-noise); an orientation error ``a`` about z mixes in the horizontal partner,
-``y_x = cos(a) y_hat_x + sin(a) y_hat_y``. Both are fitted in closed form (least squares
-on the training record) and kept as candidates only for channels whose error is
-significant while the other channels at the same place are not: a structural effect
-shows at every channel of a place, a sensor fault at one.
+noise; a polarity error is ``g = -1``); an orientation error ``a`` about z mixes in the
+horizontal partner, ``y_x = cos(a) y_hat_x + sin(a) y_hat_y``; a time delay ``tau`` (a
+sensor or converter whose clock lags) reads ``y(t) = y_hat(t - tau)``. Gain and orientation
+are fitted in closed form (least squares on the training record), the delay from the peak
+of the cross-correlation of measured and predicted (parabolic interpolation between
+samples). They are kept as candidates only for channels whose error is significant while
+the other channels at the same place are not -- a structural effect shows at every channel
+of a place, a sensor fault at one -- or at several channels of one place when that place
+holds more than half of the significant channels' residual (the residual concentrates on
+one sensor: a turned or late sensor spoils all of its axes).
 """
 
 from __future__ import annotations
@@ -25,10 +30,12 @@ from modal_twin.diagnosis.record import Record
 from modal_twin.errors import OptionError
 from modal_twin.models.effects import SENSOR_LAWS, EffectSpec
 from modal_twin.models.loading import ModelFactory
+from modal_twin.models.plant import DelayLine
 
-__all__ = ["SENSOR", "SensorCandidate", "SensorKind", "fit_sensor", "screen_sensors"]
+__all__ = ["SENSOR", "SensorCandidate", "SensorKind", "delay_of", "fit_sensor", "screen_sensors"]
 
-_VALUE = {"sensor_gain": "gain", "sensor_angle": "angle_deg"}  # law -> its one parameter
+# law -> its one parameter
+_VALUE = {"sensor_gain": "gain", "sensor_angle": "angle_deg", "sensor_delay": "delay_s"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,24 +43,71 @@ class SensorCandidate:
     """A channel whose residual a gain or an orientation explains."""
 
     channel: str
-    law: str  # sensor_gain | sensor_angle
-    value: float  # gain, or angle in degrees
+    law: str  # sensor_gain | sensor_angle | sensor_delay
+    value: float  # gain, angle in degrees, or delay in seconds
     gain: float  # share of the channel's residual energy removed (training record)
     std: float = float("nan")  # 1-sigma of value (white residual assumed)
 
 
+def delay_of(measured: FloatArray, predicted: FloatArray, fs_hz: float, *,
+             max_s: float = 0.1) -> float:
+    """Delay of ``measured`` behind ``predicted`` in seconds (cross-correlation peak).
+
+    Only lags in ``[0, max_s]`` are searched (a sensor reports late, not early); the peak is
+    refined by a parabola through it and its two neighbours.
+    """
+    y = np.asarray(measured, float) - np.mean(measured)
+    p = np.asarray(predicted, float) - np.mean(predicted)
+    n = y.size
+    nfft = 1 << int(np.ceil(np.log2(2 * n)))
+    xc = np.fft.irfft(np.fft.rfft(y, nfft) * np.conj(np.fft.rfft(p, nfft)), nfft)
+    lags = int(min(max(2, round(max_s * fs_hz)), n - 2))
+    seg = xc[:lags + 1]
+    k = int(np.argmax(seg))
+    frac = 0.0
+    lo = xc[k - 1] if k > 0 else xc[-1]
+    hi = xc[k + 1]
+    den = lo - 2 * xc[k] + hi
+    if den < 0:
+        frac = float(np.clip(0.5 * (lo - hi) / den, -0.5, 0.5))
+    return max(0.0, (k + frac) / fs_hz)
+
+
+def _concentrated(names: Sequence[str], measured: FloatArray, predicted: FloatArray,
+                  significant: Sequence[str], share: float = 0.5) -> set[str]:
+    """Places (sensors) holding more than ``share`` of the significant channels' residual.
+
+    The residual of each channel is taken relative to its own RMS (NRMSE squared); a
+    structural effect spreads it over many places, a faulty sensor concentrates it on the
+    channels of one.
+    """
+    idx = {n: i for i, n in enumerate(names)}
+    energy: dict[str, float] = {}
+    for ch in significant:
+        y, p = measured[idx[ch]], predicted[idx[ch]]
+        e = float(np.sum((y - p) ** 2)) / max(float(np.sum(y**2)), 1e-300)
+        place = ch.rpartition("_")[0]
+        energy[place] = energy.get(place, 0.0) + e
+    total = sum(energy.values())
+    return {pl for pl, e in energy.items() if total > 0 and e > share * total}
+
+
 def screen_sensors(names: Sequence[str], measured: FloatArray, predicted: FloatArray,
-                   significant: Sequence[str], *, min_share: float = 0.6
-                   ) -> list[SensorCandidate]:
-    """Sensor candidates among ``significant`` channels (module docstring), best first."""
+                   significant: Sequence[str], *, min_share: float = 0.6,
+                   fs_hz: float | None = None) -> list[SensorCandidate]:
+    """Sensor candidates among ``significant`` channels (module docstring), best first.
+
+    With ``fs_hz`` a time delay is also tried on each channel.
+    """
     idx = {n: i for i, n in enumerate(names)}
     sig = set(significant)
+    one_sensor = _concentrated(names, measured, predicted, significant)
     out: list[SensorCandidate] = []
     for ch in significant:
         place = ch.rpartition("_")[0]
         mates = [n for n in names if n != ch and n.rpartition("_")[0] == place]
-        if any(m in sig for m in mates):
-            continue  # the whole place is off: structural, not one sensor
+        if any(m in sig for m in mates) and place not in one_sensor:
+            continue  # the place is off with others: structural, not one sensor
         i = idx[ch]
         y, p = measured[i], predicted[i]
         e0 = float(np.sum((y - p) ** 2))
@@ -75,6 +129,13 @@ def screen_sensors(names: Sequence[str], measured: FloatArray, predicted: FloatA
             sh = 1.0 - float(np.sum((y - A @ np.array([c, s])) ** 2)) / e0
             if sh > share + 0.1 and abs(np.hypot(c, s) - 1.0) < 0.05:
                 best = SensorCandidate(ch, "sensor_angle", ang, sh)
+        if fs_hz is not None:
+            tau = delay_of(y, p, fs_hz)
+            if tau > 0:
+                late = DelayLine([(0, tau)], fs_hz).apply(p[None, :])[0]
+                sh = 1.0 - float(np.sum((y - late) ** 2)) / e0
+                if sh > best.gain + 0.1:
+                    best = SensorCandidate(ch, "sensor_delay", tau, sh)
         if best.gain >= min_share:
             out.append(best)
     return sorted(out, key=lambda c: -c.gain)
@@ -119,7 +180,7 @@ class SensorKind(PlacedEffect):
         train = rnd.train
         return tuple(screen_sensors(train.channel_names, train.scored,
                                     simulate_record(rnd.nominal, train)[:, train.skip:],
-                                    rnd.significant))
+                                    rnd.significant, fs_hz=train.fs_hz))
 
     def jobs(self, rnd: Round, candidates: tuple[Any, ...]) -> list[Job]:
         """Return the best ``n_fit`` (closed form, on the training record)."""
@@ -146,7 +207,6 @@ class SensorKind(PlacedEffect):
     def _refusal(law: str, component: str) -> str:
         return (f"{law} at {component}: a sensor effect is found by the diagnosis, not "
                 "fitted from a start (modal-twin diagnose, or effects add --auto)")
-
 
 
 SENSOR = SensorKind()

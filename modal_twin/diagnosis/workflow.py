@@ -12,7 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
-from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floor
+from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floors
 from modal_twin.diagnosis.kinds import kind_of
 from modal_twin.diagnosis.noise import nrmse
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
@@ -104,7 +104,7 @@ def add_effect(model_file: str | Path, component: str, law: str, start: dict[str
     kind = kind_of(law)
     fitted = kind.fit(factory, component, law, start, train, test)
     records = [train, test, *levels]
-    noises = [record_noise_floor(factory.plant(), r) for r in records]
+    noises = record_noise_floors(factory.plant(), records)
     before = figures_on(factory.plant(), records, noises)
     fitted = judge(fitted, kind.plant(factory, fitted.effect), before, records, noises)
     if fitted.rejected:

@@ -12,7 +12,7 @@ from modal_twin.excitation import signals
 
 __all__ = ["KINDS", "TRACK_CHANNELS", "ExcitationConfig", "make_drive"]
 
-KINDS = ("random", "chirp", "multisine", "earthquake", "record", "track")
+KINDS = ("random", "chirp", "multisine", "earthquake", "record", "track", "impact")
 TRACK_CHANNELS = ("zt1", "zt2", "zt3", "zt4", "vt1", "vt2", "vt3", "vt4")
 
 
@@ -41,6 +41,17 @@ class ExcitationConfig:
     vehicle_file: str = field(default="config/vehicles/trailer_car.yaml",
                               metadata={"doc": "vehicle whose axle positions the track "
                                         "irregularity passes under (kind=track)"})
+    impact_spacing_s: float = field(default=4.0, metadata={
+        "doc": "time between hammer hits (kind=impact)"})
+    hits_per_point: int = field(default=5, metadata={
+        "doc": "hits on each drive channel before the hammer roves to the next (kind=impact)"})
+    tip_stiffness_n_m: float = field(default=1e5, metadata={
+        "doc": "contact stiffness of the hammer tip: the pulse lasts pi sqrt(m / k)"})
+    hammer_mass_kg: float = field(default=0.3, metadata={"doc": "hammer head mass"})
+    double_hit_every: int = field(default=0, metadata={
+        "doc": "every n-th hit bounces (a second pulse of half the peak; 0 = never)"})
+    overload_n: float = field(default=0.0, metadata={
+        "doc": "force range the hammer clips at (0 = no clipping)"})
     autostart: bool = field(default=True, metadata={"doc": "start once a reader is matched"})
     rate: float = field(default=1.0, metadata={"doc": "pace: 1 = real time, 0 = flat out"})
     wait_subscribers: int = field(default=1, metadata={"doc": "readers to wait for"})
@@ -59,6 +70,14 @@ class ExcitationConfig:
             raise OptionError(msg)
         if self.kind == "track" and not self.speed_kmh > 0:
             msg = f"speed_kmh: expected > 0, got {self.speed_kmh}"
+            raise OptionError(msg)
+        if self.kind == "impact" and not (self.impact_spacing_s > 0 and self.hits_per_point >= 1
+                                          and self.tip_stiffness_n_m > 0
+                                          and self.hammer_mass_kg > 0
+                                          and self.double_hit_every >= 0
+                                          and self.overload_n >= 0):
+            msg = ("impact: expected impact_spacing_s, tip_stiffness_n_m, hammer_mass_kg > 0, "
+                   "hits_per_point >= 1, double_hit_every >= 0, overload_n >= 0")
             raise OptionError(msg)
         if self.kind not in ("record", "track") and len(self.rms) not in (1, len(self.channels)):
             msg = (f"rms: expected 1 or {len(self.channels)} values (one per channel), "
@@ -84,6 +103,8 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
         return np.vstack([
             signals.earthquake_like(cfg.duration_s, cfg.fs_hz, pga=1.0, rng=rng) * r
             for r in rms])
+    if cfg.kind == "impact":
+        return _impact_drive(cfg, rms)
     if cfg.kind in ("chirp", "multisine"):
         if cfg.kind == "chirp":
             one = signals.chirp(cfg.duration_s, cfg.fs_hz, f_min_hz=cfg.f_min_hz,
@@ -94,6 +115,32 @@ def make_drive(cfg: ExcitationConfig) -> FloatArray:
         return rms[:, None] * one
     msg = f"kind: expected one of {KINDS}, got {cfg.kind!r}"
     raise OptionError(msg)
+
+
+def _impact_drive(cfg: ExcitationConfig, peak: FloatArray) -> FloatArray:
+    """Hammer hits every ``impact_spacing_s``, roving over the drive channels.
+
+    Hit ``i`` lands on channel ``(i // hits_per_point) % n_channels`` with that channel's
+    ``rms`` entry as its peak force; every ``double_hit_every``-th hit bounces (a second
+    pulse of half the peak three contact times later) and ``overload_n`` clips the force
+    (the acquisition's impact checks must reject both).
+    """
+    n_ch = len(cfg.channels)
+    n = max(1, round(cfg.duration_s * cfg.fs_hz))
+    out = np.zeros((n_ch, n))
+    tc = np.pi * np.sqrt(cfg.hammer_mass_kg / cfg.tip_stiffness_n_m)
+    n_hits = int((cfg.duration_s - 0.5) // cfg.impact_spacing_s) + 1
+    for i in range(max(0, n_hits)):
+        ch = (i // cfg.hits_per_point) % n_ch
+        at = 0.5 + i * cfg.impact_spacing_s
+        kw = {"tip_stiffness_n_m": cfg.tip_stiffness_n_m, "hammer_mass_kg": cfg.hammer_mass_kg}
+        out[ch] += signals.hammer_pulse(n, cfg.fs_hz, peak_n=float(peak[ch]), at_s=at, **kw)
+        if cfg.double_hit_every and (i + 1) % cfg.double_hit_every == 0:
+            out[ch] += signals.hammer_pulse(n, cfg.fs_hz, peak_n=0.5 * float(peak[ch]),
+                                    at_s=at + 3 * tc, **kw)
+    if cfg.overload_n > 0:
+        out = np.clip(out, -cfg.overload_n, cfg.overload_n)
+    return out
 
 
 def _track_drive(cfg: ExcitationConfig) -> FloatArray:

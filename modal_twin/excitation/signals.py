@@ -115,6 +115,40 @@ def impact(
     return out
 
 
+def hammer_pulse(n: int, fs_hz: float, *, peak_n: float, tip_stiffness_n_m: float,
+                 hammer_mass_kg: float, at_s: float = 0.0) -> FloatArray:
+    r"""Force of one hit: a half sine of ``peak_n`` lasting ``pi sqrt(m_h / k_t)`` from ``at_s``.
+
+    Parameters
+    ----------
+    n : int
+        Samples of the returned force.
+    fs_hz : float
+        Sample rate.
+    peak_n : float
+        Peak force in N.
+    tip_stiffness_n_m, hammer_mass_kg : float
+        Contact stiffness of the tip and mass of the hammer head: the contact lasts
+        :math:`T_c = \pi \sqrt{m_h / k_t}` (a mass on a spring for half a period).
+    at_s : float
+        Time the contact starts.
+
+    Returns
+    -------
+    (n,) array of the force in N.
+    """
+    if not (tip_stiffness_n_m > 0 and hammer_mass_kg > 0 and fs_hz > 0):
+        msg = (f"hammer: expected positive tip stiffness, mass and rate, got "
+               f"{tip_stiffness_n_m}, {hammer_mass_kg}, {fs_hz}")
+        raise OptionError(msg)
+    tc = np.pi * np.sqrt(hammer_mass_kg / tip_stiffness_n_m)
+    t = np.arange(n) / fs_hz - at_s
+    on = (t >= 0) & (t <= tc)
+    out = np.zeros(n)
+    out[on] = peak_n * np.sin(np.pi * t[on] / tc)
+    return out
+
+
 def load_record(path: str | Path) -> tuple[FloatArray, float, list[str]]:
     """Read an acceleration record from ``.npz`` or ``.csv``.
 

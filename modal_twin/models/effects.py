@@ -54,8 +54,9 @@ class EffectSpec:
 # a rigidly attached mass hung on a spring-damper instead (f_hz, zeta): an effect that
 # changes the structure, not a device law (modal_twin.diagnosis.attachments)
 MOUNT_LAW = "elastic_mount"
-# what a sensor reports is off (a gain, an orientation about z): the component is a channel
-SENSOR_LAWS = ("sensor_gain", "sensor_angle")
+# what a sensor reports is off (a gain, an orientation about z, a time delay): the component
+# is a channel
+SENSOR_LAWS = ("sensor_gain", "sensor_angle", "sensor_delay")
 EFFECT_LAWS: tuple[str, ...] = law_names(relative=True)
 """Laws that build from parameters relative to a component's nominal k, c, W."""
 

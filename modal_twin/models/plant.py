@@ -21,7 +21,7 @@ from modal_twin.errors import OptionError, ShapeError
 from modal_twin.models.effects import EffectSpec
 from modal_twin.models.reduced import ReducedSystem, SimResult
 
-__all__ = ["Plant", "with_sensor_effects"]
+__all__ = ["DelayLine", "Plant", "with_sensor_effects"]
 
 Source = tuple[Literal["y", "force"], int]
 
@@ -49,6 +49,10 @@ class Plant:
         What the sensors report of the true channel values (identity when None): a
         sensor gain error scales a diagonal entry, an orientation error mixes the two
         horizontal channels of a location (:func:`with_sensor_effects`).
+    delays_s : tuple of (channel index, seconds)
+        Channels whose sensor reports late (a time delay: a sensor or a converter whose
+        clock lags), applied after the readout by a :class:`DelayLine` the caller keeps
+        across blocks (:meth:`delay_line`).
     """
 
     system: ReducedSystem
@@ -58,6 +62,7 @@ class Plant:
     sources: tuple[Source, ...]
     name: str = ""
     readout: FloatArray | None = None
+    delays_s: tuple[tuple[int, float], ...] = ()
 
     def __post_init__(self) -> None:
         if len(self.sources) != len(self.channels):
@@ -90,8 +95,27 @@ class Plant:
                 ag[self.input_names.index(name)] = row
         return ag
 
-    def measure(self, res: SimResult) -> FloatArray:
-        """Channels (n_channels, nt) from a simulation result."""
+    def delay_line(self, fs_hz: float) -> DelayLine | None:
+        """Return the delay line of the delayed channels at ``fs_hz`` (None: none delayed)."""
+        return DelayLine(self.delays_s, fs_hz) if self.delays_s else None
+
+    def measure(self, res: SimResult, line: DelayLine | None = None) -> FloatArray:
+        """Channels (n_channels, nt) from a simulation result.
+
+        A plant with delayed channels needs its :meth:`delay_line`, kept by the caller from
+        one block to the next (``OptionError`` without it: a delay is never dropped
+        silently).
+        """
+        out = self._measure(res)
+        if not self.delays_s:
+            return out
+        if line is None:
+            msg = (f"plant {self.name!r} has delayed channels: measure() needs its "
+                   "delay_line(fs_hz)")
+            raise OptionError(msg)
+        return line.apply(out)
+
+    def _measure(self, res: SimResult) -> FloatArray:
         out = np.empty((len(self.channels), res.y.shape[1]))
         y_rows = [i for i, (k, _) in enumerate(self.sources) if k == "y"]
         f_rows = [i for i, (k, _) in enumerate(self.sources) if k == "force"]
@@ -102,12 +126,57 @@ class Plant:
         return out if self.readout is None else self.readout @ out
 
 
+class DelayLine:
+    r"""Fractional delays of some channels, block by block (4-point Lagrange interpolation).
+
+    A delay of :math:`\tau f_s = m + \alpha` samples (integer ``m``, ``0 <= alpha < 1``)
+    reads :math:`y[n - m - \alpha]` from the samples :math:`n - m, \ldots, n - m - 3` with
+    the cubic Lagrange weights: causal (the same result block by block as for the whole
+    record), exact for cubic signals, amplitude error about 1e-3 at a tenth of the sampling
+    rate. Samples before the first one are zero (the structure at rest).
+    """
+
+    def __init__(self, delays_s: Sequence[tuple[int, float]], fs_hz: float) -> None:
+        self.rows = np.array([i for i, _ in delays_s], dtype=int)
+        d = np.array([t for _, t in delays_s], float) * fs_hz
+        if np.any(d < 0) or not np.all(np.isfinite(d)):
+            msg = f"sensor delays: expected finite values >= 0, got {list(delays_s)}"
+            raise OptionError(msg)
+        # read y[n - d] = y[n - m - a] from samples n - m .. n - m - 3 (a in [0, 1))
+        self.m = np.floor(d).astype(int)
+        x = -(d - self.m)  # position of the wanted sample relative to n - m
+        nodes = np.array([0.0, -1.0, -2.0, -3.0])
+        w = np.ones((d.size, 4))
+        for j in range(4):
+            for q in range(4):
+                if q != j:
+                    w[:, j] *= (x - nodes[q]) / (nodes[j] - nodes[q])
+        self.w = w
+        self.keep = int(self.m.max(initial=0)) + 3
+        self.tail = np.zeros((d.size, self.keep))
+
+    def apply(self, y: FloatArray) -> FloatArray:
+        """Return ``y`` (n_channels, nt) with the delayed rows read late; the tail is kept."""
+        out = np.array(y, float, copy=True)
+        if self.rows.size == 0:
+            return out
+        nt = out.shape[-1]
+        hist = np.concatenate([self.tail, out[self.rows]], axis=1)  # (n_del, keep + nt)
+        n = np.arange(nt) + self.keep
+        for k, row in enumerate(self.rows):
+            base = n - self.m[k]
+            taps = np.stack([hist[k, base - j] for j in range(4)])
+            out[row] = self.w[k] @ taps
+        self.tail = hist[:, -self.keep:]
+        return out
+
+
 def with_sensor_effects(plant: Plant, effects: Iterable[EffectSpec]) -> Plant:
-    """Return the plant seen through sensors with gain or orientation errors.
+    """Return the plant seen through sensors with gain, orientation or timing errors.
 
     Gain: ``sensor_gain`` with ``gain``; orientation: ``sensor_angle`` with ``angle_deg``,
-    turning the channel's ``_x`` / ``_y`` pair about z. The component of such an effect is a
-    channel name.
+    turning the channel's ``_x`` / ``_y`` pair about z; time delay: ``sensor_delay`` with
+    ``delay_s`` (>= 0). The component of such an effect is a channel name.
 
     Raises
     ------
@@ -119,11 +188,15 @@ def with_sensor_effects(plant: Plant, effects: Iterable[EffectSpec]) -> Plant:
         return plant
     names = plant.channel_names
     R = np.eye(len(names)) if plant.readout is None else plant.readout.copy()
+    delays = dict(plant.delays_s)
     for e in effects:
         if e.component not in names:
             msg = f"{e.law}: unknown channel {e.component!r}; channels: {list(names)[:8]} ..."
             raise OptionError(msg)
         i = names.index(e.component)
+        if e.law == "sensor_delay":
+            delays[i] = float(e.params.get("delay_s", 0.0))
+            continue
         if e.law == "sensor_gain":
             R[i] *= float(e.params.get("gain", 1.0))
             continue
@@ -137,4 +210,5 @@ def with_sensor_effects(plant: Plant, effects: Iterable[EffectSpec]) -> Plant:
         row_i, row_j = R[i].copy(), R[j].copy()
         s = 1.0 if axis == "x" else -1.0
         R[i] = np.cos(a) * row_i + s * np.sin(a) * row_j
-    return replace(plant, readout=R, name=f"{plant.name}+sensors")
+    return replace(plant, readout=R, name=f"{plant.name}+sensors",
+                   delays_s=tuple(sorted(delays.items())))

@@ -41,6 +41,7 @@ class TruthRig:
                  sensitivity: dict[str, float] | None = None, seed: int = 0) -> None:
         self.plant = plant
         self.sim = Simulator(plant.system, dt, modal_histories=False)
+        self.line = plant.delay_line(1.0 / dt)
         self.rng = np.random.default_rng(seed)
         self.channels = with_sensitivity(table_channels(plant) + plant.channels,
                                          sensitivity or {})
@@ -64,7 +65,7 @@ class TruthRig:
             raise SignalError(msg)
         ag = drive.select(list(self.plant.input_names)).data
         res = self.sim.step_block(ag)
-        si: FloatArray = np.vstack([ag, self.plant.measure(res)])
+        si: FloatArray = np.vstack([ag, self.plant.measure(res, self.line)])
         if np.any(self.noise > 0):
             si = si + self.noise[:, None] * self.rng.standard_normal(si.shape)
         block = SignalBlock(self.names, drive.fs_hz, self.next_index, self.sens * si,

@@ -57,6 +57,7 @@ class TwinRunner:
         self.fs_hz = fs_hz
         self.channels = None if channels is None else tuple(channels)
         self.sim = Simulator(plant.system, 1.0 / fs_hz, modal_histories=False)
+        self.line = plant.delay_line(fs_hz)
         self.compare: list[str] | None = None
         self.route = ChannelRoute((), ())
         self.zero_inputs: tuple[str, ...] = ()
@@ -103,7 +104,7 @@ class TwinRunner:
         assert self.compare is not None
         ag = self.plant.input_matrix(self._in_model, frame.select(self._in_frame).data)
         res = self.sim.step_block(ag)
-        pred = self.plant.measure(res)[self._rows]
+        pred = self.plant.measure(res, self.line)[self._rows]
         meas = frame.select(self._out_frame).data
         self.metrics_window.push(pred, meas)
         if self.first_index is None:

@@ -145,8 +145,15 @@ def test_sensor_gain_on_one_channel_is_found() -> None:
     found = screen_sensors(names, meas, pred, ("P2_x",))
     assert found and found[0].channel == "P2_x" and found[0].law == "sensor_gain"
     assert found[0].value == pytest.approx(1.08, abs=0.002)
-    # when the whole place is off, it is structural, not one sensor
-    assert screen_sensors(names, meas, pred, ("P2_x", "P2_y")) == []
+    # when other places are as far off, it is structural, not one sensor
+    pred3 = rng.standard_normal((6, 5000))
+    meas3 = pred3 * 1.08 + 0.01 * rng.standard_normal(pred3.shape)
+    names3 = ("P1_x", "P1_y", "P2_x", "P2_y", "P3_x", "P3_y")
+    assert screen_sensors(names3, meas3, pred3, names3) == []
+    # and when one sensor holds most of the error, both its axes are candidates
+    meas3[4:] = pred3[4:] * 1.3
+    both = screen_sensors(names3, meas3, pred3, names3)
+    assert {c.channel for c in both} == {"P3_x", "P3_y"}
 
 
 def test_sensor_orientation_is_found() -> None:
@@ -166,8 +173,8 @@ def fitted(component: str, law: str, params: dict[str, float], held: float, bic:
     eff = EffectSpec(component, law, params)
     return FittedEffect(eff, len(params), 1.0, held, 10.0, bic, 1, 0.0, at_bound=at_bound,
                         family=family_of(eff), place=place_of(eff), rejected=rejected,
-                        flags=flags, records=(("train", 0.3, 0.1, 2.0),
-                                              ("held", 0.3, held, 2.0)))
+                        flags=flags, records=(("train", 0.3, 0.1, 2.0, 30.0, 10.0),
+                                              ("held", 0.3, held, 2.0, 30.0, 100 * held)))
 
 
 def test_rank_usable_first_ties_by_bic_and_evidence() -> None:

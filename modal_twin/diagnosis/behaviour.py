@@ -1,0 +1,182 @@
+r"""The family a fitted law belongs to, from what it does on the record, not from its name.
+
+A law's name says little about what its fit does: a Bouc-Wen law whose fit has
+``alpha = 0.999`` is a spring and a dashpot; a stick-slip slider whose elastic range is a
+fifth of the drift yields like a steel damper; a cubic spring fitted to microslip is elastic
+although the truth dissipates. So the family reported is read off the force the fitted law
+produces along the record's own drift history, relative to the nominal linear law
+(:math:`r = f - k u - c \dot u`, the residual restoring force of Eq. (20) of [003]):
+
+1. **Linear** when a least-squares fit :math:`r \approx a u + b \dot u` explains 90 % of
+   it: *damping* when the velocity term carries more force (:math:`|b|\,\mathrm{RMS}(\dot u)
+   > |a|\,\mathrm{RMS}(u)`), *stiffness* otherwise.
+2. Otherwise the **cycles** of the drift (between turning points; reversals under 2 % of
+   its range are ignored) give per cycle its amplitude :math:`A`, the energy the law
+   dissipates beyond the nominal one, :math:`E = \oint r\,du`, and the half range
+   :math:`F` of :math:`r`. The loss share :math:`\lambda = \sum E / \sum 4 A F` is 1 for a
+   rigid-plastic loop (a rectangle), :math:`\pi/4` for an ellipse and 0 for an elastic law.
+3. **Dissipative** (:math:`\lambda > 0.15`): *friction* when the force turns over within
+   5 % of the amplitude after a reversal (a slider that sticks stiffly, then slips; the
+   median over half cycles of the drift at which :math:`r` has covered half its change,
+   over the amplitude), *hysteresis* when it turns over gradually (yielding, microslip).
+4. **Elastic**: the secant stiffness of :math:`r` per cycle against amplitude: growing is
+   *hardening* (a *gap* when the smallest cycles see less than a tenth of the largest
+   ones' secant: nothing acts within a clearance), falling is *softening*.
+
+These are the families of the evidence (:mod:`.evidence`), so a fit and the evidence at its
+place speak one vocabulary; the law's own name is reported beside the family.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+from modal_twin._types import FloatArray
+
+__all__ = ["Behaviour", "classify_behaviour", "turning_points"]
+
+LINEAR_R2 = 0.90
+DISSIPATIVE = 0.15
+STICK_RATIO = 0.05
+GAP_RATIO = 0.10
+
+
+@dataclass(frozen=True, slots=True)
+class Behaviour:
+    """What a law does along a drift history, and the family it reads as.
+
+    Attributes
+    ----------
+    family : str
+        ``nothing``, ``stiffness``, ``damping``, ``friction``, ``hysteresis``,
+        ``hardening``, ``softening`` or ``gap``.
+    linear_r2 : float
+        Share of the residual force a linear ``a u + b v`` explains.
+    loss_share : float
+        Dissipated energy over that of a rectangle of the same amplitudes (module docstring).
+    turnover : float
+        Median drift (over the amplitude) at which the force has turned half-way after a
+        reversal; ``nan`` when not computed.
+    stiffness_slope : float
+        Slope of the residual secant stiffness against log amplitude, over its mean.
+    """
+
+    family: str
+    linear_r2: float = float("nan")
+    loss_share: float = float("nan")
+    turnover: float = float("nan")
+    stiffness_slope: float = float("nan")
+
+    def text(self) -> str:
+        """One line: the family and the figures that named it."""
+        parts = [f"R2 linear {self.linear_r2:.2f}"]
+        if np.isfinite(self.loss_share):
+            parts.append(f"loss share {self.loss_share:.2f}")
+        if np.isfinite(self.turnover):
+            parts.append(f"turn-over {100 * self.turnover:.1f} % of the amplitude")
+        if np.isfinite(self.stiffness_slope):
+            parts.append(f"secant slope {self.stiffness_slope:+.2f}")
+        return f"{self.family} ({', '.join(parts)})"
+
+
+def turning_points(u: FloatArray, *, min_move: float = 0.02) -> np.ndarray:
+    """Return the drift's reversals (moves under ``min_move`` of its range ignored)."""
+    x = np.asarray(u, float)
+    if x.size < 3:
+        return np.zeros(0, dtype=int)
+    thr = min_move * float(np.ptp(x))
+    if thr <= 0:
+        return np.zeros(0, dtype=int)
+    out: list[int] = []
+    ext, rising = 0, None
+    for i in range(1, x.size):
+        if rising is None:
+            if abs(x[i] - x[0]) > thr:
+                rising = x[i] > x[0]
+                ext = i
+            continue
+        if (rising and x[i] > x[ext]) or (not rising and x[i] < x[ext]):
+            ext = i
+        elif abs(x[i] - x[ext]) > thr:
+            out.append(ext)
+            rising, ext = not rising, i
+    return np.asarray(out, dtype=int)
+
+
+def _cycles(u: FloatArray, r: FloatArray, tp: np.ndarray
+            ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Per full cycle (turning point j to j + 2): amplitude, energy, half range, secant."""
+    amp, energy, half, secant = [], [], [], []
+    for a, b in zip(tp[:-2], tp[2:], strict=True):
+        uu, rr = u[a:b + 1], r[a:b + 1]
+        lo, hi = int(np.argmin(uu)), int(np.argmax(uu))
+        span = float(uu[hi] - uu[lo])
+        if span <= 0:
+            continue
+        amp.append(span / 2)
+        energy.append(float(np.sum(0.5 * (rr[1:] + rr[:-1]) * np.diff(uu))))
+        half.append(float(np.ptp(rr)) / 2)
+        secant.append(float(rr[hi] - rr[lo]) / span)
+    return np.asarray(amp), np.asarray(energy), np.asarray(half), np.asarray(secant)
+
+
+def _turnover(u: FloatArray, r: FloatArray, tp: np.ndarray) -> float:
+    """Median drift after a reversal at which ``r`` has turned half-way, over the amplitude."""
+    ratios = []
+    for a, b in itertools.pairwise(tp):
+        uu, rr = u[a:b + 1], r[a:b + 1]
+        du = abs(float(uu[-1] - uu[0]))
+        dr = float(rr[-1] - rr[0])
+        if du <= 0 or dr == 0:
+            continue
+        covered = (rr - rr[0]) / dr
+        k = int(np.argmax(covered >= 0.5))
+        ratios.append(abs(float(uu[k] - uu[0])) / (du / 2))
+    return float(np.median(ratios)) if ratios else float("nan")
+
+
+def classify_behaviour(u: FloatArray, v: FloatArray, f: FloatArray, *, k: float, c: float
+                       ) -> Behaviour:
+    """Family of a law's force ``f`` along drift ``u`` / velocity ``v`` (module docstring).
+
+    Parameters
+    ----------
+    u, v, f : (nt,) arrays
+        Drift, its velocity and the law's force along them (one direction).
+    k, c : float
+        The nominal linear law's stiffness and damping the behaviour is relative to.
+    """
+    u = np.asarray(u, float).ravel()
+    v = np.asarray(v, float).ravel()
+    f = np.asarray(f, float).ravel()
+    r = f - k * u - c * v
+    if float(np.sqrt(np.mean(r**2))) <= 0.01 * float(np.sqrt(np.mean(f**2))):
+        return Behaviour("nothing", 1.0)
+    basis = np.column_stack([u, v])
+    coef, *_ = np.linalg.lstsq(basis, r, rcond=None)
+    r2 = 1.0 - float(np.sum((r - basis @ coef) ** 2)) / float(np.sum(r**2))
+    if r2 >= LINEAR_R2:
+        velocity = abs(coef[1]) * float(np.std(v)) > abs(coef[0]) * float(np.std(u))
+        return Behaviour("damping" if velocity else "stiffness", r2)
+    tp = turning_points(u)
+    amp, energy, half, secant = _cycles(u, r, tp)
+    if amp.size < 3:
+        return Behaviour("nothing", r2)
+    loss = float(np.sum(energy) / np.sum(4 * amp * np.maximum(half, 1e-300)))
+    if loss > DISSIPATIVE:
+        turn = _turnover(u, r, tp)
+        fam = "friction" if turn < STICK_RATIO else "hysteresis"
+        return Behaviour(fam, r2, loss, turn)
+    order = np.argsort(amp)
+    slope = float(np.polyfit(np.log(amp), secant, 1)[0]) / max(float(np.mean(np.abs(secant))),
+                                                              1e-300)
+    if slope > 0:
+        q = max(1, amp.size // 4)
+        small = float(np.median(secant[order[:q]]))
+        large = float(np.median(secant[order[-q:]]))
+        gap = large > 0 and abs(small) < GAP_RATIO * large
+        return Behaviour("gap" if gap else "hardening", r2, loss, float("nan"), slope)
+    return Behaviour("softening", r2, loss, float("nan"), slope)
