@@ -118,6 +118,21 @@ def test_export_modes_and_model_round_trip(frame: dict[str, Path], tmp_path: Pat
     doc = json.loads(frame["modes"].read_text())
     f = [abs(s["eig"]) / (2 * np.pi) for s in (sets if isinstance(sets, list) else [sets])]
     np.testing.assert_allclose(f, [m["f_hz"] for m in doc["modes"]], rtol=1e-5)
+    from modal_twin.io.modes_file import read_modes
+
+    js = read_modes(frame["modes"])
+    for uff in (out, frame["modes"].with_suffix(".uff")):  # export's and identify's
+        back = read_modes(uff)
+        assert [(d["channel"], d["node"], d["direction"]) for d in back.dofs] == [
+            ("floor1", 1, "x"), ("floor2", 2, "x")]
+        np.testing.assert_allclose(back.f_hz, js.f_hz, rtol=1e-5)
+        np.testing.assert_allclose(back.zeta, js.zeta, rtol=1e-4)
+        np.testing.assert_allclose(back.shapes, js.shapes, rtol=1e-4,
+                                   atol=1e-5 * np.abs(js.shapes).max())
+    assert main(["import", str(out), "--out", str(tmp_path / "again")]) == 0
+    again = read_modes(tmp_path / "again" / "modes_modes.json")
+    np.testing.assert_allclose(again.f_hz, js.f_hz, rtol=1e-5)
+    assert [d["channel"] for d in again.dofs] == ["floor1", "floor2"]
     npz = matrix_model_npz(tmp_path / "frame.npz", scale=1.0)
     back = tmp_path / "frame_out.npz"
     assert main(["export", "model", str(npz), "--out", str(back)]) == 0
@@ -184,12 +199,10 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path,
     short = tmp_path / "short.csv"
     short.write_text("t [s],a [m/s^2],b [m/s^2]\n0,1,2\n0.1,2\n")
     _bad(["import", str(short), "--out", str(out)], capsys, "short.csv", "missing columns")
-    modes_only = tmp_path / "modes.uff"
-    from modal_twin.io.uff import write_uff55
-
-    write_uff55(modes_only, np.array([1.0]), np.array([0.01]), np.ones((1, 1)), [1], [1])
-    _bad(["import", str(modes_only), "--out", str(out)], capsys, "modes.uff",
-         "no supported UFF dataset", "55")
+    other = tmp_path / "other.uff"
+    other.write_text("    -1\n  2412\n    -1\n")  # FE elements only
+    _bad(["import", str(other), "--out", str(out)], capsys, "other.uff",
+         "no supported UFF dataset", "2412")
     good = shear_frame_csv(tmp_path / "good.csv", seconds=2.0)
     wrong = tmp_path / "wrong.yaml"
     wrong.write_text("channels:\n  - {name: floor9, role: input}\n")

@@ -1,6 +1,7 @@
 """``modal-twin export modes|frf|model SRC --out FILE``: results for other tools.
 
-- ``modes``: an ``identify`` JSON (``modes.json``) -> UFF 55 (complex modes);
+- ``modes``: an ``identify`` JSON (``modes.json``) -> UFF 55 (complex modes; the channels'
+  nodes, directions and names, and the record's geometry as UFF 15 / 82);
 - ``frf``: a bag's H1 FRFs (inputs and outputs by role) -> UFF 58 (function type 4);
 - ``model``: a structure YAML or a matrix file -> NPZ with ``M``, ``K``, ``C``, ``dofs``
   (``"node:dof"`` labels), ``parameter_names``, ``theta0`` and one matrix per parameter
@@ -113,8 +114,7 @@ def _save_npz(out: Path, arrays: dict[str, Any], force: bool) -> None:
 
 
 def _modes(src: Path, out: Path, force: bool) -> str:
-    from modal_twin.io.modes_file import read_modes
-    from modal_twin.io.uff import AXIS_CODES, write_uff55
+    from modal_twin.io.modes_file import read_modes, write_modes_uff
 
     if src.suffix.lower() != ".json":
         msg = f"{src}: expected a modes JSON written by `modal-twin identify`"
@@ -122,9 +122,10 @@ def _modes(src: Path, out: Path, force: bool) -> str:
     m = read_modes(src)
     with atomic_file(out, force=force) as tmp:
         tmp.unlink()
-        write_uff55(tmp, m.f_hz, m.zeta, m.shapes, [int(d["node"]) for d in m.dofs],
-                    [AXIS_CODES.get(d["direction"], 1) for d in m.dofs])
-    return f"{m.f_hz.size} modes at {len(m.dofs)} DOFs"
+        write_modes_uff(tmp, m.f_hz, m.zeta, m.shapes, m.dofs, m.geometry)
+    n_geo = len((m.geometry or {}).get("nodes", {}))
+    return (f"{m.f_hz.size} modes at {len(m.dofs)} channels"
+            + (f", geometry of {n_geo} nodes" if n_geo else ", no geometry in the JSON"))
 
 
 def _frf(src: Path, out: Path, force: bool) -> str:

@@ -89,19 +89,19 @@ def _report(a: argparse.Namespace, rec: Any) -> int:
               f"{100 * d:.1f} % from order {o0} to {o1}; treat it with care",
               file=sys.stderr)
     if a.out is not None:
-        _write(a.out, rec)
+        _write(a.out, rec, a.bag)
     return ExitCode.OK
 
 
-def _write(out: Path, rec: Any) -> None:
+def _write(out: Path, rec: Any, bag: Path) -> None:
     from modal_twin.identification import automac
-    from modal_twin.io.modes_file import write_modes
+    from modal_twin.io.modes_file import read_geometry_files, write_modes
     from modal_twin.viz._figure import save_figure
     from modal_twin.viz.mac import plot_mac
     from modal_twin.viz.stabilization import plot_stabilization
 
     mm = rec.modes
-    write_modes(out, rec)
+    write_modes(out, rec, read_geometry_files(bag) if bag.is_dir() else None)
     save_figure(plot_stabilization(rec.diagram, selected_f_hz=mm.f_hz,
                                    f_max_hz=rec.settings.band_hz[1], spectrum=rec.spectrum,
                                    title=f"stabilization diagram ({rec.method})"),
