@@ -205,11 +205,12 @@ def _update_structure(a: argparse.Namespace) -> int:
 
 def _write(out: Path, mm: object, res: object) -> None:
     from modal_twin.io.imported import atomic_file
+    from modal_twin.models.matrix_model import sparse_members
 
     v = _version(out)
-    arrays = mm.to_arrays(res.theta)  # type: ignore[attr-defined]
+    arrays = sparse_members(mm.to_arrays(res.theta))  # type: ignore[attr-defined]
     with atomic_file(out / f"model_v{v}.npz") as tmp, tmp.open("wb") as fh:
-        np.savez(fh, **arrays)
+        np.savez_compressed(fh, **arrays)
     with atomic_file(out / f"update_v{v}.json") as tmp:
         tmp.write_text(json.dumps(res.as_dict(), indent=1, default=float)  # type: ignore[attr-defined]
                        .replace("NaN", "null"))
