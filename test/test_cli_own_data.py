@@ -339,3 +339,62 @@ def test_identify_warnings_no_mode_and_non_stationary(tmp_path: Path,
     assert main(["import", str(burst), "--out", str(tmp_path / "b")]) == 0
     main(["identify", str(tmp_path / "b"), "--method", "ssi-cov"])
     assert "output-only SSI on a non-stationary record" in capsys.readouterr().err
+
+
+def _f_in_page(page: str) -> np.ndarray:
+    """The identified frequencies of the report's modes table (its second column)."""
+    import re
+
+    return np.array([float(x) for x in re.findall(r"<tr><td>[^<]*</td><td>([\d.]+)</td>",
+                                                  page)])
+
+
+def test_report_on_an_imported_record_and_an_identify_folder(
+        frame: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """Known answer: the frame's two frequencies, identified by the report itself on the
+    imported bag (stabilization, modes, MAC, FRFs), and read from identify's folder."""
+    out = tmp_path / "bag.html"
+    assert main(["report", str(frame["bag"]), "--out", str(out)]) == 0
+    page = out.read_text()
+    for section in ("identification", "frf"):
+        assert f'<section id="{section}">' in page
+    np.testing.assert_allclose(_f_in_page(page), exact_f_hz(), rtol=0.01)
+    assert page.count("data:image/png;base64,") == 3  # stabilization, MAC, FRF
+    ident = tmp_path / "id.html"
+    assert main(["report", str(frame["modes"].parent), "--out", str(ident)]) == 0
+    page = ident.read_text()
+    doc = json.loads(frame["modes"].read_text())
+    np.testing.assert_allclose(_f_in_page(page), [m["f_hz"] for m in doc["modes"]],
+                               atol=6e-5)
+    assert page.count("data:image/png;base64,") == 3  # auto-MAC and identify's two PNGs
+
+
+def test_report_on_an_imported_uff_with_geometry_and_on_an_empty_folder(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from modal_twin.io.uff import write_uff55
+
+    geo = {"nodes": {"1": [0.0, 0.0, 0.0], "2": [0.0, 0.0, 3.0], "3": [0.0, 0.0, 6.0]},
+           "trace_lines": [{"number": 1, "id": "column", "nodes": [1, 2, 3]}]}
+    uff = write_uff55(tmp_path / "tower.uff", np.array([1.25, 3.5]), np.array([0.01, 0.02]),
+                      np.array([[0.5, 1.0], [1.0, -0.6]]), [2, 3], [1, 1],
+                      names=["mid", "top"], geometry=geo)
+    assert main(["import", str(uff), "--out", str(tmp_path / "tower")]) == 0
+    out = tmp_path / "tower.html"
+    assert main(["report", str(tmp_path / "tower"), "--out", str(out)]) == 0
+    page = out.read_text()
+    assert '<section id="scene">' in page and "MeshCat" in page
+    assert "mode 2: 3.500 Hz" in html_unescape(page)  # the labelled mode on the geometry
+    np.testing.assert_allclose(_f_in_page(page), [1.25, 3.5], rtol=1e-5)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    capsys.readouterr()
+    assert main(["report", str(empty)]) == ExitCode.USAGE
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "nothing to report" in err and "modes.json" in err
+    assert not (empty / "report.html").exists()
+
+
+def html_unescape(page: str) -> str:
+    import html
+
+    return html.unescape(html.unescape(page))  # the scene sits in an escaped srcdoc
