@@ -317,7 +317,29 @@ def test_bridge_updates_from_the_command_line(shared_dir: Path, tmp_path: Path,
     rep = json.loads((tmp_path / "update_v1.json").read_text())
     assert max(abs(v) for v in rep["df_pct_after"]) <= 0.52  # bench_updating.py: 0.519
     assert min(rep["mac_after"]) >= 0.885
-    assert "determined by the data: ['Frame', 'y1', 'y2']" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "determined by the data: ['Frame', 'y1', 'y2']" in out
+    # before and after for every mode: the nominal's unmatched modes 1 and 4 (outside the
+    # 10 % window) at their nearest partner; known answer: the nominal model's own
+    # frequencies (scipy on its matrices) over the identified ones
+    import re
+
+    import scipy.io as sio
+
+    rows = {int(m[0]): m for m in re.findall(
+        r"^\s+(\d) +([\d.]+) +(\d)([* ]) +(-?[\d.]+) +([\d.]+) +(\d)[* ] +(-?[\d.]+)", out,
+        re.MULTILINE)}
+    assert sorted(rows) == [1, 2, 3, 4, 5]  # no row without a partner
+    assert [rows[k][3] for k in range(1, 6)] == ["*", " ", " ", "*", " "]
+    d = sio.loadmat(model)
+    k0 = sum(d[k] for k in d if k.startswith("K_") and k != "K_whole")  # K(theta = 0)
+    mu = sla.eigh(d["M0"], k0, eigvals_only=True)[::-1][:8]  # 1 / omega^2, massless DOFs 0
+    f_nom = 1.0 / np.sqrt(mu) / (2 * np.pi)
+    for k in (1, 4):
+        j, f_id = int(rows[k][2]) - 1, float(rows[k][1])
+        assert float(rows[k][4]) == pytest.approx(100 * (f_nom[j] / f_id - 1), abs=2e-3)
+    worst = max(abs(float(r[4])) for r in rows.values())
+    assert f"before: max |df| {worst:.3f} %" in out and worst > 14.0
 
 
 def test_identify_warnings_no_mode_and_non_stationary(tmp_path: Path,

@@ -225,14 +225,17 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
         if path is None:
             msg = f"{run_dir}: the last model version has no file"
             raise OptionError(msg)
-        cmds, caption = model_scene(path, n_modes)
-        scene = static_html(cmds, caption=caption)
-    record_scene = _record_scene(run_dir, versions, notes)
+        with step(f"report: 3D scene of {path.name}"):
+            cmds, caption = model_scene(path, n_modes)
+            scene = static_html(cmds, caption=caption)
+    with step("report: the held-out record's 3D view"):
+        record_scene = _record_scene(run_dir, versions, notes)
     ident: dict[str, Any] = {}
     low = [b for b in bags if "low" in b.parent.name]
     if low and versions:
         try:
-            ident = _identification(low[0], versions[0].structure)
+            with step(f"report: identification of {low[0].parent.name} (N4SID)"):
+                ident = _identification(low[0], versions[0].structure)
             notes.append(f"identification and FRF: N4SID on {low[0].parent.name} (table x "
                          "input for the FRF), paired with the nominal model by MAC")
         except ModalTwinError as err:
