@@ -1,6 +1,7 @@
 """``modal-twin report FOLDER [--out FILE]``: one self-contained HTML report of a folder.
 
-A run folder (sub-runs ``*/bag`` or ``models/``) gives the run report below; any other
+A run folder (sub-runs ``*/bag``, ``models/`` or the diagnosis's figures) gives the run
+report below; any other
 folder, an imported record or an ``identify --out`` folder, gives its modes,
 stabilization, MAC, FRFs and test geometry where it has them
 (:mod:`modal_twin.commands.report_record`). A folder with nothing to show is one line
@@ -262,8 +263,9 @@ def _record_scene(run_dir: Path, versions: list[Any], notes: list[str]) -> str |
 
 
 def is_run_folder(folder: Path) -> bool:
-    """Return whether ``folder`` is a run folder (sub-runs ``*/bag`` or ``models/``)."""
-    return (folder / "models").is_dir() or any(b.is_dir() for b in folder.glob("*/bag"))
+    """Return whether ``folder`` is a run folder (``*/bag``, ``models/`` or :data:`FIGURES`)."""
+    return ((folder / "models").is_dir() or any(b.is_dir() for b in folder.glob("*/bag"))
+            or any(folder.glob(FIGURES)))
 
 
 def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: int = 4,

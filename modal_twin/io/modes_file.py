@@ -152,11 +152,11 @@ def read_modes(path: str | Path) -> ModesFile:
 def uff_nodes(labels: list[str]) -> dict[str, int]:
     """Return the UFF node number of each node label.
 
-    The label itself when every label is a positive integer (nodes of an imported UFF
-    geometry), else 1.. in sorted order.
+    The label itself when every label is a positive integer below 1e9 (nodes of an
+    imported UFF geometry), else 1.. in sorted order.
     """
     un = sorted(set(labels))
-    if un and all(x.isdigit() and int(x) > 0 for x in un):
+    if un and all(x.isdigit() and 0 < int(x) < 10**9 for x in un):  # UFF: 10 columns
         return {x: int(x) for x in un}
     return {x: k + 1 for k, x in enumerate(un)}
 
