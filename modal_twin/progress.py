@@ -39,13 +39,16 @@ Example
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from enum import IntEnum
 from types import TracebackType
 from typing import IO, Any, TypeVar
 
-__all__ = ["Progress", "Verbosity", "get_verbosity", "set_verbosity", "track"]
+__all__ = ["STEP_SHOW_S", "Progress", "Verbosity", "get_verbosity", "set_verbosity", "step",
+           "track"]
 
 T = TypeVar("T")
 
@@ -200,3 +203,56 @@ def track(iterable: Iterable[T], desc: str, total: float | None = None, *,
         for item in iterable:
             yield item
             p.update()
+
+
+STEP_SHOW_S = 2.0
+"""A :func:`step` still running after this many seconds says so (and then how long it took)."""
+
+
+@contextmanager
+def step(desc: str, *, stream: IO[str] | None = None,
+         show_after_s: float = STEP_SHOW_S) -> Iterator[None]:
+    """Mark one long step without a count.
+
+    A line ``desc ...`` once it has run ``show_after_s`` and ``desc: done, 12.3 s`` at its
+    end; nothing for a short step, nothing when QUIET; VERBOSE: every step's lines.
+
+    Example
+    -------
+    >>> with step("identifying"):
+    ...     pass
+    """
+    level = get_verbosity()
+    out = stream if stream is not None else sys.stderr
+    t0 = time.monotonic()
+    shown = threading.Event()
+    lock = threading.Lock()
+
+    def say(text: str) -> None:
+        with lock:
+            out.write(text + "\n")
+            out.flush()
+
+    def started() -> None:
+        shown.set()
+        say(f"{desc} ...")
+
+    timer = None
+    if level is Verbosity.VERBOSE:
+        started()
+    elif level is Verbosity.NORMAL:
+        timer = threading.Timer(show_after_s, started)
+        timer.daemon = True
+        timer.start()
+    failed = False
+    try:
+        yield
+    except BaseException:
+        failed = True
+        raise
+    finally:
+        if timer is not None:
+            timer.cancel()
+            timer.join()  # a line it is writing is written before the last one
+        if shown.is_set():
+            say(f"{desc}: {'failed' if failed else 'done'}, {time.monotonic() - t0:.1f} s")

@@ -118,11 +118,28 @@ def test_export_modes_and_model_round_trip(frame: dict[str, Path], tmp_path: Pat
     doc = json.loads(frame["modes"].read_text())
     f = [abs(s["eig"]) / (2 * np.pi) for s in (sets if isinstance(sets, list) else [sets])]
     np.testing.assert_allclose(f, [m["f_hz"] for m in doc["modes"]], rtol=1e-5)
+    from modal_twin.io.modes_file import read_modes
+
+    js = read_modes(frame["modes"])
+    for uff in (out, frame["modes"].with_suffix(".uff")):  # export's and identify's
+        back = read_modes(uff)
+        assert [(d["channel"], d["node"], d["direction"]) for d in back.dofs] == [
+            ("floor1", 1, "x"), ("floor2", 2, "x")]
+        np.testing.assert_allclose(back.f_hz, js.f_hz, rtol=1e-5)
+        np.testing.assert_allclose(back.zeta, js.zeta, rtol=1e-4)
+        np.testing.assert_allclose(back.shapes, js.shapes, rtol=1e-4,
+                                   atol=1e-5 * np.abs(js.shapes).max())
+    assert main(["import", str(out), "--out", str(tmp_path / "again")]) == 0
+    again = read_modes(tmp_path / "again" / "modes_modes.json")
+    np.testing.assert_allclose(again.f_hz, js.f_hz, rtol=1e-5)
+    assert [d["channel"] for d in again.dofs] == ["floor1", "floor2"]
     npz = matrix_model_npz(tmp_path / "frame.npz", scale=1.0)
     back = tmp_path / "frame_out.npz"
     assert main(["export", "model", str(npz), "--out", str(back)]) == 0
-    z = np.load(back)
-    np.testing.assert_allclose(z["K"], _k(K_STORY))
+    from modal_twin.models.matrix_model import read_matrix_arrays
+
+    z = read_matrix_arrays(back)
+    np.testing.assert_allclose(z["K"].toarray(), _k(K_STORY))  # stored sparse
     assert list(z["parameter_names"]) == ["story1", "story2"]
     frf = tmp_path / "frf.uff"
     assert main(["export", "frf", str(frame["bag"]), "--out", str(frf)]) == 0
@@ -184,12 +201,10 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path,
     short = tmp_path / "short.csv"
     short.write_text("t [s],a [m/s^2],b [m/s^2]\n0,1,2\n0.1,2\n")
     _bad(["import", str(short), "--out", str(out)], capsys, "short.csv", "missing columns")
-    modes_only = tmp_path / "modes.uff"
-    from modal_twin.io.uff import write_uff55
-
-    write_uff55(modes_only, np.array([1.0]), np.array([0.01]), np.ones((1, 1)), [1], [1])
-    _bad(["import", str(modes_only), "--out", str(out)], capsys, "modes.uff",
-         "no supported UFF dataset", "55")
+    other = tmp_path / "other.uff"
+    other.write_text("    -1\n  2412\n    -1\n")  # FE elements only
+    _bad(["import", str(other), "--out", str(out)], capsys, "other.uff",
+         "no supported UFF dataset", "2412")
     good = shear_frame_csv(tmp_path / "good.csv", seconds=2.0)
     wrong = tmp_path / "wrong.yaml"
     wrong.write_text("channels:\n  - {name: floor9, role: input}\n")
@@ -344,7 +359,29 @@ def test_bridge_updates_from_the_command_line(shared_dir: Path, tmp_path: Path,
     rep = json.loads((tmp_path / "update_v1.json").read_text())
     assert max(abs(v) for v in rep["df_pct_after"]) <= 0.52  # bench_updating.py: 0.519
     assert min(rep["mac_after"]) >= 0.885
-    assert "determined by the data: ['Frame', 'y1', 'y2']" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "determined by the data: ['Frame', 'y1', 'y2']" in out
+    # before and after for every mode: the nominal's unmatched modes 1 and 4 (outside the
+    # 10 % window) at their nearest partner; known answer: the nominal model's own
+    # frequencies (scipy on its matrices) over the identified ones
+    import re
+
+    import scipy.io as sio
+
+    rows = {int(m[0]): m for m in re.findall(
+        r"^\s+(\d) +([\d.]+) +(\d)([* ]) +(-?[\d.]+) +([\d.]+) +(\d)[* ] +(-?[\d.]+)", out,
+        re.MULTILINE)}
+    assert sorted(rows) == [1, 2, 3, 4, 5]  # no row without a partner
+    assert [rows[k][3] for k in range(1, 6)] == ["*", " ", " ", "*", " "]
+    d = sio.loadmat(model)
+    k0 = sum(d[k] for k in d if k.startswith("K_") and k != "K_whole")  # K(theta = 0)
+    mu = sla.eigh(d["M0"], k0, eigvals_only=True)[::-1][:8]  # 1 / omega^2, massless DOFs 0
+    f_nom = 1.0 / np.sqrt(mu) / (2 * np.pi)
+    for k in (1, 4):
+        j, f_id = int(rows[k][2]) - 1, float(rows[k][1])
+        assert float(rows[k][4]) == pytest.approx(100 * (f_nom[j] / f_id - 1), abs=2e-3)
+    worst = max(abs(float(r[4])) for r in rows.values())
+    assert f"before: max |df| {worst:.3f} %" in out and worst > 14.0
 
 
 def test_identify_warnings_no_mode_and_non_stationary(tmp_path: Path,
@@ -366,3 +403,62 @@ def test_identify_warnings_no_mode_and_non_stationary(tmp_path: Path,
     assert main(["import", str(burst), "--out", str(tmp_path / "b")]) == 0
     main(["identify", str(tmp_path / "b"), "--method", "ssi-cov"])
     assert "output-only SSI on a non-stationary record" in capsys.readouterr().err
+
+
+def _f_in_page(page: str) -> np.ndarray:
+    """The identified frequencies of the report's modes table (its second column)."""
+    import re
+
+    return np.array([float(x) for x in re.findall(r"<tr><td>[^<]*</td><td>([\d.]+)</td>",
+                                                  page)])
+
+
+def test_report_on_an_imported_record_and_an_identify_folder(
+        frame: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """Known answer: the frame's two frequencies, identified by the report itself on the
+    imported bag (stabilization, modes, MAC, FRFs), and read from identify's folder."""
+    out = tmp_path / "bag.html"
+    assert main(["report", str(frame["bag"]), "--out", str(out)]) == 0
+    page = out.read_text()
+    for section in ("identification", "frf"):
+        assert f'<section id="{section}">' in page
+    np.testing.assert_allclose(_f_in_page(page), exact_f_hz(), rtol=0.01)
+    assert page.count("data:image/png;base64,") == 3  # stabilization, MAC, FRF
+    ident = tmp_path / "id.html"
+    assert main(["report", str(frame["modes"].parent), "--out", str(ident)]) == 0
+    page = ident.read_text()
+    doc = json.loads(frame["modes"].read_text())
+    np.testing.assert_allclose(_f_in_page(page), [m["f_hz"] for m in doc["modes"]],
+                               atol=6e-5)
+    assert page.count("data:image/png;base64,") == 3  # auto-MAC and identify's two PNGs
+
+
+def test_report_on_an_imported_uff_with_geometry_and_on_an_empty_folder(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from modal_twin.io.uff import write_uff55
+
+    geo = {"nodes": {"1": [0.0, 0.0, 0.0], "2": [0.0, 0.0, 3.0], "3": [0.0, 0.0, 6.0]},
+           "trace_lines": [{"number": 1, "id": "column", "nodes": [1, 2, 3]}]}
+    uff = write_uff55(tmp_path / "tower.uff", np.array([1.25, 3.5]), np.array([0.01, 0.02]),
+                      np.array([[0.5, 1.0], [1.0, -0.6]]), [2, 3], [1, 1],
+                      names=["mid", "top"], geometry=geo)
+    assert main(["import", str(uff), "--out", str(tmp_path / "tower")]) == 0
+    out = tmp_path / "tower.html"
+    assert main(["report", str(tmp_path / "tower"), "--out", str(out)]) == 0
+    page = out.read_text()
+    assert '<section id="scene">' in page and "MeshCat" in page
+    assert "mode 2: 3.500 Hz" in html_unescape(page)  # the labelled mode on the geometry
+    np.testing.assert_allclose(_f_in_page(page), [1.25, 3.5], rtol=1e-5)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    capsys.readouterr()
+    assert main(["report", str(empty)]) == ExitCode.USAGE
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "nothing to report" in err and "modes.json" in err
+    assert not (empty / "report.html").exists()
+
+
+def html_unescape(page: str) -> str:
+    import html
+
+    return html.unescape(html.unescape(page))  # the scene sits in an escaped srcdoc

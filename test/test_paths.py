@@ -209,6 +209,7 @@ def test_outputs_are_never_overwritten_without_force(tmp_path: Path, argv: list[
     from modal_twin.cli import main
 
     (tmp_path / "run").mkdir()
+    _png(tmp_path / "run", "force_state_ESB1_x.png", "A")  # something to report (else exit 2)
     out = tmp_path / "out"
     args = [a.format(out=out, run=tmp_path / "run") for a in argv]
     target = Path(next(a for a in args if a.startswith(str(out))))

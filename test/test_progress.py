@@ -173,3 +173,27 @@ def test_global_search_reports_generations(clock: _Clock, level,
     assert lines[-1].startswith("global search: 5/5 (100 %) generation")
     assert "cost " in lines[-1] and lines[-1].endswith("done")
     assert cost < 0.05
+
+
+def test_step_speaks_only_when_long(level) -> None:
+    """A step shorter than show_after_s prints nothing; a longer one its start and end."""
+    import threading
+
+    level(Verbosity.NORMAL)
+    out = io.StringIO()
+    with progress.step("quick", stream=out, show_after_s=60.0):
+        pass
+    assert out.getvalue() == ""
+    seen = threading.Event()
+    with progress.step("identifying", stream=out, show_after_s=0.01):
+        seen.wait(0.01)
+        while "identifying ..." not in out.getvalue():  # the timer's line, then the end
+            seen.wait(0.01)
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "identifying ..."
+    assert re.fullmatch(r"identifying: done, \d+\.\d s", lines[1])
+    level(Verbosity.QUIET)
+    quiet = io.StringIO()
+    with progress.step("silent", stream=quiet, show_after_s=0.0):
+        seen.wait(0.05)
+    assert quiet.getvalue() == ""

@@ -1,10 +1,12 @@
 """``modal-twin export modes|frf|model SRC --out FILE``: results for other tools.
 
-- ``modes``: an ``identify`` JSON (``modes.json``) -> UFF 55 (complex modes);
+- ``modes``: an ``identify`` JSON (``modes.json``) -> UFF 55 (complex modes; the channels'
+  nodes, directions and names, and the record's geometry as UFF 15 / 82);
 - ``frf``: a bag's H1 FRFs (inputs and outputs by role) -> UFF 58 (function type 4);
 - ``model``: a structure YAML or a matrix file -> NPZ with ``M``, ``K``, ``C``, ``dofs``
   (``"node:dof"`` labels), ``parameter_names``, ``theta0`` and one matrix per parameter
-  (``K_<name>`` = dK/dtheta, ``M_<name>``, ``C_<name>``), readable again by
+  (``K_<name>`` = dK/dtheta, ``M_<name>``, ``C_<name>``), the matrices sparse (CSR
+  members, :func:`modal_twin.models.matrix_model.sparse_members`), readable again by
   :func:`modal_twin.models.matrix_model.load_matrix_model` (``K(theta) = K + sum (theta -
   theta0)_j K_j``).
 
@@ -56,21 +58,29 @@ def check_matrices(arrays: dict[str, Any], source: str) -> None:
     ModelError
         Naming the matrix and what is wrong with it.
     """
+    import scipy.sparse as sp
+
+    def entries(a: Any) -> np.ndarray:
+        return np.asarray(a.data if sp.issparse(a) else a)
+
     for k, v in arrays.items():  # the matrices and the parameter values (bounds may be inf)
-        a = np.asarray(v)
-        if a.dtype.kind in "fc" and (a.ndim == 2 or k in ("theta", "theta0")) and \
-                not np.all(np.isfinite(a)):
+        a = entries(v)
+        if a.dtype.kind in "fc" and (sp.issparse(v) or a.ndim == 2 or k in ("theta", "theta0")
+                                      ) and not np.all(np.isfinite(a)):
             msg = f"{source}: {k} holds {int(np.sum(~np.isfinite(a)))} NaN / Inf entries"
             raise ModelError(msg)
-    d = np.diag(np.asarray(arrays["M"], dtype=float))
+    M = arrays["M"]
+    d = np.asarray(M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M, dtype=float)),
+                   dtype=float)
     if d.size and (d.min() < 0.0 or d.sum() <= 0.0):
         what = f"a negative mass {d.min():.6g}" if d.min() < 0.0 else "no mass (M = 0)"
         msg = f"{source}: M has {what} on its diagonal; expected masses >= 0 with a total > 0"
         raise ModelError(msg)
     for k in [k for k in arrays if k in ("M", "K") or k.startswith("K_")]:
-        a = np.asarray(arrays[k], dtype=float)
-        scale = float(np.abs(a).max()) if a.size else 0.0
-        asym = float(np.abs(a - a.T).max()) if a.size else 0.0
+        A = arrays[k]
+        A = sp.csr_array(A, dtype=float) if sp.issparse(A) else np.asarray(A, dtype=float)
+        scale = float(np.abs(entries(A)).max()) if entries(A).size else 0.0
+        asym = float(np.abs(entries(A - A.T)).max()) if entries(A - A.T).size else 0.0
         if asym > SYMMETRY_RTOL * scale:
             msg = (f"{source}: {k} is not symmetric (max |{k} - {k}^T| = {asym:.3g}, "
                    f"{asym / scale:.2g} of its largest entry)")
@@ -85,11 +95,11 @@ def structure_arrays(path: Path) -> dict[str, Any]:
     asm = build_building(path).assembly
     par = asm.parametric
     dofs = [f"{asm.nodes[i // 6]}:{DOF_NAMES[i % 6]}" for i in asm.free_dofs]
-    out: dict[str, Any] = {"M": asm.M.toarray(), "K": asm.K.toarray(), "C": asm.C.toarray(),
+    out: dict[str, Any] = {"M": asm.M, "K": asm.K, "C": asm.C,
                            "dofs": np.array(dofs), "parameter_names": np.array(par.names),
                            "parameter_kinds": np.array(par.kinds), "theta0": par.theta0}
     for i, (n, kind) in enumerate(zip(par.names, par.kinds, strict=True)):
-        out[f"{kind}_{n}"] = par.derivatives[i].toarray()
+        out[f"{kind}_{n}"] = par.derivatives[i]
     return out
 
 
@@ -108,16 +118,17 @@ def _model(src: Path, out: Path, force: bool, rules: Path | None = None) -> str:
 
 
 def _save_npz(out: Path, arrays: dict[str, Any], force: bool) -> None:
+    from modal_twin.models.matrix_model import sparse_members
+
     if out.suffix.lower() != ".npz":
         msg = f"{out}: expected a .npz output file"
         raise ConfigError(msg)
     with atomic_file(out, force=force) as tmp, tmp.open("wb") as fh:
-        np.savez(fh, **arrays)
+        np.savez_compressed(fh, **sparse_members(arrays))
 
 
 def _modes(src: Path, out: Path, force: bool) -> str:
-    from modal_twin.io.modes_file import read_modes
-    from modal_twin.io.uff import AXIS_CODES, write_uff55
+    from modal_twin.io.modes_file import read_modes, write_modes_uff
 
     if src.suffix.lower() != ".json":
         msg = f"{src}: expected a modes JSON written by `modal-twin identify`"
@@ -125,9 +136,10 @@ def _modes(src: Path, out: Path, force: bool) -> str:
     m = read_modes(src)
     with atomic_file(out, force=force) as tmp:
         tmp.unlink()
-        write_uff55(tmp, m.f_hz, m.zeta, m.shapes, [int(d["node"]) for d in m.dofs],
-                    [AXIS_CODES.get(d["direction"], 1) for d in m.dofs])
-    return f"{m.f_hz.size} modes at {len(m.dofs)} DOFs"
+        write_modes_uff(tmp, m.f_hz, m.zeta, m.shapes, m.dofs, m.geometry)
+    n_geo = len((m.geometry or {}).get("nodes", {}))
+    return (f"{m.f_hz.size} modes at {len(m.dofs)} channels"
+            + (f", geometry of {n_geo} nodes" if n_geo else ", no geometry in the JSON"))
 
 
 def _frf(src: Path, out: Path, force: bool) -> str:

@@ -17,6 +17,7 @@ from typing import Any
 
 from modal_twin.exit_codes import ExitCode
 from modal_twin.identification.record import METHODS
+from modal_twin.progress import step
 
 __all__ = ["register", "run"]
 
@@ -49,7 +50,9 @@ def run(a: argparse.Namespace) -> int:
     opts = IdentifyOptions(method=a.method, inputs=_names(a.inputs),
                            outputs=_names(a.outputs), directions=_names(a.directions),
                            f_max_hz=a.f_max)
-    rec = identify_record(block, channels, opts)
+    with step(f"identify: {a.bag.name} ({block.n_samples / block.fs_hz:.0f} s, "
+              f"{len(channels)} channels)"):
+        rec = identify_record(block, channels, opts)
     s = rec.settings
     print(f"identify: {rec.method} on {len(rec.inputs)} inputs, {len(rec.outputs)} outputs, "
           f"{block.n_samples / block.fs_hz:.1f} s at {block.fs_hz:g} Hz")
@@ -89,19 +92,25 @@ def _report(a: argparse.Namespace, rec: Any) -> int:
               f"{100 * d:.1f} % from order {o0} to {o1}; treat it with care",
               file=sys.stderr)
     if a.out is not None:
-        _write(a.out, rec)
+        _write(a.out, rec, a.bag)
     return ExitCode.OK
 
 
-def _write(out: Path, rec: Any) -> None:
+def _write(out: Path, rec: Any, bag: Path) -> None:
+    with step(f"identify: writing {out}"):
+        _files(out, rec, bag)
+    print(f"identify: wrote {out}/modes.json, modes.uff, stabilization.png, mac.png")
+
+
+def _files(out: Path, rec: Any, bag: Path) -> None:
     from modal_twin.identification import automac
-    from modal_twin.io.modes_file import write_modes
+    from modal_twin.io.modes_file import read_geometry_files, write_modes
     from modal_twin.viz._figure import save_figure
     from modal_twin.viz.mac import plot_mac
     from modal_twin.viz.stabilization import plot_stabilization
 
     mm = rec.modes
-    write_modes(out, rec)
+    write_modes(out, rec, read_geometry_files(bag) if bag.is_dir() else None)
     save_figure(plot_stabilization(rec.diagram, selected_f_hz=mm.f_hz,
                                    f_max_hz=rec.settings.band_hz[1], spectrum=rec.spectrum,
                                    title=f"stabilization diagram ({rec.method})"),
@@ -109,4 +118,3 @@ def _write(out: Path, rec: Any) -> None:
     labels = [f"{f:.2f} Hz" for f in mm.f_hz]
     save_figure(plot_mac(automac(mm.shapes), labels, labels, title="auto-MAC"),
                 out / "mac.png")
-    print(f"identify: wrote {out}/modes.json, modes.uff, stabilization.png, mac.png")

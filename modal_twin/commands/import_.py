@@ -1,10 +1,11 @@
 """``modal-twin import FILE... --out BAG``: measured files to a bag and its channel map.
 
 Formats by file name: ``.uff`` / ``.unv`` (UFF 58 / 58b time data and spectra, UFF
-geometry), ``.zip`` / ``.v1`` / ``.v2`` / ``.smc`` (CSMIP and USGS strong-motion
-records, rotated to one structure frame), ``.csv`` and ``.npz`` (a channel table with
-units). Time channels of all files must share the sample rate and length. Roles: a user
-map (``--map``) first; else the file's own headers (strong-motion sensor locations:
+geometry, UFF 55 modes kept as ``modes_<file>.json``), ``.zip`` / ``.v1`` / ``.v2`` /
+``.smc`` (CSMIP and USGS strong-motion records, rotated to one structure frame),
+``.csv`` and ``.npz`` (a channel table with units). Time channels of all files must share
+the sample rate and length. Roles: a user map (``--map``) first; else the file's own
+headers (strong-motion sensor locations:
 :func:`modal_twin.io.channel_map.roles_from_locations`; UFF 58 data types and reference
 nodes: :func:`modal_twin.io.uff.uff_role`); else :func:`modal_twin.channels.default_role`
 (CSV, NPZ). The assignment is printed with the header words that decided each channel; a
@@ -106,11 +107,15 @@ def _uff(path: Path, extra: dict[str, Any]) -> Part | None:
             "func_type": np.array([s["func_type"] for s in u.spectra]),
             **{f"f_hz_{k}": s["f_hz"] for k, s in enumerate(u.spectra)},
             **{f"data_{k}": s["data"] for k, s in enumerate(u.spectra)}}
-    if u.skipped:
-        _progress(f"{path.name}: dataset types {sorted(set(u.skipped))} not read")
+    if 55 in u.skipped:  # modes (as `identify` / `export modes` write them)
+        from modal_twin.io.modes_file import uff_modes_document
+
+        extra[f"modes_{path.stem}.json"] = uff_modes_document(path)
+    if set(u.skipped) - {55}:
+        _progress(f"{path.name}: dataset types {sorted(set(u.skipped) - {55})} not read")
     if not (u.time or u.spectra or extra):
         msg = (f"{path}: no supported UFF dataset (found types {sorted(set(u.skipped))}; "
-               f"import reads 58 / 58b, 15, 18, 82, 151, 164, 2411, 2420)")
+               f"import reads 55, 58 / 58b, 15, 18, 82, 151, 164, 2411, 2420)")
         raise ConfigError(msg)
     if not u.time:
         return None

@@ -1,4 +1,11 @@
-"""``modal-twin report RUN_DIR [--out FILE]``: one self-contained HTML report of a run.
+"""``modal-twin report FOLDER [--out FILE]``: one self-contained HTML report of a folder.
+
+A run folder (sub-runs ``*/bag``, ``models/`` or the diagnosis's figures) gives the run
+report below; any other
+folder, an imported record or an ``identify --out`` folder, gives its modes,
+stabilization, MAC, FRFs and test geometry where it has them
+(:mod:`modal_twin.commands.report_record`). A folder with nothing to show is one line
+naming what is missing and exit 2, never an empty page.
 
 A run folder (what ``modal-twin demo`` writes) holds sub-runs ``<name>/bag`` (twin
 metrics, channel map, measurement frames), model versions ``models/vNNNN.yaml`` and the
@@ -19,14 +26,14 @@ from typing import Any
 
 import numpy as np
 
-from modal_twin.errors import ModalTwinError, OptionError
+from modal_twin.errors import ConfigError, ModalTwinError, OptionError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.paths import check_new, open_regular
-from modal_twin.progress import track
+from modal_twin.progress import step, track
 from modal_twin.validation import check_name
 
-__all__ = ["FIGURES", "load_run", "make_report", "model_loops", "own_bags", "own_figures",
-           "register", "run"]
+__all__ = ["FIGURES", "is_run_folder", "load_run", "make_report", "model_loops", "own_bags",
+           "own_figures", "register", "run"]
 
 _DEVICE_SUFFIX = ("_dx", "_dy")
 
@@ -219,14 +226,17 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
         if path is None:
             msg = f"{run_dir}: the last model version has no file"
             raise OptionError(msg)
-        cmds, caption = model_scene(path, n_modes)
-        scene = static_html(cmds, caption=caption)
-    record_scene = _record_scene(run_dir, versions, notes)
+        with step(f"report: 3D scene of {path.name}"):
+            cmds, caption = model_scene(path, n_modes)
+            scene = static_html(cmds, caption=caption)
+    with step("report: the held-out record's 3D view"):
+        record_scene = _record_scene(run_dir, versions, notes)
     ident: dict[str, Any] = {}
     low = [b for b in bags if "low" in b.parent.name]
     if low and versions:
         try:
-            ident = _identification(low[0], versions[0].structure)
+            with step(f"report: identification of {low[0].parent.name} (N4SID)"):
+                ident = _identification(low[0], versions[0].structure)
             notes.append(f"identification and FRF: N4SID on {low[0].parent.name} (table x "
                          "input for the FRF), paired with the nominal model by MAC")
         except ModalTwinError as err:
@@ -252,17 +262,40 @@ def _record_scene(run_dir: Path, versions: list[Any], notes: list[str]) -> str |
     return static_html(cmds, caption=caption)
 
 
+def is_run_folder(folder: Path) -> bool:
+    """Return whether ``folder`` is a run folder (``*/bag``, ``models/`` or :data:`FIGURES`)."""
+    return ((folder / "models").is_dir() or any(b.is_dir() for b in folder.glob("*/bag"))
+            or any(folder.glob(FIGURES)))
+
+
 def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: int = 4,
                 force: bool = True) -> Path:
     """Write the report of ``run_dir`` (default ``run_dir/report.html``); return its path.
 
     Without ``force`` an existing file is refused before any work.
+
+    Raises
+    ------
+    ConfigError
+        Nothing to report: one line naming what is missing.
     """
+    from modal_twin.commands.report_record import load_record_folder
     from modal_twin.viz.report import write_report
 
     rd = Path(run_dir)
     target = check_new(out or rd / "report.html", force)
-    return write_report(load_run(rd, n_modes=n_modes), target)
+    if is_run_folder(rd):
+        data = load_run(rd, n_modes=n_modes)
+        if not (data.records or data.versions or data.images or data.stabilization):
+            msg = (f"{rd}: nothing to report: its bags hold no metrics, record or device "
+                   "data and it has no model versions or figures")
+            raise ConfigError(msg)
+    else:
+        data, missing = load_record_folder(rd)
+        if data is None:
+            raise ConfigError(missing)
+    with step(f"report: writing {target.name}"):
+        return write_report(data, target)
 
 
 FIGURES = "force_state_*.png"

@@ -29,11 +29,16 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from modal_twin.errors import ConfigError, ShapeError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.progress import step
+
+if TYPE_CHECKING:
+    from modal_twin.updating.matching import ModePairing
 
 __all__ = ["register", "run"]
 
@@ -105,18 +110,55 @@ def _version(out: Path) -> int:
     return max(nums, default=0) + 1
 
 
-def _table(res: object) -> None:
-    pb, pa = res.pairing_before, res.pairing_after  # type: ignore[attr-defined]
-    print(f"{'mode':>4} {'f id [Hz]':>10} {'df before %':>11} {'MAC before':>10} "
-          f"{'df after %':>10} {'MAC after':>9}")
-    def cell(df: float, mac: float, w: int) -> str:
-        if not np.isfinite(df):
-            return f"{'unmatched':>{w + 11}}"
-        return f"{100 * df:{w}.3f} {mac:10.3f}"
+def _pairs(pairing: ModePairing, f_id: np.ndarray, shapes: np.ndarray, f_fem: np.ndarray,
+           phi_fem: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Return df, MAC and model mode of every identified mode, and which are unmatched.
 
-    for k, f in enumerate(res.f_id):  # type: ignore[attr-defined]
-        print(f"{k + 1:>4} {f:10.4f} {cell(pb.df_rel[k], pb.mac[k], 11)} "
-              f"{cell(pa.df_rel[k], pa.mac[k], 10)}")
+    A matched mode gets its pair; an unmatched one (flagged) its nearest partner: the
+    cheapest model mode no pair uses, by the pair cost ``|df| + (1 - MAC)`` of Eq. (3b) of
+    [004] (one partner each).
+    """
+    import scipy.optimize as so
+
+    from modal_twin.updating.matching import pair_costs
+
+    idx = np.array(pairing.fem_index)
+    df = np.array(pairing.df_rel, dtype=np.float64)
+    mc = np.array(pairing.mac, dtype=np.float64)
+    near = idx < 0
+    miss = np.flatnonzero(near)
+    free = np.setdiff1d(np.arange(f_fem.size), idx[idx >= 0])
+    if miss.size and free.size:
+        cost, d, m, *_ = pair_costs(f_id[miss], shapes[:, miss], f_fem[free], phi_fem[:, free])
+        r, c = so.linear_sum_assignment(cost)
+        idx[miss[r]], df[miss[r]], mc[miss[r]] = free[c], d[r, c], m[r, c]
+    return idx, df, mc, near
+
+
+def _table(res: object, pr: object) -> tuple[float, float]:
+    """Print df / MAC before and after for every mode; return max |df| before, min MAC."""
+    f_id = np.asarray(res.f_id)  # type: ignore[attr-defined]
+    shapes = pr.targets.shapes  # type: ignore[attr-defined]
+    cols = []
+    for pairing, theta in ((res.pairing_before, res.theta_start),  # type: ignore[attr-defined]
+                           (res.pairing_after, res.theta)):  # type: ignore[attr-defined]
+        md = pr.modes(theta)  # type: ignore[attr-defined]
+        cols.append(_pairs(pairing, f_id, shapes, md.f_hz, md.Phi_s))
+    print(f"{'mode':>4} {'f id [Hz]':>10} {'model':>5} {'df before %':>11} {'MAC before':>10} "
+          f"{'model':>5} {'df after %':>10} {'MAC after':>9}")
+
+    def cell(c: tuple[np.ndarray, ...], k: int, w: int) -> str:
+        idx, df, mc, near = c
+        mark = "*" if near[k] else " "
+        return f"{idx[k] + 1:>4}{mark} {100 * df[k]:{w}.3f} {mc[k]:{w - 1}.3f}"
+
+    for k, f in enumerate(f_id):
+        print(f"{k + 1:>4} {f:10.4f} {cell(cols[0], k, 11)} {cell(cols[1], k, 10)}")
+    if any(c[3].any() for c in cols):
+        print("  * unmatched (no model mode within the pairing windows of Eq. (4) of [004]): "
+              "its nearest partner, the cheapest model mode no pair uses")
+    b = cols[0]
+    return float(100 * np.nanmax(np.abs(b[1]))), float(np.nanmin(b[2]))
 
 
 def run(a: argparse.Namespace) -> int:
@@ -151,9 +193,12 @@ def run(a: argparse.Namespace) -> int:
     print(f"update: {a.model.name}: {mm.n_dof} DOFs, {p} parameters; {md.f_hz.size} modes "
           f"at {dofs.size} DOFs; Gauss-Newton (max {a.max_nfev} evaluations)",
           file=sys.stderr, flush=True)
-    res = update(pr, global_stage=False, max_nfev=a.max_nfev)
-    _table(res)
-    print(f"max |df| {res.max_abs_df_pct:.3f} %, min MAC {res.min_mac:.3f}, "
+    with step("update: Gauss-Newton"):
+        res = update(pr, global_stage=False, max_nfev=a.max_nfev)
+    df0, mac0 = _table(res, pr)
+    print(f"before: max |df| {df0:.3f} %, min MAC {mac0:.3f} (every mode, unmatched ones at "
+          f"their nearest model mode); after: max |df| {res.max_abs_df_pct:.3f} %, "
+          f"min MAC {res.min_mac:.3f}, "
           f"{res.n_eigen_solves} eigen-solves, {res.seconds:.1f} s, at bounds "
           f"{list(res.at_bounds)}")
     u = res.uncertainty
@@ -193,7 +238,8 @@ def _update_structure(a: argparse.Namespace) -> int:
     out = a.out if a.out is not None else Path("runs") / "models"
     print(f"update: {a.model.name}: two stages of [004] on {n} modes at {len(rename)} of "
           f"{len(specs)} channels", file=sys.stderr, flush=True)
-    upd = update_model(a.model, modes, names, out)
+    with step("update: two stages"):
+        upd = update_model(a.model, modes, names, out)
     print(f"{'mode':>4} {'f id [Hz]':>10} {'f before':>9} {'df %':>7} {'MAC':>6} "
           f"{'f after':>9} {'df %':>7} {'MAC':>6}")
     stages = iter(upd.result.stage_names)
@@ -208,11 +254,12 @@ def _update_structure(a: argparse.Namespace) -> int:
 
 def _write(out: Path, mm: object, res: object) -> None:
     from modal_twin.io.imported import atomic_file
+    from modal_twin.models.matrix_model import sparse_members
 
     v = _version(out)
-    arrays = mm.to_arrays(res.theta)  # type: ignore[attr-defined]
+    arrays = sparse_members(mm.to_arrays(res.theta))  # type: ignore[attr-defined]
     with atomic_file(out / f"model_v{v}.npz") as tmp, tmp.open("wb") as fh:
-        np.savez(fh, **arrays)
+        np.savez_compressed(fh, **arrays)
     with atomic_file(out / f"update_v{v}.json") as tmp:
         tmp.write_text(json.dumps(res.as_dict(), indent=1, default=float)  # type: ignore[attr-defined]
                        .replace("NaN", "null"))

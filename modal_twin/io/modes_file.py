@@ -13,6 +13,7 @@ modes); optional ``std_lambdaExp``, ``std_psiExp``, ``dampExp`` and ``measDOFs``
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,7 +26,9 @@ from modal_twin.errors import ConfigError
 from modal_twin.identification.metrics import complexity, mpc
 from modal_twin.identification.record import RecordModes
 
-__all__ = ["ModesFile", "read_modes", "write_modes"]
+__all__ = ["ModesFile", "read_geometry_files", "read_modes", "uff_modes_document",
+           "uff_nodes", "write_modes",
+           "write_modes_uff"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,8 +43,11 @@ class ModesFile:
     measured_dofs : (n_ch,) int array, 0-based model DOFs, or None when the file does
         not say.
     dofs : tuple of dict
-        Per shape entry, ``{"channel", "node", "direction"}`` where the file says (identify
-        JSON), else empty.
+        Per shape entry, ``{"channel", "node", "node_label", "direction"}`` where the file
+        says (identify JSON, UFF 55), else empty.
+    geometry : dict, optional
+        The test geometry written with the modes (``nodes``: UFF node number -> xyz,
+        ``trace_lines``), when there is one.
     """
 
     f_hz: FloatArray
@@ -51,6 +57,7 @@ class ModesFile:
     std_shapes: FloatArray
     measured_dofs: IntArray | None
     dofs: tuple[dict[str, Any], ...] = ()
+    geometry: dict[str, Any] | None = None
 
 
 def _json(p: Path) -> ModesFile:
@@ -68,7 +75,8 @@ def _json(p: Path) -> ModesFile:
         msg = f"{p}: expected a modes JSON written by `modal-twin identify` ({err!r})"
         raise ConfigError(msg) from err
     meas = np.array(md, dtype=np.int64) if all(v is not None for v in md) and md else None
-    return ModesFile(f, z, sf, S, np.full(S.shape, np.nan), meas, tuple(d["dofs"]))
+    geo = d.get("geometry") if isinstance(d.get("geometry"), dict) else None
+    return ModesFile(f, z, sf, S, np.full(S.shape, np.nan), meas, tuple(d["dofs"]), geo)
 
 
 def _mat(p: Path) -> ModesFile:
@@ -103,11 +111,22 @@ def _uff(p: Path) -> ModesFile:
     from modal_twin.io.uff import read_uff55
 
     d = read_uff55(p)
-    S = d["shapes"]
-    keep = np.flatnonzero(np.any(np.abs(S) > 0, axis=1))  # DOFs that carry a channel
-    S = S[keep]
+    S = d["channel_shapes"]
+    dofs = tuple({"channel": name, "node": n, "node_label": str(n), "direction": dr}
+                 for name, n, dr in d["channels"])
+    geo = d["geometry"] if d["geometry"].get("nodes") else None
     return ModesFile(d["f_hz"], d["zeta"], np.full(d["f_hz"].size, np.nan), S,
-                     np.full(S.shape, np.nan), None)
+                     np.full(S.shape, np.nan), None, dofs, geo)
+
+
+def uff_modes_document(path: str | Path) -> dict[str, Any]:
+    """Return the modes of a UFF 55 file as a ``modes.json`` document (``import``)."""
+    m = _uff(Path(path))
+    return {"method": f"UFF 55 ({Path(path).name})", "dofs": list(m.dofs),
+            "geometry": m.geometry, "inputs": [], "notes": [], "not_reported": [],
+            "modes": [{"f_hz": float(m.f_hz[k]), "std_f_hz": None, "zeta": float(m.zeta[k]),
+                       "shape_re": m.shapes[:, k].real.tolist(),
+                       "shape_im": m.shapes[:, k].imag.tolist()} for k in range(m.f_hz.size)]}
 
 
 def read_modes(path: str | Path) -> ModesFile:
@@ -130,21 +149,63 @@ def read_modes(path: str | Path) -> ModesFile:
     return reader(p)
 
 
-def modes_document(rec: RecordModes) -> dict[str, Any]:
-    """Return the ``modes.json`` content of an identification (what :func:`read_modes` reads)."""
+def uff_nodes(labels: list[str]) -> dict[str, int]:
+    """Return the UFF node number of each node label.
+
+    The label itself when every label is a positive integer below 1e9 (nodes of an
+    imported UFF geometry), else 1.. in sorted order.
+    """
+    un = sorted(set(labels))
+    if un and all(x.isdigit() and 0 < int(x) < 10**9 for x in un):  # UFF: 10 columns
+        return {x: int(x) for x in un}
+    return {x: k + 1 for k, x in enumerate(un)}
+
+
+def read_geometry_files(folder: str | Path) -> dict[str, Any]:
+    """Return the test geometry ``modal-twin import`` kept in a bag (``geometry_*.json``, merged).
+
+    Returns ``{"nodes": {id: xyz}, "trace_lines": [...]}`` (empty when there is none).
+    """
+    g: dict[str, Any] = {"nodes": {}, "trace_lines": []}
+    for f in sorted(Path(folder).glob("geometry_*.json")):
+        try:
+            d = json.loads(f.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+            msg = f"{f}: not a geometry JSON written by `modal-twin import` ({err})"
+            raise ConfigError(msg) from err
+        g["nodes"].update({str(k): v for k, v in dict(d.get("nodes", {})).items()})
+        g["trace_lines"] += list(d.get("trace_lines", []))
+    return g
+
+
+def modes_document(rec: RecordModes, geometry: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Return the ``modes.json`` content of an identification (what :func:`read_modes` reads).
+
+    Each shape entry's ``node`` is its UFF node number (:func:`uff_nodes`). ``geometry``
+    (the bag's, :func:`read_geometry_files`) is kept when the node numbers are its node ids,
+    and the channels' own positions (``position_m``) fill nodes it lacks.
+    """
     mm, s, diag = rec.modes, rec.settings, rec.diagram
     mp, cx = mpc(mm.shapes), complexity(mm.shapes)
-    nodes = sorted({c.node or c.location or c.name for c in rec.outputs})
-    dofs = [{"channel": c.name, "node": nodes.index(c.node or c.location or c.name) + 1,
-             "node_label": c.node or c.location, "direction": c.direction}
-            for c in rec.outputs]
+    labels = [c.node or c.location or c.name for c in rec.outputs]
+    number = uff_nodes(labels)
+    dofs = [{"channel": c.name, "node": number[lab], "node_label": c.node or c.location,
+             "direction": c.direction} for c, lab in zip(rec.outputs, labels, strict=True)]
+    by_label = all(str(v) == k for k, v in number.items())
+    g = dict(geometry or {}) if by_label else {}
+    nodes = {str(k): list(v) for k, v in dict(g.get("nodes", {})).items()}
+    for c, lab in zip(rec.outputs, labels, strict=True):
+        if str(number[lab]) not in nodes and any(v != 0.0 for v in c.position_m):
+            nodes[str(number[lab])] = [float(v) for v in c.position_m]
+    geo = {"nodes": nodes, "trace_lines": list(g.get("trace_lines", []))} if nodes else None
     return {"method": rec.method,
             "settings": {"band_hz": list(s.band_hz), "decimation": s.factor,
                          "fs_hz": s.fs_hz, "block_rows": s.block_rows,
                          "orders": list(s.orders)},
             "thresholds": {"rel_tol_f": diag.rel_tol_f, "rel_tol_zeta": diag.rel_tol_zeta,
                            "mac_min": diag.mac_min},
-            "inputs": [c.name for c in rec.inputs], "dofs": dofs, "notes": list(rec.notes),
+            "inputs": [c.name for c in rec.inputs], "dofs": dofs, "geometry": geo,
+            "notes": list(rec.notes),
             "not_reported": [{"f_hz": d.f_hz, "zeta": d.zeta, "n_poles": d.n_poles,
                               "orders": list(d.orders), "reason": d.reason}
                              for d in rec.dropped],
@@ -157,24 +218,36 @@ def modes_document(rec: RecordModes) -> dict[str, Any]:
                       for k in range(mm.f_hz.size)]}
 
 
-def write_modes(folder: str | Path, rec: RecordModes) -> list[Path]:
+def write_modes(folder: str | Path, rec: RecordModes,
+                geometry: dict[str, Any] | None = None) -> list[Path]:
     """Write ``modes.json`` and ``modes.uff`` (UFF 55) of ``rec`` into ``folder``.
 
-    Each file is written to a temporary name and renamed: an interrupted write leaves the
-    previous file or none.
+    ``geometry`` is the bag's test geometry (:func:`read_geometry_files`); both files carry
+    it with the channels' nodes, directions and names (:func:`write_uff55`). Each file is
+    written to a temporary name and renamed: an interrupted write leaves the previous file
+    or none.
     """
     from modal_twin.io.imported import atomic_file
-    from modal_twin.io.uff import AXIS_CODES, write_uff55
 
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
-    doc = modes_document(rec)
+    doc = modes_document(rec, geometry)
     text = json.dumps(doc, indent=1).replace("NaN", "null")
     with atomic_file(out / "modes.json") as tmp:
         tmp.write_text(text)
     mm = rec.modes
     with atomic_file(out / "modes.uff") as tmp:
         tmp.unlink()
-        write_uff55(tmp, mm.f_hz, mm.zeta, mm.shapes, [int(d["node"]) for d in doc["dofs"]],
-                    [AXIS_CODES.get(str(d["direction"]), 1) for d in doc["dofs"]])
+        write_modes_uff(tmp, mm.f_hz, mm.zeta, mm.shapes, doc["dofs"], doc["geometry"])
     return [out / "modes.json", out / "modes.uff"]
+
+
+def write_modes_uff(path: Path, f_hz: FloatArray, zeta: FloatArray, shapes: ComplexArray,
+                    dofs: Sequence[dict[str, Any]], geometry: dict[str, Any] | None) -> Path:
+    """Write modes and their ``dofs`` (``channel``, ``node``, ``direction``) as UFF 55."""
+    from modal_twin.io.uff import AXIS_CODES, write_uff55
+
+    return write_uff55(path, f_hz, zeta, shapes, [int(d["node"]) for d in dofs],
+                       [AXIS_CODES.get(str(d["direction"]).lower(), 1) for d in dofs],
+                       names=[str(d.get("channel") or "") or f"N{d['node']}" for d in dofs],
+                       geometry=geometry)

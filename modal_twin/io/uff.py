@@ -14,7 +14,8 @@ node / direction that a 58 record of the file names (an FRF's or a time record's
 ``ref_node`` / ``ref_dir``), is ``input``; a response (displacement, velocity, acceleration,
 reaction force, stress, strain, sound pressure) is ``output``; a temperature is
 ``reference``; an unknown type cannot be told (no role: the import asks for ``--map``).
-Written: dataset 55 (modes) and 58 (FRFs).
+Written: dataset 55 (modes, with the geometry as 15 / 82 and the channel names in the id
+lines; :func:`read_uff55` reads them back) and 58 (FRFs).
 The 58 direction code ``rsp_dir`` (1..3 = +x..+z, -1..-3 = -x..-z, 4..6 = rotations) gives
 the channel direction.
 """
@@ -22,6 +23,8 @@ the channel direction.
 from __future__ import annotations
 
 import logging
+import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -33,7 +36,8 @@ from modal_twin.array_files import check_text_file
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
 
-__all__ = ["AXIS_CODES", "UffContents", "read_uff", "read_uff55", "uff_role", "write_uff55",
+__all__ = ["AXIS_CODES", "CHANNELS_TAG", "UffContents", "read_uff", "read_uff55", "uff_role",
+           "write_uff55",
            "write_uff58_frf"]
 
 log = logging.getLogger(__name__)
@@ -250,43 +254,142 @@ def read_uff(path: str | Path) -> UffContents:
     return UffContents(tuple(time), tuple(spectra), geo, tuple(skipped))
 
 
+CHANNELS_TAG = "ch:"
+"""Start of the UFF 55 id lines (id3..id5) that name the channels: ``name@node dir``."""
+_ID_LEN = 80
+_ENTRY = re.compile(r"^(?P<name>.+)@(?P<node>\d+)(?P<dir>-?r?[xyz])$")
+
+
+def _channel_lines(names: Sequence[str], nodes: Sequence[int], dirs: Sequence[int]
+                   ) -> tuple[list[str], int]:
+    """Pack ``name@<node><dir>`` entries into three 80-character id lines.
+
+    Returns the lines and how many channels they name (the first ones; a channel whose
+    entry does not fit is read back as ``N<node><dir>``).
+    """
+    lines: list[str] = []
+    cur = CHANNELS_TAG
+    kept = 0
+    for name, n, d in zip(names, nodes, dirs, strict=True):
+        entry = f"{str(name).replace(' ', '_').replace(';', '_')}@{int(n)}{_DIRS.get(d, 'x')};"
+        if len(cur) + len(entry) > _ID_LEN:
+            lines.append(cur)
+            if len(lines) == 3:
+                return lines, kept
+            cur = CHANNELS_TAG
+            if len(cur) + len(entry) > _ID_LEN:  # a name too long for a line
+                return lines, kept
+        cur += entry
+        kept += 1
+    lines.append(cur)
+    return (lines + ["NONE"] * 3)[:3], kept
+
+
+def _geometry_sets(geometry: Mapping[str, Any] | None, nodes: Sequence[int]) -> list[Any]:
+    """UFF 15 (nodes with coordinates) and 82 (trace lines) of a test geometry."""
+    import pyuff
+
+    g = dict(geometry or {})
+    xyz = {int(k): [float(v) for v in c[:3]] for k, c in dict(g.get("nodes", {})).items()
+           if str(k).lstrip("-").isdigit() and int(k) > 0}
+    if not xyz:
+        return []
+    ids = sorted(xyz)
+    out = [pyuff.prepare_15(node_nums=np.array(ids), def_cs=np.zeros(len(ids), int),
+                            disp_cs=np.zeros(len(ids), int), color=np.full(len(ids), 8),
+                            x=np.array([xyz[n][0] for n in ids]),
+                            y=np.array([xyz[n][1] for n in ids]),
+                            z=np.array([xyz[n][2] for n in ids]), return_full_dict=True)]
+    for k, line in enumerate(g.get("trace_lines", [])):
+        seq = [int(v) for v in line.get("nodes", [])]
+        seq = [v for i, v in enumerate(seq) if i == 0 or v != seq[i - 1]]  # pyuff counts changes
+        if len(seq) < 2:
+            continue
+        out.append(pyuff.prepare_82(trace_num=int(line.get("number", k + 1)),
+                                    n_nodes=len(seq), color=0,
+                                    id=str(line.get("id", "") or "NONE")[:_ID_LEN],
+                                    nodes=np.array(seq), return_full_dict=True))
+    missing = sorted(set(nodes) - set(xyz))
+    if missing:
+        log.info("UFF 55: nodes %s carry channels but have no coordinates", missing[:10])
+    return out
+
+
 def write_uff55(path: str | Path, f_hz: FloatArray, zeta: FloatArray, shapes: ComplexArray,
-                nodes: list[int], dirs: list[int]) -> Path:
-    """Write modes as UFF 55 (complex eigenvalue, one dataset per mode).
+                nodes: list[int], dirs: list[int], names: Sequence[str] | None = None,
+                geometry: Mapping[str, Any] | None = None) -> Path:
+    """Write modes as UFF 55 (complex eigenvalue, one dataset per mode), with their geometry.
 
     ``shapes`` is ``(n_ch, n_modes)``; channel ``c`` sits at ``nodes[c]`` in direction
-    ``dirs[c]`` (1..3 = x..z). Nodes with several channels get them in their columns.
+    ``dirs[c]`` (:data:`AXIS_CODES`; a negative code flips the sign). Nodes with several
+    channels get them in their columns. ``names`` (the channels' names) go into the id
+    lines id3..id5 (``ch:name@<node><dir>;...``, as many as fit in 3 x 80 characters);
+    ``geometry`` (``nodes``: id -> xyz, ``trace_lines``, as :func:`read_uff` gives) is
+    written first as UFF 15 and 82. :func:`read_uff55` reads all of it back.
     """
     import pyuff
 
     p = Path(path)
     un = sorted(set(nodes))
-    u = pyuff.UFF(str(p))
-    sets = []
+    if any(n < 1 for n in un):
+        msg = f"UFF 55 node numbers must be positive, got {un[:5]}"
+        raise ConfigError(msg)
+    ids, kept = _channel_lines(list(names) if names is not None else
+                               [f"N{n}{_DIRS.get(d, 'x')}" for n, d in zip(nodes, dirs,
+                                                                            strict=True)],
+                               nodes, dirs)
+    if kept < len(nodes):
+        log.info("UFF 55 id lines name %d of %d channels (3 x 80 characters)", kept,
+                 len(nodes))
+    sets = _geometry_sets(geometry, un)
     for m in range(len(f_hz)):
         r = np.zeros((len(un), 3), complex)
         for c, (n, d) in enumerate(zip(nodes, dirs, strict=True)):
-            r[un.index(n), abs(d) - 1] = np.sign(d) * shapes[c, m]
+            r[un.index(n), (abs(d) - 1) % 3] = np.sign(d) * shapes[c, m]
         w = 2 * np.pi * f_hz[m]
         lam = complex(-zeta[m] * w, w * np.sqrt(max(1 - zeta[m] ** 2, 0.0)))
         sets.append(pyuff.prepare_55(
-            model_type=1, id1="modal_twin modes", id2=f"mode {m + 1}", id3="NONE",
-            id4="NONE", id5="NONE", analysis_type=3, data_ch=3, spec_data_type=12,
-            data_type=5, n_data_per_node=3, node_nums=np.array(un, dtype=int),
-            r1=r[:, 0], r2=r[:, 1], r3=r[:, 2], load_case=1, mode_n=m + 1,
-            eig=lam, modal_a=0.0 + 0j, modal_b=0.0 + 0j))  # not the full dict: its None
-        # r4..r6 would make pyuff write 6 values per node, which it cannot read back
+            model_type=1, id1="modal_twin modes",
+            id2=f"mode {m + 1}: {f_hz[m]:.6g} Hz, zeta {zeta[m]:.4g}"[:_ID_LEN],
+            id3=ids[0], id4=ids[1], id5=ids[2], analysis_type=3, data_ch=3,
+            spec_data_type=12, data_type=5, n_data_per_node=3,
+            node_nums=np.array(un, dtype=int), r1=r[:, 0], r2=r[:, 1], r3=r[:, 2],
+            load_case=1, mode_n=m + 1, eig=lam, modal_a=0.0 + 0j,
+            modal_b=0.0 + 0j))  # not the full dict: its None r4..r6 would make pyuff
+        # write 6 values per node, which it cannot read back
+    u = pyuff.UFF(str(p))
     u.write_sets(sets, mode="overwrite")
     return p
 
 
+def _named_channels(s: Mapping[str, Any]) -> list[tuple[str, int, str]]:
+    """Return the ``(name, node, direction)`` entries of a dataset 55's id lines."""
+    out = []
+    for key in ("id3", "id4", "id5"):
+        text = str(s.get(key, "")).strip()
+        if not text.startswith(CHANNELS_TAG):
+            continue
+        for entry in text[len(CHANNELS_TAG):].split(";"):
+            hit = _ENTRY.match(entry.strip())
+            if hit:
+                out.append((hit["name"], int(hit["node"]), hit["dir"]))
+    return out
+
+
 def read_uff55(path: str | Path) -> dict[str, Any]:
-    """Modes of a UFF 55 file: ``f_hz``, ``zeta``, ``shapes`` (n_node*3, n_modes), ``dofs``.
+    """Modes of a UFF 55 file and the geometry written with them.
+
+    Returns ``f_hz``, ``zeta``, ``shapes`` (n_node*3, n_modes: x, y, z per node),
+    ``dofs`` ((node, direction) of each row), ``channels`` (``(name, node, direction)``
+    as the id lines name them, :func:`write_uff55`; then the channels whose node and
+    direction are absent from the id lines, named ``N<node><dir>``, for every nonzero row),
+    ``channel_shapes`` (n_channels, n_modes, signed by the direction) and ``geometry``
+    (as :func:`read_uff`).
 
     Raises
     ------
     ConfigError
-        The file holds no dataset 55.
+        The file holds no dataset 55, or modes on different nodes.
     """
     import pyuff
 
@@ -294,16 +397,23 @@ def read_uff55(path: str | Path) -> dict[str, Any]:
     check_text_file(p)
     try:
         u = pyuff.UFF(str(p))
-        idx = [k for k, t in enumerate(u.get_set_types()) if int(t) == 55]
+        types = [int(t) for t in u.get_set_types()]
     except Exception as err:
         msg = f"{p}: not a readable UFF file ({err})"
         raise ConfigError(msg) from err
+    idx = [k for k, t in enumerate(types) if t == 55]
     if not idx:
-        msg = f"{p}: expected UFF dataset 55 (modes), found types {list(u.get_set_types())}"
+        msg = f"{p}: expected UFF dataset 55 (modes), found types {types}"
         raise ConfigError(msg)
-    f, z, cols, dofs = [], [], [], []
-    for k in idx:
-        s = u.read_sets(k)
+    try:
+        geo = _geometry([u.read_sets(k) for k, t in enumerate(types) if t in _GEOMETRY])
+        sets = [u.read_sets(k) for k in idx]
+    except Exception as err:
+        msg = f"{p}: a dataset could not be read ({type(err).__name__}: {err})"
+        raise ConfigError(msg) from err
+    f, z, cols = [], [], []
+    nn = np.asarray(sets[0]["node_nums"]).astype(int)
+    for s in sets:
         if int(s.get("analysis_type", 0)) == 3:
             lam = complex(s["eig"])
             wn = abs(lam)
@@ -312,12 +422,21 @@ def read_uff55(path: str | Path) -> dict[str, Any]:
         else:
             f.append(float(s.get("freq", 0.0)))
             z.append(float(s.get("modal_damp_vis", 0.0)))
-        nn = np.asarray(s["node_nums"]).astype(int)
-        col = np.column_stack([s["r1"], s["r2"], s["r3"]]).ravel()
-        cols.append(col)
-        dofs = [(int(n), d) for n in nn for d in ("x", "y", "z")]
-    return {"f_hz": np.array(f), "zeta": np.array(z), "shapes": np.column_stack(cols),
-            "dofs": dofs}
+        if not np.array_equal(np.asarray(s["node_nums"]).astype(int), nn):
+            msg = f"{p}: the modes of dataset 55 are given on different nodes"
+            raise ConfigError(msg)
+        cols.append(np.column_stack([s["r1"], s["r2"], s["r3"]]).ravel())
+    shapes = np.column_stack(cols).astype(complex)
+    dofs = [(int(n), d) for n in nn for d in ("x", "y", "z")]
+    row = {dof: i for i, dof in enumerate(dofs)}
+    chans = [c for c in _named_channels(sets[0]) if (c[1], c[2].lstrip("-")) in row]
+    named = {(c[1], c[2].lstrip("-")) for c in chans}
+    chans += [(f"N{n}{d}", n, d) for i, (n, d) in enumerate(dofs)
+              if (n, d) not in named and np.any(np.abs(shapes[i]) > 0)]
+    ch_shapes = np.array([(-1.0 if d.startswith("-") else 1.0) * shapes[row[(n, d.lstrip("-"))]]
+                          for _, n, d in chans]).reshape(len(chans), len(sets))
+    return {"f_hz": np.array(f), "zeta": np.array(z), "shapes": shapes, "dofs": dofs,
+            "channels": chans, "channel_shapes": ch_shapes, "geometry": geo}
 
 
 def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,

@@ -16,6 +16,12 @@ the one reader of matrix files, or any mapping of names to arrays):
 - ``lower`` / ``upper``: bounds of ``theta`` (optional); ``parameter_names``: the order of
   the ``theta_j`` (optional; what :meth:`MatrixModel.to_arrays` writes).
 
+Any matrix may be stored dense or sparse. Sparse in an NPZ (what ``export model`` and
+``update`` write, :func:`sparse_members`): the marker ``sparse_format = "csr"`` and, for a
+matrix ``X``, the members ``X__data``, ``X__indices``, ``X__indptr`` and ``X__shape`` of its
+CSR form (:class:`scipy.sparse.csr_array`); :func:`read_matrix_arrays` rebuilds them, after
+checking that they are one consistent CSR matrix. In a ``.mat``: MATLAB's own sparse class.
+
 Rules of a data set that its file does not hold -- the order of its parameters, their
 bounds -- live in a small YAML file beside the user's command (``--rules``;
 ``config/matrix_models/pedestrian_bridge.yaml`` is the public pedestrian bridge's), never in
@@ -38,16 +44,21 @@ from modal_twin.errors import ConfigError, ModelError, ShapeError
 
 __all__ = [
     "MATRIX_SUFFIXES",
+    "SPARSE_FORMAT",
     "MatrixModel",
     "MatrixRules",
     "load_matrix_model",
     "matrix_model_from_arrays",
     "read_matrix_arrays",
     "read_matrix_rules",
+    "sparse_members",
 ]
 
 MATRIX_SUFFIXES = (".mat", ".npz")
 """File kinds a matrix model is read from."""
+SPARSE_FORMAT = "csr"
+"""Value of the NPZ marker ``sparse_format`` (module docstring)."""
+_PARTS = ("data", "indices", "indptr", "shape")
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,16 +109,19 @@ class MatrixModel:
         return sp.csr_array(out)
 
     def to_arrays(self, theta: FloatArray | None = None) -> dict[str, Any]:
-        """Arrays for :func:`numpy.savez` (dense; the conventions of the module docstring)."""
+        """Return the named arrays of the model at ``theta``.
+
+        The matrices stay sparse; :func:`sparse_members` makes them NPZ members.
+        """
         th = np.zeros(len(self.names)) if theta is None else np.asarray(theta, dtype=float)
-        out: dict[str, Any] = {"M": self.M.toarray(), "K": self.K(th).toarray(),
+        out: dict[str, Any] = {"M": self.M, "K": self.K(th),
                                "dofs": np.array(self.dofs), "theta": th,
                                "parameter_names": np.array(self.names),
                                "measured_dofs": self.measured_dofs}
         if self.C is not None:
-            out["C"] = self.C.toarray()
+            out["C"] = self.C
         for n, Kj in zip(self.names, self.K_j, strict=True):
-            out[f"K_{n}"] = Kj.toarray()
+            out[f"K_{n}"] = Kj
         if self.lower is not None and self.upper is not None:
             out["lower"], out["upper"] = self.lower, self.upper
         return out
@@ -148,7 +162,8 @@ def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
     Parameters
     ----------
     order : tuple of str, optional
-        Order of the substructure names (default: natural sort of the ``K_`` names).
+        Order of the substructure names (default: ``parameter_names`` when the arrays
+        name every ``K_`` matrix, else natural sort of the ``K_`` names).
 
     Raises
     ------
@@ -195,22 +210,83 @@ def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
     return MatrixModel(M, K0, C, K_j, names, _dofs(a, n, source), meas, lo, hi, source)
 
 
+def sparse_members(arrays: Mapping[str, Any]) -> dict[str, Any]:
+    """Return ``arrays`` as NPZ members: each scipy.sparse matrix as its CSR parts.
+
+    (``X__data``, ``X__indices``, ``X__indptr``, ``X__shape`` and the marker
+    ``sparse_format``; module docstring.) Other arrays are kept as they are.
+    """
+    out: dict[str, Any] = {}
+    for k, v in arrays.items():
+        if sp.issparse(v):
+            A = sp.csr_array(v)
+            A.sum_duplicates()
+            out.update({f"{k}__data": A.data, f"{k}__indices": A.indices,
+                        f"{k}__indptr": A.indptr, f"{k}__shape": np.array(A.shape, np.int64)})
+            out["sparse_format"] = np.array(SPARSE_FORMAT)
+        else:
+            out[k] = v
+    return out
+
+
+def _from_members(a: dict[str, Any], source: str) -> dict[str, Any]:
+    """Rebuild the sparse matrices of NPZ members (:func:`sparse_members`), checked."""
+    names = sorted({k.rsplit("__", 1)[0] for k in a if k.rsplit("__", 1)[-1] in _PARTS
+                    and "__" in k})
+    if not names:
+        return a
+    marker = str(np.asarray(a.get("sparse_format", "")))
+    if marker != SPARSE_FORMAT:
+        msg = (f"{source}: sparse members {names[:4]} without the marker sparse_format = "
+               f"{SPARSE_FORMAT!r} (got {marker!r})")
+        raise ConfigError(msg)
+    out = {k: v for k, v in a.items() if k != "sparse_format" and not (
+        "__" in k and k.rsplit("__", 1)[-1] in _PARTS)}
+    for n in names:
+        missing = [q for q in _PARTS if f"{n}__{q}" not in a]
+        if missing:
+            msg = f"{source}: sparse matrix {n!r} lacks its member(s) {missing}"
+            raise ConfigError(msg)
+        data, ind, ptr, shape = (np.asarray(a[f"{n}__{q}"]) for q in _PARTS)
+        ok = (shape.shape == (2,) and shape.dtype.kind in "iu" and int(shape.min()) >= 0
+              and data.ndim == ind.ndim == ptr.ndim == 1 and data.size == ind.size
+              and ptr.size == int(shape[0]) + 1 and ind.dtype.kind in "iu"
+              and ptr.dtype.kind in "iu" and data.dtype.kind in "fiu")
+        if not ok:
+            msg = (f"{source}: sparse matrix {n!r}: members of inconsistent sizes (data "
+                   f"{data.shape}, indices {ind.shape}, indptr {ptr.shape}, shape "
+                   f"{shape.tolist()}); expected a CSR matrix")
+            raise ConfigError(msg)
+        try:
+            A = sp.csr_array((data.astype(float), ind, ptr), shape=(int(shape[0]),
+                                                                    int(shape[1])))
+            A.check_format(full_check=True)
+        except ValueError as err:
+            msg = f"{source}: sparse matrix {n!r} is not a valid CSR matrix ({err})"
+            raise ConfigError(msg) from err
+        out[n] = A
+    return out
+
+
 def read_matrix_arrays(path: str | Path) -> dict[str, Any]:
     """Return the named arrays of a ``.mat`` (MATLAB 4 to 7.3) or ``.npz`` file.
 
     Refused before loading when they would unpack to more than
-    :data:`~modal_twin.validation.FILE_UNPACKED_MAX_BYTES` (:mod:`modal_twin.array_files`).
+    :data:`~modal_twin.validation.FILE_UNPACKED_MAX_BYTES` (:mod:`modal_twin.array_files`;
+    a sparse matrix counts by its members). Sparse NPZ members come back as
+    :class:`scipy.sparse.csr_array` (module docstring).
 
     Raises
     ------
     ConfigError
-        Another kind of file, one that does not read, or one too large unpacked.
+        Another kind of file, one that does not read, one too large unpacked, or sparse
+        members that are not one consistent CSR matrix.
     """
     from modal_twin.array_files import mat_arrays, npz_arrays
 
     p = Path(path)
     if p.suffix.lower() == ".npz":
-        return npz_arrays(p)
+        return _from_members(npz_arrays(p), str(p))
     if p.suffix.lower() == ".mat":
         return mat_arrays(p)
     msg = f"{p}: expected a .mat or .npz matrix file, got {p.suffix!r}"

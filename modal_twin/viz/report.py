@@ -80,6 +80,7 @@ class RunData:
     mac: tuple[FloatArray, Sequence[str], Sequence[str]] | None = None
     frf: tuple[FloatArray, Any, Sequence[str], Any] | None = None  # f, H_meas, names, H_model
     images: Sequence[tuple[str, bytes]] = ()  # (caption, PNG bytes) found in the run folder
+    figures: Sequence[tuple[str, bytes]] = ()  # identify's PNGs (caption, bytes)
     notes: Sequence[str] = ()
 
 
@@ -121,7 +122,9 @@ def _identification(d: RunData) -> str:
     if d.modes is not None:
         parts.append("<h3>modes, identified vs model</h3>" + modes_table_html(**d.modes))
     if d.mac is not None:
-        parts.append(_img(plot_mac(*d.mac), "MAC, identified vs model"))
+        parts.append(_img(plot_mac(*d.mac), "MAC, identified vs model" if d.versions or
+                          d.records else "auto-MAC of the identified modes"))
+    parts += [_png(data, caption) for caption, data in d.figures]
     return "".join(parts)
 
 

@@ -10,7 +10,9 @@ that it can be
 
 Layout: copy 0 is the structure with its sensors (blue) and devices (green; blamed places
 red); copies 1..n to its right (towards -y) are the model's lowest modes, each animated as
-``x(t) = x0 + a phi sin(2 pi t / T)`` with ``a`` a fraction of the structure's size. meshcat
+``x(t) = x0 + a phi sin(2 pi t / T)`` with ``a`` a fraction of the structure's size, and
+labelled above it with its number, f and zeta (a text texture of the viewer,
+:func:`label_object`). meshcat
 animates transforms, not vertices, so every element is a unit segment whose position,
 rotation and length follow its two end nodes. Frequency and damping of each mode (and the
 blamed places with their family) are listed in an overlay of the HTML page. Instead of
@@ -41,7 +43,9 @@ __all__ = [
     "StructureGeometry",
     "building_geometry",
     "building_modes",
+    "label_object",
     "lines_object",
+    "mode_label",
     "scene_commands",
     "static_html",
 ]
@@ -231,6 +235,34 @@ def _moving_copy(geom: StructureGeometry, frames: FloatArray, base: Any, anim: A
     return cmds
 
 
+def mode_label(k: int, f_hz: float, zeta: float) -> str:
+    """Return the label drawn above a mode's copy: ``mode 2: 3.46 Hz, zeta 1.2 %``."""
+    return f"mode {k + 1}: {f_hz:.3g} Hz, \u03b6 {100 * zeta:.2g} %"
+
+
+def label_object(text: str, width: float, center: FloatArray, path: Any) -> list[Any]:
+    """Return the meshcat commands of a text label facing the default camera (+x).
+
+    The viewer draws ``text`` on a 256 x 256 canvas texture (its ``_text`` texture, the font
+    shrunk until the line fits) mapped on a thin square of side ``width`` centred at
+    ``center``; the canvas is transparent around the letters.
+    """
+    import meshcat.commands as mc
+    import meshcat.geometry as mg
+
+    tex = mg.GenericTexture({"type": "_text", "text": text, "font_size": 48,
+                             "font_face": "sans-serif"})
+    board = mg.Box([1e-3 * width, width, width])
+    cmds = [mc.SetObject(board, mg.MeshBasicMaterial(map=tex, transparent=True, side=0,
+                                                     color=0xFFFFFF), path=path)]  # front
+    # faces only: the far face would show the text mirrored through the transparent canvas
+    T = np.eye(4)
+    T[:3, :3] = [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]  # its v axis up (+z)
+    T[:3, 3] = center
+    cmds.append(mc.SetTransform(T, path=path))
+    return cmds
+
+
 def mode_frames(shape: FloatArray, amplitude: float, n_frames: int) -> FloatArray:
     """One period of ``a phi sin(2 pi k / n)``, k = 0..n, with ``max |a phi| = amplitude``."""
     peak = float(np.abs(shape).max()) or 1.0
@@ -325,6 +357,11 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
         shift[1, 3], shift[2, 3] = -step * ((m + 1) % cols), -zstep * ((m + 1) // cols)
         cmds.append(mc.SetTransform(shift, path=mbase))
         cmds += _moving_copy(geom, frames, mbase, anim, color)
+        if modes is not None and motion is None:
+            w = max(1.2 * float(hi[1] - lo[1]), 0.4 * size)
+            top = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, hi[2] + 0.18 * w])
+            cmds += label_object(mode_label(m, float(modes.f_hz[m]), float(modes.zeta[m])),
+                                 w, top, mbase.append("label"))
     cmds.append(mc.SetAnimation(anim, play=True, repetitions=100000))
     return cmds
 

@@ -60,6 +60,8 @@ def test_uff55_round_trip_through_pyuff(tmp_path: Path) -> None:
     np.testing.assert_allclose(d["f_hz"], f, rtol=1e-5)
     np.testing.assert_allclose(d["zeta"], z, rtol=1e-4)
     assert d["shapes"].shape == (6, 2)
+    assert [(n, dr) for _, n, dr in d["channels"]] == [(1, "x"), (1, "y"), (2, "-z")]
+    np.testing.assert_allclose(d["channel_shapes"], S, rtol=1e-5)
     with pytest.raises(ConfigError, match="expected UFF dataset 55"):
         read_uff55(write_uff58_frf(tmp_path / "f.uff", np.arange(4.0), np.ones((1, 1, 4)),
                                    [(1, 3)], [(2, 3)]))
@@ -125,3 +127,47 @@ def test_many_channels_print_one_line_per_role_and_reason(
                                 "(acceleration):", "a", "response"]
     assert lines[1].split()[:4] == ["1", "channel", "(99+Z)", "input"]
     assert "roles {'output': 70, 'input': 1}" in lines[2]
+
+
+def test_uff55_keeps_geometry_names_nodes_and_directions(tmp_path: Path) -> None:
+    """What :func:`write_uff55` writes (modes, channel names, UFF node numbers, signed
+    directions, nodes and trace lines) is read back equal, by pyuff and by read_modes."""
+    from modal_twin.io.modes_file import read_modes
+
+    f, z = np.array([2.5, 7.75, 11.0]), np.array([0.015, 0.03, 0.002])
+    rng = np.random.default_rng(3)
+    S = rng.standard_normal((4, 3)) + 1j * rng.standard_normal((4, 3))
+    names, nodes, dirs = ["deck E", "deck_W", "pier.2", "top"], [101, 102, 205, 101], [3, 3, -1, 2]
+    geo = {"nodes": {"101": [0.0, 0.0, 5.0], "102": [10.0, 0.0, 5.0], "205": [5.0, 0.0, 0.0],
+                     "7": [5.0, 3.0, 0.0]},
+           "trace_lines": [{"number": 1, "id": "deck", "nodes": [101, 102, 0, 205, 7]}]}
+    p = write_uff55(tmp_path / "m.uff", f, z, S, nodes, dirs, names=names, geometry=geo)
+    raw = pyuff.UFF(str(p)).read_sets()
+    assert [int(r["type"]) for r in raw] == [15, 82, 55, 55, 55]
+    assert list(raw[0]["node_nums"]) == [7, 101, 102, 205]
+    np.testing.assert_allclose(raw[0]["x"], [5.0, 0.0, 10.0, 5.0])
+    d = read_uff55(p)
+    np.testing.assert_allclose(d["f_hz"], f, rtol=1e-5)
+    np.testing.assert_allclose(d["zeta"], z, rtol=1e-4)
+    assert d["channels"] == [("deck_E", 101, "z"), ("deck_W", 102, "z"), ("pier.2", 205, "-x"),
+                             ("top", 101, "y")]  # a space in a name becomes "_"
+    np.testing.assert_allclose(d["channel_shapes"], S, rtol=1e-4)
+    assert d["geometry"]["nodes"]["102"] == [10.0, 0.0, 5.0]
+    assert d["geometry"]["trace_lines"][0]["nodes"] == [101, 102, 0, 205, 7]
+    m = read_modes(p)
+    assert [(x["channel"], x["node"], x["direction"]) for x in m.dofs] == d["channels"]
+    np.testing.assert_allclose(m.shapes, S, rtol=1e-4)
+    assert m.geometry is not None and set(m.geometry["nodes"]) == set(geo["nodes"])
+
+
+def test_uff55_id_lines_hold_as_many_names_as_fit(tmp_path: Path) -> None:
+    n = 40  # 40 entries of ~14 characters do not fit in 3 x 80: the rest get N<node><dir>
+    S = np.arange(1.0, n + 1)[:, None]
+    p = write_uff55(tmp_path / "m.uff", np.array([3.0]), np.array([0.01]), S,
+                    list(range(1, n + 1)), [1] * n, names=[f"chan_{k:04d}" for k in range(n)])
+    d = read_uff55(p)
+    names = [c[0] for c in d["channels"]]
+    kept = [x for x in names if x.startswith("chan_")]
+    assert 10 < len(kept) < n
+    assert names[len(kept):] == [f"N{k}x" for k in range(len(kept) + 1, n + 1)]
+    np.testing.assert_allclose(d["channel_shapes"][:, 0], np.arange(1.0, n + 1), rtol=1e-6)

@@ -131,3 +131,28 @@ def test_server_local_by_pid_and_port_in_use(tmp_path: Path) -> None:
     assert not pid_file.exists()
     assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(
         f"/proc/{pid}/status").read_text()
+
+
+def test_mode_copies_are_labelled(building: tuple[sc.StructureGeometry, sc.SceneModes]
+                                  ) -> None:
+    """Each animated copy carries a text label with its number, f and zeta, above it."""
+    geom, modes = building
+    lowered = [c.lower() for c in sc.scene_commands(geom, modes, n_frames=4)]
+    labels = {c["path"]: c for c in lowered if c["path"].endswith("/label")
+              and c["type"] == "set_object"}
+    assert sorted(labels) == [f"/modal_twin/mode_{k}/label" for k in (1, 2, 3)]
+    for k in range(3):
+        obj = labels[f"/modal_twin/mode_{k + 1}/label"]["object"]
+        (tex,) = obj["textures"]
+        assert tex["type"] == "_text"
+        assert tex["text"] == (f"mode {k + 1}: {modes.f_hz[k]:.3g} Hz, \u03b6 "
+                               f"{100 * modes.zeta[k]:.2g} %")
+        assert obj["materials"][0]["map"] == tex["uuid"]
+    moves = [c for c in lowered if c["path"] == "/modal_twin/mode_1/label"
+             and c["type"] == "set_transform"]
+    z_label = np.asarray(moves[0]["matrix"]).reshape(4, 4, order="F")[2, 3]
+    assert z_label > geom.node_xyz[:, 2].max()  # above the copy
+    # a motion (a record beside the twins) has no modes to label
+    motion = sc.SceneMotion(np.zeros((2, 3, *geom.node_xyz.shape)), 24.0, (0xFF0000, 0x00FF00))
+    assert not [c for c in sc.scene_commands(geom, motion=motion)
+                if c.lower()["path"].endswith("/label")]

@@ -1,0 +1,168 @@
+"""The report of an imported record or an ``identify`` folder (not a run folder).
+
+What the folder holds decides the sections (:func:`load_record_folder`):
+
+- modes: ``modes.json`` (``identify --out``) or ``modes_<file>.json`` (a UFF 55 that
+  ``modal-twin import`` read) -> the modes table and their auto-MAC; the PNGs ``identify``
+  wrote beside them (``stabilization.png``, ``mac.png``) are embedded;
+- an imported bag (``channel_map.json`` and a record) without modes -> identified here, as
+  ``modal-twin identify`` does (:func:`~modal_twin.identification.record.identify_record`):
+  stabilization diagram, modes, auto-MAC; with input channels also the H1 FRFs;
+- a test geometry (``geometry_*.json`` of the import, or the one in the modes file) -> the
+  3D view, the modes drawn on it where their channels sit.
+
+A folder with none of these gives one line naming what is missing (the caller exits 2).
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modal_twin.errors import ModalTwinError
+from modal_twin.paths import open_regular
+from modal_twin.progress import step
+
+__all__ = ["RECORD_FIGURES", "load_record_folder"]
+
+RECORD_FIGURES = ("stabilization.png", "mac.png")
+"""The figures ``identify --out`` writes, embedded as they are."""
+_PNG = b"\x89PNG\r\n\x1a\n"
+_FIGURE_MAX_BYTES = 32 * 2**20
+
+
+def _modes_files(folder: Path) -> list[Path]:
+    return [p for p in [folder / "modes.json", *sorted(folder.glob("modes_*.json"))]
+            if p.is_file() and not p.is_symlink()]
+
+
+def _figures(folder: Path, notes: list[str]) -> list[tuple[str, bytes]]:
+    out = []
+    for name in RECORD_FIGURES:
+        p = folder / name
+        if not p.exists():
+            continue
+        try:
+            with open_regular(p, "figure", follow=False) as fh:
+                data = fh.read(_FIGURE_MAX_BYTES + 1)
+        except (ModalTwinError, OSError) as err:
+            notes.append(f"left out {name}: {err}")
+            continue
+        if data.startswith(_PNG) and len(data) <= _FIGURE_MAX_BYTES:
+            out.append((f"{p.stem} (identify)", data))
+        else:
+            notes.append(f"left out {name}: not a PNG figure")
+    return out
+
+
+def _modes_sections(mf: Any, source: str) -> dict[str, Any]:
+    from modal_twin.identification import automac
+
+    labels = [f"{k + 1}: {f:.3f} Hz" for k, f in enumerate(mf.f_hz)]
+    return {"modes": {"f_id_hz": mf.f_hz, "zeta_id": mf.zeta, "labels": labels},
+            "mac": (automac(mf.shapes), labels, labels), "selected_f_hz": mf.f_hz,
+            "source": source}
+
+
+def _identified(bag: Path, notes: list[str]) -> tuple[dict[str, Any], Any]:
+    """Identify the bag's modes as ``identify`` does; the sections and a ModesFile-like."""
+    from modal_twin.acquisition.frf import frf
+    from modal_twin.identification.record import IdentifyOptions, identify_record
+    from modal_twin.io.imported import read_imported
+    from modal_twin.io.modes_file import ModesFile, modes_document
+
+    with step(f"report: reading {bag.name}"):
+        block, chans = read_imported(bag)
+    with step(f"report: identifying {bag.name} ({block.n_samples / block.fs_hz:.0f} s of "
+              f"{len(chans)} channels)"):
+        rec = identify_record(block, chans, IdentifyOptions())
+    mm = rec.modes
+    notes.append(f"identification: {rec.method} on {len(rec.inputs)} inputs, "
+                 f"{len(rec.outputs)} outputs, {rec.settings.describe()}; "
+                 f"{mm.f_hz.size} modes" + "".join(f"; {n}" for n in rec.notes))
+    notes += [f"not reported: {d.describe()}" for d in rec.dropped]
+    doc = modes_document(rec)
+    mf = ModesFile(mm.f_hz, mm.zeta, mm.std_f_hz, mm.shapes, np.full(mm.shapes.shape, np.nan),
+                   None, tuple(doc["dofs"]))
+    out: dict[str, Any] = {"stabilization": rec.diagram}
+    if mm.f_hz.size:
+        out.update(_modes_sections(mf, bag.name))
+    if rec.inputs and rec.outputs:
+        with step("report: FRFs (H1)"):
+            x = block.select([c.name for c in rec.inputs[:1]]).data
+            y = block.select([c.name for c in rec.outputs]).data
+            est = frf(x, y, block.fs_hz)
+        lo, hi = rec.settings.band_hz
+        band = (est.f_hz >= lo) & (est.f_hz <= hi)
+        out["frf"] = (est.f_hz[band], np.nan_to_num(est.H1[:, 0, band]),
+                      [c.name for c in rec.outputs], None)
+        notes.append(f"FRF: H1 of every output to the input {rec.inputs[0].name}")
+    return out, (mf if mm.f_hz.size else None)
+
+
+def _scene(folder: Path, mf: Any, notes: list[str]) -> str | None:
+    """3D view of the folder's test geometry (or the modes file's), the modes on it."""
+    from modal_twin.commands.view import load_measured_geometry
+    from modal_twin.viz.measured_geometry import (
+        MeasuredGeometry,
+        geometry_from_uff,
+        modes_on_nodes,
+    )
+    from modal_twin.viz.scene import caption_html, overlay_html, scene_commands, static_html
+
+    if any(folder.glob("geometry_*.json")):
+        mg = load_measured_geometry(folder)
+    elif mf is not None and mf.geometry:
+        geom, ids = geometry_from_uff(mf.geometry, folder.name,
+                                      [str(d["node"]) for d in mf.dofs])
+        chans = {str(d["channel"]): (str(d["node"]), str(d["direction"])) for d in mf.dofs}
+        mg = MeasuredGeometry(geom, ids, chans)
+    else:
+        return None
+    if mf is None or not mf.dofs:
+        g = mg.geom
+        return static_html(scene_commands(g), caption=caption_html([
+            f"<b>{html.escape(folder.name)}</b>: test geometry, {len(mg.ids)} nodes"]))
+    try:
+        modes = modes_on_nodes(mg, mf.f_hz, mf.zeta, mf.shapes, mf.dofs)
+    except ModalTwinError as err:
+        notes.append(f"3D view without modes: {err}")
+        return static_html(scene_commands(mg.geom), caption=caption_html(
+            [f"<b>{html.escape(folder.name)}</b>: test geometry"]))
+    return static_html(scene_commands(mg.geom, modes), caption=overlay_html(mg.geom, modes))
+
+
+def load_record_folder(folder: Path) -> tuple[Any, str]:
+    """Return the report data of an imported / identify folder, or ``(None, what is missing)``.
+
+    (A :class:`~modal_twin.viz.report.RunData`; module docstring.)
+    """
+    from modal_twin.io.modes_file import read_modes
+    from modal_twin.viz.report import RunData
+
+    notes = [f"folder: {folder.resolve()}"]
+    data: dict[str, Any] = {}
+    mf = None
+    files = _modes_files(folder)
+    if files:
+        mf = read_modes(files[0])
+        data.update(_modes_sections(mf, files[0].name))
+        notes.append(f"modes: {files[0].name} ({mf.f_hz.size} modes at {len(mf.dofs)} "
+                     "channels)" + (f"; also {[p.name for p in files[1:]]}" if files[1:]
+                                    else ""))
+    elif (folder / "channel_map.json").is_file() and (folder / "metadata.yaml").is_file():
+        ident, mf = _identified(folder, notes)
+        data.update(ident)
+    images = _figures(folder, notes)
+    with step("report: 3D view"):
+        scene = _scene(folder, mf, notes)
+    source = data.pop("source", folder.name)
+    if not (data or images or scene):
+        return None, (f"{folder}: nothing to report: no run (*/bag, models/), no imported "
+                      "record (channel_map.json with a bag), no modes (modes.json, "
+                      "modes_*.json) and no test geometry (geometry_*.json)")
+    return RunData(f"modal_twin record {folder.name} ({source})", scene_html=scene,
+                   figures=images, notes=notes, **data), ""
