@@ -21,7 +21,6 @@ of them:
 from __future__ import annotations
 
 import csv
-import stat
 import struct
 import zipfile
 import zlib
@@ -34,6 +33,7 @@ import numpy as np
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ConfigError
+from modal_twin.paths import check_regular
 from modal_twin.validation import FILE_UNPACKED_MAX_BYTES, LIMITS
 
 __all__ = [
@@ -81,23 +81,15 @@ def check_unpacked(path: str | Path, nbytes: int, max_bytes: int, what: str = "a
 def regular_file(path: str | Path) -> Path:
     """Return ``path`` if it is a regular file; refuse a FIFO, device or folder unopened.
 
-    Opening a FIFO would block until someone writes to it.
+    Opening a FIFO would block until someone writes to it
+    (:func:`modal_twin.paths.check_regular`).
 
     Raises
     ------
     ConfigError
         Missing, or not a regular file.
     """
-    p = Path(path)
-    try:
-        mode = p.stat().st_mode
-    except OSError as err:
-        msg = f"{p}: cannot read ({err.strerror or err})"
-        raise ConfigError(msg) from err
-    if not stat.S_ISREG(mode):
-        msg = f"{p}: expected a regular file, got a FIFO, device or folder"
-        raise ConfigError(msg)
-    return p
+    return check_regular(path, "file")
 
 
 # ----------------------------------------------------------------------------------- NPZ
