@@ -25,6 +25,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     mi.add_argument("--rules", type=Path, default=None,
                     help="matrix file: YAML of the data set's parameter order and bounds "
                          "(e.g. config/matrix_models/pedestrian_bridge.yaml)")
+    mi.add_argument("--condense", action="store_true",
+                    help="matrix file: condense the massless DOFs exactly (sensors kept) and "
+                         "print the DOF count and lowest frequencies before and after")
     mo.set_defaults(func=run)
 
 
@@ -33,7 +36,8 @@ def run(a: argparse.Namespace) -> int:
     import json
 
     from modal_twin.commands import ride
-    from modal_twin.commands.model_matrix import check_model_kind, matrix_info
+    from modal_twin.commands.model_matrix import MATRIX_SUFFIXES, check_model_kind, matrix_info
+    from modal_twin.errors import OptionError
     from modal_twin.models.building import build_building, modal_reduction
     from modal_twin.models.carbody3d_file import is_carbody3d_file
     from modal_twin.models.model_info import model_info
@@ -42,6 +46,9 @@ def run(a: argparse.Namespace) -> int:
 
     if check_model_kind(a.file) == "matrix":  # .mat / .npz from the user's FE tool
         return matrix_info(a)
+    if getattr(a, "condense", False):
+        msg = f"--condense: only for matrix models {MATRIX_SUFFIXES}, got {a.file}"
+        raise OptionError(msg)
     if is_vehicle3d_file(a.file):  # config/vehicles/*_3d.yaml (kind: vehicle3d)
         return ride.vehicle3d_info(a)
     if is_vehicle_file(a.file):  # config/vehicles

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -82,3 +83,77 @@ def test_meshed_building_condenses_to_its_joints():
     th = par.theta0 * np.linspace(0.8, 1.2, par.n_theta)
     full = solve_modes(par.K(th), par.M(th), 12).f_hz
     np.testing.assert_allclose(solve_modes(c.par.K(th), c.par.M(th), 12).f_hz, full, rtol=1e-8)
+
+
+# --- modal-twin model info FILE --condense (a matrix model from the user's FE tool) -------
+
+
+def _spring_chain_npz(path, n_mass: int = 8, n_between: int = 2, m: float = 50.0,
+                      k_a: float = 3e6, k_b: float = 1.5e6):
+    """Masses joined by chains of ``n_between + 1`` springs through massless DOFs.
+
+    The first half of the links is substructure ``a`` (k_a), the rest ``b`` (k_b); the
+    first link ties mass 0 to the ground. Returns the DOFs of the masses and the stiffness
+    of each mass-to-mass link (``n_between + 1`` springs in series: k / (n_between + 1)).
+    """
+    n = n_mass * (n_between + 1)
+    mass_dofs = np.arange(n_mass) * (n_between + 1) + n_between  # ground, 2 massless, mass ...
+    K = {"a": np.zeros((n, n)), "b": np.zeros((n, n))}
+    links = []
+    prev = -1  # ground
+    for j, dm in enumerate(mass_dofs):
+        name, k = ("a", k_a) if j < n_mass // 2 else ("b", k_b)
+        chain = [prev, *range(dm - n_between, dm + 1)]
+        for p, q in itertools.pairwise(chain):
+            for i1, i2, s in ((p, p, k), (q, q, k), (p, q, -k), (q, p, -k)):
+                if i1 >= 0 and i2 >= 0:
+                    K[name][i1, i2] += s
+        links.append(k / (n_between + 1))
+        prev = dm
+    M = np.zeros((n, n))
+    M[mass_dofs, mass_dofs] = m
+    meas = [int(mass_dofs[-1]), 1]  # a sensor on a massless DOF stays a master
+    np.savez(path, M=M, K_a=K["a"], K_b=K["b"], measured_dofs=np.array(meas))
+    return mass_dofs, np.array(links), m
+
+
+def test_model_info_condense_prints_the_full_models_frequencies(tmp_path, capsys):
+    import json
+
+    from modal_twin.cli import main
+
+    npz = tmp_path / "chain.npz"
+    _, links, m = _spring_chain_npz(npz)
+    # known answer: the equivalent chain of the masses alone, springs in series summed
+    n = links.size
+    Ke = np.zeros((n, n))
+    for j, k in enumerate(links):
+        Ke[j, j] += k
+        if j:
+            Ke[j - 1, j - 1] += k
+            Ke[j - 1, j] -= k
+            Ke[j, j - 1] -= k
+    f_true = np.sqrt(np.linalg.eigvalsh(Ke / m)) / (2 * np.pi)
+    assert main(["model", "info", str(npz), "--condense", "--show", "5", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    c = d["condensed"]
+    assert (c["n_dof_before"], c["n_dof_after"]) == (24, 9)  # 8 masses + the massless sensor
+    assert c["n_condensed"] == 15 and c["n_kept_mixed"] == 0
+    np.testing.assert_allclose(c["f_hz"], d["f_hz"], rtol=1e-8)
+    np.testing.assert_allclose(d["f_hz"], f_true[:5], rtol=1e-8)
+    assert main(["model", "info", str(npz), "--condense", "--show", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "condensed: 24 -> 9 DOFs (15 massless DOFs in" in out
+    assert f"{f_true[0]:12.6f} {f_true[0]:17.6f}" in out
+    # without the flag: the table as before
+    assert main(["model", "info", str(npz), "--show", "3"]) == 0
+    assert "condensed" not in capsys.readouterr().out
+
+
+def test_model_info_condense_refuses_a_yaml_model(capsys):
+    from modal_twin.cli import main
+
+    yaml_model = Path(__file__).resolve().parents[2] / "config/structures/building.yaml"
+    assert main(["model", "info", str(yaml_model), "--condense"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--condense: only for matrix models" in err[0]
