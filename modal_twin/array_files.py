@@ -39,6 +39,7 @@ from modal_twin.validation import FILE_UNPACKED_MAX_BYTES, LIMITS
 __all__ = [
     "check_text_file",
     "check_unpacked",
+    "hdf5_datasets",
     "mat_arrays",
     "mat_sizes",
     "npz_arrays",
@@ -270,27 +271,59 @@ def mat_sizes(path: str | Path, limit: int = FILE_UNPACKED_MAX_BYTES) -> int:
     return sum(prod(int(s) for s in shape) * _DENSE_BYTES.get(cls, 8) for _, shape, cls in info)
 
 
-def _h5_arrays(p: Path, max_bytes: int) -> dict[str, Any]:
+def hdf5_datasets(path: str | Path, *, group: str | None = "/", needs: tuple[str, ...] = (),
+                  max_bytes: int = FILE_UNPACKED_MAX_BYTES, kind: str = "HDF5 file"
+                  ) -> tuple[dict[str, Any], str]:
+    """Return the numeric datasets of one group of an HDF5 file, as stored, and its name.
+
+    The group's datasets are refused before loading if they would unpack to more than
+    ``max_bytes`` (:func:`check_unpacked`).
+
+    Parameters
+    ----------
+    path : str or Path
+    group : str, optional
+        Group name (``"/"``: the root); None: the first group, by name, that holds every
+        dataset of ``needs`` (the root when none does).
+    needs : tuple of str
+        Dataset names the chosen group must hold (with ``group=None``).
+    max_bytes : int
+    kind : str
+        What the file is, for the messages.
+
+    Raises
+    ------
+    ConfigError
+        No h5py, not a readable HDF5 file, no such group, or too large unpacked.
+    """
+    p = Path(path)
     try:
         import h5py  # type: ignore[import-untyped]
     except ImportError as err:
-        msg = f"{p}: a MATLAB 7.3 (HDF5) file needs h5py (requirements/python.txt)"
+        msg = f"{p}: a {kind} needs h5py (requirements/python.txt)"
         raise ConfigError(msg) from err
-
     try:
         with h5py.File(p, "r") as f:
-            sets = {k: v for k, v in f.items() if isinstance(v, h5py.Dataset)}
+            names = sorted(k for k, v in f.items() if isinstance(v, h5py.Group)
+                           and all(n in v for n in needs))
+            if group is None:
+                group = names[0] if names else "/"
+            if group not in f or not isinstance(f[group], h5py.Group):
+                msg = f"{p}: no group {group!r}; groups with {list(needs)}: {names}"
+                raise ConfigError(msg)
+            sets = {k: v for k, v in f[group].items() if isinstance(v, h5py.Dataset)}
             total = sum(prod(v.shape) * 8 for v in sets.values())
             check_unpacked(p, total, max_bytes, "variables")
-            out: dict[str, Any] = {}
-            for k, v in sets.items():
-                if v.dtype.kind not in "biuf":
-                    continue
-                out[k] = np.asarray(v[()]).T  # MATLAB stores column-major: transpose back
-            return out
+            return ({k: np.asarray(v[()]) for k, v in sets.items()
+                     if v.dtype.kind in "biuf"}, group)
     except (OSError, ValueError, KeyError) as err:
-        msg = f"{p}: not a readable MATLAB 7.3 file ({type(err).__name__}: {err})"
+        msg = f"{p}: not a readable {kind} ({type(err).__name__}: {err})"
         raise ConfigError(msg) from err
+
+
+def _h5_arrays(p: Path, max_bytes: int) -> dict[str, Any]:
+    sets, _ = hdf5_datasets(p, max_bytes=max_bytes, kind="MATLAB 7.3 file")
+    return {k: v.T for k, v in sets.items()}  # MATLAB stores column-major: transpose back
 
 
 def mat_arrays(path: str | Path, *, max_bytes: int = FILE_UNPACKED_MAX_BYTES

@@ -15,6 +15,7 @@ modal-twin export modes|frf|model SRC --out FILE
 modal-twin view MODEL [--modes FILE | --bag BAG] [--html OUT]   (or a UFF test geometry)
 modal-twin report RUN_DIR [--out FILE]
 modal-twin residual MODEL BAG [--top N] [--live]          (the twin on a record, per channel)
+modal-twin sdof RECORD [--period N] [--test RECORD] [--out DIR] [--json FILE]   (one-DOF fits)
 modal-twin ride [VEHICLE_3D] --speed KMH [--duration S] [--sweep A:B:STEP]   (Sperling, hunting)
 modal-twin demo
 """
@@ -40,6 +41,7 @@ from modal_twin.commands import (
     report,
     residual,
     ride,
+    sdof,
     update,
     view,
 )
@@ -65,7 +67,7 @@ def _parser() -> argparse.ArgumentParser:
     sub.add_parser("record", help="record topics to a bag", add_help=False)
     sub.add_parser("replay", help="republish a bag", add_help=False)
     for mod in (bag, model, diagnose, effects, view, report, demo, import_, identify, export,
-                update, campaign, residual, ride):
+                update, campaign, residual, ride, sdof):
         mod.register(sub)
     _flags_on_commands(sub)  # also after the command: modal-twin demo --quiet
     return p

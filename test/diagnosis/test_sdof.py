@@ -6,6 +6,7 @@ continuous multisine force; the displacement carries seeded white noise.
 
 from __future__ import annotations
 
+import json
 from functools import cache
 from pathlib import Path
 
@@ -274,3 +275,127 @@ def test_benchmark_train_names_hysteresis() -> None:
     dg = classify_residual(rf)
     assert dg.top == "hysteresis"
     assert dg.explained["hysteresis"] > 0.8
+
+
+# --- modal-twin sdof RECORD ---------------------------------------------------------------
+
+
+def _sdof_cli(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    from modal_twin.cli import main
+
+    rc = main(["sdof", *args])
+    out = capsys.readouterr()
+    return rc, out.out, out.err
+
+
+def _write_csv(path: Path, cols: dict[str, np.ndarray]) -> Path:
+    t = np.arange(next(iter(cols.values())).size) / FS
+    np.savetxt(path, np.column_stack([t, *cols.values()]), delimiter=",",
+               header=",".join(["t [s]", *cols]), comments="")
+    return path
+
+
+def test_sdof_command_names_hysteresis_and_recovers_bouc_wen(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # truth: solve_ivp (independent of the library's RK4) with known parameters, 1 % noise
+    u, y = truth("bouc_wen")
+    csv = _write_csv(tmp_path / "bw.csv", {"F [N]": u, "y [mm]": 1e3 * y})
+    rc, out, _ = _sdof_cli([str(csv), "--f-max", "150", "--json", str(tmp_path / "s.json"),
+                            "--out", str(tmp_path / "out")], capsys)
+    assert rc == 0
+    assert "bw.csv: force F, response y" in out
+    assert "-> effect: hysteresis" in out
+    d = json.loads((tmp_path / "s.json").read_text())
+    assert d["classifier"]["top"] == "hysteresis"
+    assert d["classifier"]["explained"]["hysteresis"] > 0.3
+    bw = d["bouc_wen"]["parameters"]
+    true = {"m": M, "c": C, "k": 0.5 * K, "alpha": 0.5 * K, "a": 0.6 / SIGMA, "b": 0.4 / SIGMA}
+    for name, v in true.items():  # the tolerance of test_bouc_wen_fit_recovers_parameters
+        assert bw[name] == pytest.approx(v, rel=0.05), name
+    assert d["bouc_wen"]["nrmse"] < 0.015 < d["linear"]["nrmse"]
+    assert json.loads((tmp_path / "out" / "sdof.json").read_text()) == d
+    with np.load(tmp_path / "out" / "sdof_map.npz") as z:
+        assert np.sqrt(np.mean((z["y_bouc_wen"] - y) ** 2)) == pytest.approx(
+            d["bouc_wen"]["rmse_m"], rel=1e-6)
+
+
+def test_sdof_command_acceleration_of_a_linear_steady_state(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a linear SDOF in steady state under a multisine: the FRF gives the response exactly
+    n, reps = 4000, 2
+    rng = np.random.default_rng(3)
+    U = np.zeros(n // 2 + 1, complex)
+    U[12:320] = np.exp(2j * np.pi * rng.uniform(size=308))  # 3-80 Hz
+    u = np.fft.irfft(U, n) * 400.0
+    w = 2 * np.pi * np.fft.rfftfreq(n, 1 / FS)
+    acc = np.fft.irfft(-(w**2) * np.fft.rfft(u) / (K - M * w**2 + 1j * C * w), n)
+    acc = np.tile(acc, reps)
+    acc += 0.01 * np.std(acc) * np.random.default_rng(4).standard_normal(acc.size)
+    npz = tmp_path / "lin.npz"
+    np.savez(npz, data=np.vstack([np.tile(u, reps), acc / 9.80665]), fs_hz=FS,
+             names=np.array(["hammer", "acc"]), units=np.array(["N", "g"]),
+             roles=np.array(["input", "output"]))
+    rc, out, _ = _sdof_cli([str(npz), "--period", str(n), "--json",
+                            str(tmp_path / "s.json")], capsys)
+    assert rc == 0
+    assert "acceleration integrated above 3 Hz" in out  # the force band starts at 3 Hz
+    d = json.loads((tmp_path / "s.json").read_text())
+    assert d["response_quantity"] == "acceleration"
+    assert d["classifier"]["top"] == "nothing significant"
+    lin = d["linear"]["parameters"]
+    np.testing.assert_allclose([lin["m"], lin["c"], lin["k"]], [M, C, K], rtol=0.01)
+
+
+def test_sdof_command_bad_input_is_one_line(tmp_path: Path,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+    u, y = truth("linear")
+    two = _write_csv(tmp_path / "two.csv", {"F1 [N]": u, "F2 [N]": u, "y [m]": y})
+    nan = y.copy()
+    nan[5] = np.nan
+    cases = {
+        str(tmp_path / "none.csv"): "no such record",
+        str(two): "2 channels could be the force (['F1', 'F2']); name one with --force",
+        str(_write_csv(tmp_path / "nan.csv", {"F [N]": u, "y [m]": nan})):
+            "expected finite samples",
+        str(_write_csv(tmp_path / "short.csv", {"F [N]": u[:20], "y [m]": y[:20]})):
+            "expected at least 64 samples",
+        str(tmp_path / "rec.txt"): "unknown record kind '.txt'",
+    }
+    (tmp_path / "rec.txt").write_text("1 2\n")
+    for rec, words in cases.items():
+        rc, _, err = _sdof_cli([rec], capsys)
+        assert rc == 2, rec
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and words in lines[0], err
+    rc, _, err = _sdof_cli([str(two), "--force", "F1", "--period", "7"], capsys)
+    assert rc == 2 and "period: expected a divisor" in err
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(tmp_path / "r.h5", "w") as h:
+        h["run/u"], h["run/y"], h["run/fs"] = u, y, [FS]
+    rc, _, err = _sdof_cli([f"{tmp_path / 'r.h5'}:other"], capsys)
+    assert rc == 2 and "no group 'other'; groups with ['u', 'y']: ['run']" in err
+
+
+def test_sdof_command_on_the_benchmark_gives_the_readme_figures(
+        shared_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("h5py")
+    data = shared_dir / "benchmarks" / "boucwen"
+    if not (data / "train.h5").is_file() or not (data / "test.h5").is_file():
+        pytest.skip(f"Bouc-Wen benchmark data not found in {data}")
+    rc, _, _ = _sdof_cli([str(data / "train.h5"), "--period", "8192", "--f-max", "200",
+                            "--test", f"{data / 'test.h5'}:multisine",
+                            "--test", f"{data / 'test.h5'}:sinesweep",
+                            "--json", str(tmp_path / "s.json")], capsys)
+    assert rc == 0
+    d = json.loads((tmp_path / "s.json").read_text())
+    assert d["classifier"]["top"] == "hysteresis"
+    assert 1.5e-4 < d["linear"]["rmse_m"] < 2.2e-4  # the best linear SDOF: ~1.8e-4 m (README)
+    ms, sw = d["tests"]
+    assert ms["steady_state"] and not sw["steady_state"]
+    # README, bench_boucwen.py: multisine RMS error 1.7e-7 m, sine sweep 2.3e-6 m
+    assert f"{ms['rmse_bouc_wen_m']:.1e}" == "1.7e-07"
+    assert f"{sw['rmse_bouc_wen_m']:.1e}" == "2.3e-06"
+    bw = d["bouc_wen"]["parameters"]  # the benchmark's published system (its README)
+    true = {"m": 2.0, "c": 10.0, "k": 5e4, "alpha": 5e4, "a": 800.0, "b": -1100.0}
+    for name, v in true.items():
+        assert bw[name] == pytest.approx(v, rel=0.01), name
