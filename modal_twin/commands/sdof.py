@@ -37,10 +37,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``sdof`` parser."""
     p = sub.add_parser("sdof", help="single-DOF record: effect class, linear and Bouc-Wen fits")
     p.add_argument("record", help="force and response record: .h5[:GROUP], .mat, .csv, .npz")
-    p.add_argument("--force", default=None, help="force channel / variable (default: by role "
-                   "and quantity; u in HDF5 / .mat)")
-    p.add_argument("--response", default=None, help="response channel / variable (default: "
-                   "by role and quantity; y in HDF5 / .mat)")
+    p.add_argument("--force-channel", default=None, help="force channel / variable (default: "
+                   "by role and quantity; u in HDF5 / .mat)")
+    p.add_argument("--response-channel", default=None, help="response channel / variable "
+                   "(default: by role and quantity; y in HDF5 / .mat)")
     p.add_argument("--response-quantity", choices=("displacement", "acceleration"),
                    default=None, help="default: from the units, else displacement")
     p.add_argument("--fs", type=float, default=None, help="sample rate if the file lacks it")
@@ -60,8 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "repeatable")
     p.add_argument("--out", type=Path, default=None, help="folder to write (new)")
     p.add_argument("--json", type=Path, default=None, help="write the summary as JSON")
-    p.add_argument("--force-overwrite", dest="overwrite", action="store_true",
-                   help="overwrite an existing --json file")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     p.set_defaults(func=run)
 
 
@@ -75,7 +74,8 @@ def _displacement(a: argparse.Namespace, spec: str, period: int | None
         read_sdof_record,
     )
 
-    rec = read_sdof_record(spec, force=a.force, response=a.response, fs_hz=a.fs,
+    rec = read_sdof_record(spec, force=a.force_channel, response=a.response_channel,
+                           fs_hz=a.fs,
                            quantity=a.response_quantity)
     if rec.quantity != "acceleration":
         return rec, rec.u, rec.y, ""
@@ -113,7 +113,7 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.paths import atomic_dir, atomic_file, check_new
 
     if a.json is not None:
-        check_new(a.json, a.overwrite)
+        check_new(a.json, a.force)
     if a.out is not None:
         check_new(a.out, False)
     period = a.period
@@ -130,7 +130,8 @@ def run(a: argparse.Namespace) -> int:
     out: dict[str, Any] = {
         "record": rec.source, "fs_hz": fs, "n_samples": int(u.size), "period": period,
         "response_quantity": rec.quantity,
-        "classifier": {"top": dg.top, "ranking": list(dg.ranking), "explained": dg.explained,
+        "classifier": {"top": dg.top, "significant": dg.significant,
+                       "ranking": list(dg.ranking), "explained": dg.explained,
                        "unique": dg.unique, "unexplained": dg.unexplained,
                        "loop_energy_ratio": dg.loop_energy_ratio,
                        "odd_index": dg.odd_index, "jump_index": dg.jump_index,
@@ -169,7 +170,7 @@ def run(a: argparse.Namespace) -> int:
                           for k in models))
     text = json.dumps(out, indent=1)
     if a.json is not None:
-        with atomic_file(a.json, force=a.overwrite) as tmp:
+        with atomic_file(a.json, force=a.force) as tmp:
             tmp.write_text(text, encoding="utf-8")
         print(f"sdof: wrote {a.json}")
     if a.out is not None:

@@ -10,10 +10,10 @@ Read from (by file name; ``FILE:GROUP`` picks a group of an HDF5 file):
   is the one channel of role ``input`` or else of quantity force; the response the one other
   channel of quantity displacement or acceleration (role ``output`` first).
 
-``--force`` / ``--response`` name the channels (variables) instead; ``--fs`` gives a rate the
-file lacks. The response quantity comes from the units (CSV / NPZ) or is displacement
-(``--response-quantity`` says otherwise). An acceleration is integrated twice in the
-frequency domain (:func:`displacement_from_acceleration`).
+``--force-channel`` / ``--response-channel`` name the channels (variables) instead; ``--fs``
+gives a rate the file lacks. The response quantity comes from the units (CSV / NPZ) or is
+displacement (``--response-quantity`` says otherwise). An acceleration is integrated twice
+in the frequency domain (:func:`displacement_from_acceleration`).
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def _pick(chans: list[ChannelSpec], name: str | None, what: str, path: Path,
     by_role = [i for i in cands if chans[i].effective_role == role]
     pick = by_role if len(by_role) == 1 else cands
     if len(pick) != 1:
-        flag = "--force" if what == "force" else "--response"
+        flag = f"--{what}-channel"
         msg = (f"{path}: {len(pick)} channels could be the {what} "
                f"({[names[i] for i in pick]}); name one with {flag}")
         raise ConfigError(msg)

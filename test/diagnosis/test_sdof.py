@@ -342,8 +342,29 @@ def test_sdof_command_acceleration_of_a_linear_steady_state(
     d = json.loads((tmp_path / "s.json").read_text())
     assert d["response_quantity"] == "acceleration"
     assert d["classifier"]["top"] == "nothing significant"
+    assert not d["classifier"]["significant"]
     lin = d["linear"]["parameters"]
     np.testing.assert_allclose([lin["m"], lin["c"], lin["k"]], [M, C, K], rtol=0.01)
+
+
+def test_sdof_command_reads_a_mat_record_by_variable_names(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from scipy.io import savemat
+
+    u, y = truth("linear")
+    mat = tmp_path / "uval.mat"
+    savemat(mat, {"uval": u[:, None], "yval": y[:, None]})
+    names = ["--force-channel", "uval", "--response-channel", "yval"]
+    rc, _, err = _sdof_cli([str(mat), *names], capsys)
+    assert rc == 2 and "no sample rate variable 'fs'; give --fs" in err
+    rc, out, _ = _sdof_cli([str(mat), *names, "--fs", str(FS), "--json", str(tmp_path / "s.json")],
+                           capsys)
+    assert rc == 0 and "uval.mat: force uval, response yval; 3000 samples" in out
+    d = json.loads((tmp_path / "s.json").read_text())
+    assert d["classifier"]["top"] == "nothing significant"
+    lin = d["linear"]["parameters"]  # the tolerance of test_linear_fit_recovers_m_c_k
+    np.testing.assert_allclose([lin["m"], lin["c"], lin["k"]], [M, C, K], rtol=0.02)
+    assert d["linear"]["nrmse"] < 0.02
 
 
 def test_sdof_command_bad_input_is_one_line(tmp_path: Path,
@@ -354,7 +375,7 @@ def test_sdof_command_bad_input_is_one_line(tmp_path: Path,
     nan[5] = np.nan
     cases = {
         str(tmp_path / "none.csv"): "no such record",
-        str(two): "2 channels could be the force (['F1', 'F2']); name one with --force",
+        str(two): "2 channels could be the force (['F1', 'F2']); name one with --force-channel",
         str(_write_csv(tmp_path / "nan.csv", {"F [N]": u, "y [m]": nan})):
             "expected finite samples",
         str(_write_csv(tmp_path / "short.csv", {"F [N]": u[:20], "y [m]": y[:20]})):
@@ -367,8 +388,13 @@ def test_sdof_command_bad_input_is_one_line(tmp_path: Path,
         assert rc == 2, rec
         lines = err.strip().splitlines()
         assert len(lines) == 1 and words in lines[0], err
-    rc, _, err = _sdof_cli([str(two), "--force", "F1", "--period", "7"], capsys)
+    rc, _, err = _sdof_cli([str(two), "--force-channel", "F1", "--period", "7"], capsys)
     assert rc == 2 and "period: expected a divisor" in err
+    (tmp_path / "s.json").write_text("{}")
+    rc, _, err = _sdof_cli([str(two), "--force-channel", "F1", "--json",
+                            str(tmp_path / "s.json")], capsys)
+    assert rc == 2 and "exists; give --force to overwrite it" in err
+    assert (tmp_path / "s.json").read_text() == "{}"
     h5py = pytest.importorskip("h5py")
     with h5py.File(tmp_path / "r.h5", "w") as h:
         h["run/u"], h["run/y"], h["run/fs"] = u, y, [FS]
