@@ -48,7 +48,7 @@ from modal_twin.runtime import runtime_env
 from modal_twin.scenario import Scenario, load_scenario, with_parameters
 from modal_twin.validation import check_name
 
-__all__ = ["LaunchResult", "Launcher", "launch"]
+__all__ = ["LaunchResult", "Launcher", "free_domain_id", "launch"]
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +59,41 @@ the launcher waits until every node reports (on /diagnostics, ``matched <topic>`
 each topic it publishes has matched all its launched readers: the later hops (rig ->
 acquisition -> recorder and twin) are matched before the first block, however loaded the
 machine; the excitation itself waits for the readers of /excitation/signal."""
+
+
+# RTPS port mapping (Fast DDS defaults): every port of domain d lies in
+# [PB + DG d, PB + DG (d + 1)); d <= 232 keeps them below 65536
+_PORT_BASE, _DOMAIN_GAIN, _MAX_DOMAIN = 7400, 250, 232
+
+
+def _udp_ports_in_use() -> set[int]:
+    """Local UDP ports bound on this host (``/proc/net/udp``, ``udp6``; empty elsewhere)."""
+    ports: set[int] = set()
+    for table in ("/proc/net/udp", "/proc/net/udp6"):
+        try:
+            lines = Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            fields = line.split()
+            if len(fields) > 1 and ":" in fields[1]:
+                ports.add(int(fields[1].rsplit(":", 1)[1], 16))
+    return ports
+
+
+def free_domain_id(rng: random.Random | None = None) -> int:
+    """Draw a ROS domain id that no process on this host uses, at random from 1..232.
+
+    A domain is in use when any UDP port of its RTPS range is bound (a participant's
+    discovery or data locators). Two graphs on one host in one domain see each other's
+    nodes: a launcher could start another run's excitation (seen: a demo's training
+    record got a second drive from a test's launcher that drew the same id).
+    """
+    pick = rng or random.SystemRandom()
+    used = _udp_ports_in_use()
+    busy = {(p - _PORT_BASE) // _DOMAIN_GAIN for p in used if p >= _PORT_BASE}
+    free = [d for d in range(1, _MAX_DOMAIN + 1) if d not in busy]
+    return pick.choice(free) if free else pick.randint(1, _MAX_DOMAIN)
 
 
 def _die_with_parent() -> None:
@@ -120,7 +155,7 @@ class Launcher:
         self.run_dir = run_dir or Path(RUNS) / f"{stamp}_{name}"
         env_domain = os.environ.get("ROS_DOMAIN_ID")
         if domain_id is None:
-            domain_id = int(env_domain) if env_domain else random.SystemRandom().randint(1, 100)
+            domain_id = int(env_domain) if env_domain else free_domain_id()
         self.domain_id = domain_id
         self.say = say
         self.record = record and bool(scenario.record_topics)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import os
 import re
 import shutil
@@ -15,7 +14,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import pytest
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
-_domains = itertools.count((os.getpid() * 7) % 60 + 20)
 
 
 def _ros_available() -> bool:
@@ -41,8 +39,14 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 @pytest.fixture
 def domain_id(monkeypatch: pytest.MonkeyPatch) -> int:
-    """A ROS_DOMAIN_ID of this test's own (set in the environment for child processes)."""
-    d = next(_domains) % 100 + 1
+    """A ROS_DOMAIN_ID of this test's own (set in the environment for child processes).
+
+    One that no process on this host uses at that moment (another test run, a demo), so
+    two graphs never see each other's nodes.
+    """
+    from modal_twin.launch import free_domain_id
+
+    d = free_domain_id()
     monkeypatch.setenv("ROS_DOMAIN_ID", str(d))
     return d
 

@@ -145,3 +145,27 @@ def test_cli_foreign_input_no_traceback(tmp_path: Path, cmd: list[str]) -> None:
     assert out.returncode == 2
     assert "Traceback" not in out.stderr
     assert str(f) in out.stderr
+
+
+def test_a_launcher_draws_a_domain_no_process_here_uses() -> None:
+    """Every domain but one has a bound UDP port in its RTPS range: that one is drawn."""
+    import socket
+
+    from modal_twin.launch import free_domain_id
+
+    held = []
+    try:
+        for d in range(1, 233):
+            if d == 77:
+                continue
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            try:
+                s.bind(("127.0.0.1", 7400 + 250 * d + 9))
+            except OSError:  # bound by another process already: in use anyway
+                s.close()
+                continue
+            held.append(s)
+        assert {free_domain_id() for _ in range(5)} == {77}
+    finally:
+        for s in held:
+            s.close()
