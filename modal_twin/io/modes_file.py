@@ -219,13 +219,13 @@ def modes_document(rec: RecordModes, geometry: dict[str, Any] | None = None) -> 
 
 
 def write_modes(folder: str | Path, rec: RecordModes,
-                geometry: dict[str, Any] | None = None) -> list[Path]:
+                geometry: dict[str, Any] | None = None, *, force: bool = True) -> list[Path]:
     """Write ``modes.json`` and ``modes.uff`` (UFF 55) of ``rec`` into ``folder``.
 
     ``geometry`` is the bag's test geometry (:func:`read_geometry_files`); both files carry
     it with the channels' nodes, directions and names (:func:`write_uff55`). Each file is
     written to a temporary name and renamed: an interrupted write leaves the previous file
-    or none.
+    or none. Without ``force`` an existing file is refused.
     """
     from modal_twin.io.imported import atomic_file
 
@@ -233,10 +233,10 @@ def write_modes(folder: str | Path, rec: RecordModes,
     out.mkdir(parents=True, exist_ok=True)
     doc = modes_document(rec, geometry)
     text = json.dumps(doc, indent=1).replace("NaN", "null")
-    with atomic_file(out / "modes.json") as tmp:
+    with atomic_file(out / "modes.json", force=force) as tmp:
         tmp.write_text(text)
     mm = rec.modes
-    with atomic_file(out / "modes.uff") as tmp:
+    with atomic_file(out / "modes.uff", force=force) as tmp:
         tmp.unlink()
         write_modes_uff(tmp, mm.f_hz, mm.zeta, mm.shapes, doc["dofs"], doc["geometry"])
     return [out / "modes.json", out / "modes.uff"]
