@@ -88,8 +88,14 @@ LIMITS: dict[str, Limit] = {
     "seed": Limit(0, 2**32 - 1, integer=True),
     "parameter": Limit(-1e300, 1e300),
     "n_parameters": Limit(0, 10_000, integer=True),
+    "n_dof": Limit(1, 1 << 20, integer=True),
 }
-"""Limits of the request fields, by kind (the same kind is named the same in every node)."""
+"""Limits of the request fields, by kind (the same kind is named the same in every node).
+
+``n_dof`` bounds the DOFs of a matrix model (1,048,576): a sparse matrix may declare any
+shape in a few bytes, and the modes of ``n`` DOFs take ``n`` x 61 floats of Lanczos basis
+(488 MiB at the limit); the file limit lets a solid model's stiffness (about 80 entries a
+row) reach about 400,000 DOFs."""
 
 
 def check_field(value: object, name: str, kind: str) -> float:
