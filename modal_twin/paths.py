@@ -22,8 +22,8 @@ from typing import BinaryIO
 from modal_twin.errors import BagError, ConfigError
 
 __all__ = ["MODEL_FOLDERS", "RUNS", "TEMP_PREFIX", "UMASK", "atomic_dir", "atomic_file",
-           "check_new", "check_regular", "clean_stale", "config_roots", "open_regular",
-           "private_files", "request_roots", "resolve_config"]
+           "check_new", "check_new_in", "check_regular", "clean_stale", "config_roots",
+           "open_regular", "private_files", "request_roots", "resolve_config"]
 
 MODEL_FOLDERS = ("config/structures", "config/vehicles", "config/channel_maps")
 """The model folders of a configuration root a request may name a file in (README)."""
@@ -182,6 +182,24 @@ def check_new(target: str | Path, force: bool) -> Path:
         msg = f"{t} exists; give --force to overwrite it"
         raise ConfigError(msg)
     return t
+
+
+def check_new_in(folder: str | Path, names: tuple[str, ...], force: bool) -> list[Path]:
+    """Return the outputs ``folder/name`` of a command writing into a folder, each checked.
+
+    The folder may exist (several commands write into one); the files it would hold may
+    not, unless ``force`` (:func:`check_new`).
+
+    Raises
+    ------
+    ConfigError
+        ``folder`` is a file, or one of the outputs exists and ``force`` is not given.
+    """
+    f = Path(folder)
+    if f.exists() and not f.is_dir():
+        msg = f"{f}: expected a folder for the outputs, got a file"
+        raise ConfigError(msg)
+    return [check_new(f / n, force) for n in names]
 
 
 @contextmanager

@@ -26,6 +26,10 @@ __all__ = [
     "LIMITS",
     "MEMORY_BUDGET_BYTES",
     "REQUEST_FILE_MAX_BYTES",
+    "TEXT_FILE_MAX_BYTES",
+    "YAML_MAX_ALIASES",
+    "YAML_MAX_DEPTH",
+    "YAML_MAX_NODES",
     "Limit",
     "as_channels",
     "check_array_budget",
@@ -42,6 +46,22 @@ MEMORY_BUDGET_BYTES = 1 << 28
 FILE_UNPACKED_MAX_BYTES = 1 << 29
 """Most a data file (NPZ, .mat, CSV, UFF, strong-motion zip) may unpack to (512 MiB),
 judged on its declared shapes before anything is allocated (:mod:`modal_twin.array_files`)."""
+
+TEXT_FILE_MAX_BYTES = 64 * 2**20
+"""Largest JSON or YAML file read (64 MiB: a modes JSON of 4,096 channels and 200 modes
+takes about 35 MB), checked with ``fstat`` on the open file before it is read
+(:func:`modal_twin.yaml_files.read_text`)."""
+
+YAML_MAX_NODES = 500_000
+"""Most nodes a YAML document may hold, aliases expanded (a 4,096-channel map takes 98,307;
+each parsed node takes about 650 bytes): a "billion laughs" document of a few
+hundred bytes that expands to 10^9 nodes is refused before it is constructed."""
+
+YAML_MAX_ALIASES = 10_000
+"""Most aliases (``*name``) a YAML document may use."""
+
+YAML_MAX_DEPTH = 100
+"""Deepest nesting of a YAML document, aliases expanded (the configurations nest about 6)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,8 +88,14 @@ LIMITS: dict[str, Limit] = {
     "seed": Limit(0, 2**32 - 1, integer=True),
     "parameter": Limit(-1e300, 1e300),
     "n_parameters": Limit(0, 10_000, integer=True),
+    "n_dof": Limit(1, 1 << 20, integer=True),
 }
-"""Limits of the request fields, by kind (the same kind is named the same in every node)."""
+"""Limits of the request fields, by kind (the same kind is named the same in every node).
+
+``n_dof`` bounds the DOFs of a matrix model (1,048,576): a sparse matrix may declare any
+shape in a few bytes, and the modes of ``n`` DOFs take ``n`` x 61 floats of Lanczos basis
+(488 MiB at the limit); the file limit lets a solid model's stiffness (about 80 entries a
+row) reach about 400,000 DOFs."""
 
 
 def check_field(value: object, name: str, kind: str) -> float:

@@ -54,7 +54,14 @@ def _record(path: Path, data: np.ndarray, fs: float) -> None:
 @pytest.fixture(scope="module")
 def unusable(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Records nothing downstream can use, and bombs that declare gigabytes."""
-    from bombs import csv_of_zeros, mat_declaring, npz_declaring, zip_declaring
+    from bombs import (
+        csv_of_zeros,
+        mat_declaring,
+        npz_declaring,
+        sparse_file,
+        yaml_alias_bomb,
+        zip_declaring,
+    )
 
     d = tmp_path_factory.mktemp("unusable")
     x = np.random.default_rng(0).normal(size=(2, 100))
@@ -69,6 +76,11 @@ def unusable(tmp_path_factory: pytest.TempPathFactory) -> Path:
         "units": np.array(["g"] * 1250)})
     mat_declaring(d / "bomb.mat", 20_000, 20_000)  # 3.2 GB declared in 200 bytes
     zip_declaring(d / "bomb.zip", "CHAN001.V2", 3 << 30)
+    (d / "four.csv").write_text("t [s],a [g]\n0,1\n0.1,2\n0.2,3\n0.3,1\n")
+    yaml_alias_bomb(d / "lol.yaml")  # 10^9 nodes expanded in 500 bytes
+    (d / "loop.yaml").write_text("channels: &a [*a]\n")
+    sparse_file(d / "big.yaml", 65 << 20)  # 65 MiB that take no disk
+    sparse_file(d / "big.json", 65 << 20)
     return d
 
 
@@ -83,6 +95,14 @@ def unusable(tmp_path_factory: pytest.TempPathFactory) -> Path:
     ("import bomb.zip --out o", "unpack to 12288 MiB, more than the 512 MiB"),
     ("model info bomb.npz", "unpack to 10000 MiB"),
     ("model info bomb.mat", "unpack to 3052 MiB"),
+    ("model info lol.yaml", "aliases that expand it to more than 500000 nodes"),
+    ("launch lol.yaml", "aliases that expand it to more than 500000 nodes"),
+    ("import four.csv --map lol.yaml --out o", "aliases that expand it to more than 500000"),
+    ("import four.csv --map loop.yaml --out o", "an alias inside the node it names (a loop)"),
+    ("import four.csv --map big.yaml --out o", "a channel map of 65 MiB; expected at most 64"),
+    ("import four.csv --map big.json --out o", "a channel map of 65 MiB; expected at most 64"),
+    (f"update {MODEL} --modes big.json --out o", "a modes file of 65 MiB; expected at most 64"),
+    ("model info big.yaml", "of 65 MiB; expected at most 64 MiB (TEXT_FILE_MAX_BYTES)"),
 ])
 def test_unusable_records_and_bombs_are_refused_in_one_line(unusable: Path, args: str,
                                                             says: str) -> None:

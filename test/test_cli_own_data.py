@@ -109,6 +109,21 @@ def test_polymax_and_ssi_cov_on_the_frame(frame: dict[str, Path], tmp_path: Path
         assert f.size == 2 if method == "polymax" else f.size <= 3
 
 
+def test_identify_keeps_existing_outputs_unless_forced(frame: dict[str, Path], tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    out = tmp_path / "id"
+    out.mkdir()
+    (out / "modes.json").write_text("KEEP\n")
+    assert main(["identify", str(frame["bag"]), "--out", str(out)]) == ExitCode.USAGE
+    assert capsys.readouterr().err.strip().endswith("exists; give --force to overwrite it")
+    assert [p.name for p in out.iterdir()] == ["modes.json"]
+    assert main(["identify", str(frame["bag"]), "--out", str(out), "--force"]) == 0
+    assert json.loads((out / "modes.json").read_text()) == json.loads(frame["modes"].read_text())
+    assert sorted(p.name for p in out.iterdir()) == ["mac.png", "modes.json", "modes.uff",
+                                                      "stabilization.png"]  # no temp left
+
+
 def test_export_modes_and_model_round_trip(frame: dict[str, Path], tmp_path: Path) -> None:
     import pyuff
 

@@ -203,6 +203,7 @@ def test_the_report_skips_a_bag_behind_a_link(tmp_path: Path) -> None:
     ["export", "model", str(BUILDING), "--out", "{out}.npz"],
     ["view", str(BUILDING), "--n-modes", "1", "--html", "{out}.html"],
     ["report", "{run}", "--out", "{out}.html"],
+    ["effects", "history", "{run}", "--png", "{out}.png"],
 ])
 def test_outputs_are_never_overwritten_without_force(tmp_path: Path, argv: list[str],
                                                      capsys: pytest.CaptureFixture[str]) -> None:
@@ -220,6 +221,34 @@ def test_outputs_are_never_overwritten_without_force(tmp_path: Path, argv: list[
     assert target.read_text() == "KEEP\n"
     assert main(["--quiet", *args, "--force"]) == 0
     assert target.read_bytes() != b"KEEP\n"
+
+
+@pytest.mark.parametrize(("argv", "kept"), [
+    (["identify", "{bag}", "--out", "{out}"], "mac.png"),
+    (["identify", "{bag}", "--out", "{out}"], "modes.json"),
+    (["campaign", "{bag}", "--jobs", "1", "--out", "{out}"], "campaign.png"),
+    (["campaign", "{bag}", "--jobs", "1", "--out", "{out}"], "campaign.csv"),
+])
+def test_folder_outputs_are_never_overwritten_without_force(
+        tmp_path: Path, argv: list[str], kept: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """Refused before the work: the bag is not even read (it does not exist)."""
+    from modal_twin.cli import main
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / kept).write_text("KEEP\n")
+    args = [a.format(out=out, bag=tmp_path / "nobag") for a in argv]
+    assert main(["--quiet", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"modal-twin {argv[0]}: {out / kept} exists; give --force to overwrite it"
+    assert [p.name for p in out.iterdir()] == [kept]
+    assert (out / kept).read_text() == "KEEP\n"
+    (out / kept).unlink()
+    out.rmdir()
+    out.write_text("KEEP\n")  # a file where the folder goes
+    assert main(["--quiet", *args]) == 2
+    assert "expected a folder for the outputs, got a file" in capsys.readouterr().err
+    assert out.read_text() == "KEEP\n"
 
 
 def test_residual_json_is_never_overwritten_without_force(tmp_path: Path,

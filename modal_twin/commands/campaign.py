@@ -10,8 +10,12 @@ from pathlib import Path
 
 from modal_twin.errors import OptionError
 from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import atomic_file, check_new_in
 
-__all__ = ["register", "run"]
+__all__ = ["OUTPUTS", "register", "run"]
+
+OUTPUTS = ("campaign.csv", "campaign.json", "campaign.png")
+"""The files ``--out`` gets; an existing one is kept unless ``--force``."""
 
 HELP = "identify every window of many bags (or parts); modal frequencies and damping vs time"
 
@@ -43,6 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="dask://HOST:PORT for a cluster (default: local processes)")
     p.add_argument("--jobs", default=None, help="local processes (1 = serial; default auto)")
     p.add_argument("--out", type=Path, default=Path("campaign"), help="output folder")
+    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
     p.set_defaults(func=run)
 
 
@@ -72,14 +77,16 @@ def _windows(a: argparse.Namespace) -> tuple[list, tuple[str, ...]]:
     return windows, outputs or ()
 
 
-def _write(result, out: Path) -> list[Path]:
+def _write(result, out: Path, force: bool) -> list[Path]:
+    """Write :data:`OUTPUTS` into ``out``, each to a temporary name and renamed."""
     from modal_twin.viz.campaign import plot_campaign
 
-    out.mkdir(parents=True, exist_ok=True)
+    to_csv, to_json, to_png = (out / n for n in OUTPUTS)
     rows = result.rows()
     fields = ["source", "window", "t_start_s", "duration_s", "track", "f_hz", "zeta",
               "mac_to_track"]
-    with (out / "campaign.csv").open("w", newline="", encoding="utf-8") as fh:
+    with atomic_file(to_csv, force=force) as tmp, tmp.open("w", newline="",
+                                                             encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=fields)
         w.writeheader()
         w.writerows(rows)
@@ -87,9 +94,9 @@ def _write(result, out: Path) -> list[Path]:
            "n_tracks": result.n_tracks, "modes": rows,
            "failed_windows": [{"source": x.source, "window": x.index, "error": x.error}
                               for x in result.windows if x.error]}
-    (out / "campaign.json").write_text(json.dumps(doc, indent=1), encoding="utf-8")
-    return [out / "campaign.csv", out / "campaign.json", plot_campaign(result,
-                                                                        out / "campaign.png")]
+    with atomic_file(to_json, force=force) as tmp:
+        tmp.write_text(json.dumps(doc, indent=1), encoding="utf-8")
+    return [to_csv, to_json, plot_campaign(result, to_png, force=force)]
 
 
 def run(a: argparse.Namespace) -> int:
@@ -100,6 +107,7 @@ def run(a: argparse.Namespace) -> int:
     if a.executor and a.jobs:
         msg = "give --executor or --jobs, not both"
         raise OptionError(msg)
+    check_new_in(a.out, OUTPUTS, a.force)  # before the work
     band = _floats(a.f_range, "--f-range", 2) if a.f_range else None
     first, last, step = (int(v) for v in _floats(a.orders, "--orders", 3))
     ident = WindowIdentifier(method="n4sid" if a.inputs else "ssi-cov",
@@ -109,7 +117,7 @@ def run(a: argparse.Namespace) -> int:
         windows, outputs = _windows(a)
         res = run_campaign(windows, outputs, identifier=ident, executor=ex,
                            progress=lambda s: print(f"  {s}", file=sys.stderr))
-    for path in _write(res, a.out):
+    for path in _write(res, a.out, a.force):
         print(f"wrote {path}")
     n_failed = sum(1 for x in res.windows if x.error)
     print(f"{len(res.windows)} windows ({n_failed} failed), {res.n_tracks} mode tracks")

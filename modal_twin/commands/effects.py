@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from modal_twin.exit_codes import ExitCode
+from modal_twin.paths import check_new
 
 __all__ = ["register", "run"]
 
@@ -31,6 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     eh = esub.add_parser("history", help="versions and their held-out errors")
     eh.add_argument("folder", type=Path)
     eh.add_argument("--png", type=Path, default=None)
+    eh.add_argument("--force", action="store_true", help="--png: overwrite an existing file")
     ef.set_defaults(func=run)
 
 
@@ -48,11 +50,13 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.viz.error_history import plot_error_history
 
     if a.effects_cmd == "history":
+        if a.png:
+            check_new(a.png, a.force)  # before the work
         for v in history(a.folder):
             mean = sum(v.errors.values()) / max(len(v.errors), 1)
             print(f"{v.label:>5}  mean held-out NRMSE {mean:8.3f} %  {v.note}")
         if a.png:
-            print(f"plot: {plot_error_history(a.folder, a.png)}")
+            print(f"plot: {plot_error_history(a.folder, a.png, force=a.force)}")
         return ExitCode.OK
     plant = load_model(a.model).plant()  # names an imported record's channels by role
     train, test = (record_from_bag(a.train, plant=plant), record_from_bag(a.test, plant=plant))

@@ -5,7 +5,9 @@ One call, :func:`modal_twin.identification.record.identify_record` (the node and
 map (``--inputs`` / ``--outputs`` override them); band, decimation, block rows and orders
 chosen from the record and printed; the relaxed stability thresholds tried when the
 default ones give no mode, and said. Writes ``modes.json`` and ``modes.uff`` (UFF 55,
-:mod:`modal_twin.io.modes_file`), ``stabilization.png`` and ``mac.png``.
+:mod:`modal_twin.io.modes_file`), ``stabilization.png`` and ``mac.png`` into ``--out``
+(each to a temporary name, then renamed; an existing one refused before the work unless
+``--force``).
 """
 
 from __future__ import annotations
@@ -17,9 +19,13 @@ from typing import Any
 
 from modal_twin.exit_codes import ExitCode
 from modal_twin.identification.record import METHODS
+from modal_twin.paths import check_new_in
 from modal_twin.progress import step
 
-__all__ = ["register", "run"]
+__all__ = ["OUTPUTS", "register", "run"]
+
+OUTPUTS = ("modes.json", "modes.uff", "stabilization.png", "mac.png")
+"""The files ``--out`` gets; an existing one is kept unless ``--force``."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -29,6 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--method", choices=METHODS, default=None,
                    help="default: n4sid when the bag has driven inputs, else ssi-cov")
     p.add_argument("--out", type=Path, default=None, help="folder for JSON, UFF 55, PNGs")
+    p.add_argument("--force", action="store_true", help="--out: overwrite existing files")
     p.add_argument("--f-max", type=float, default=None, help="upper band edge, Hz")
     p.add_argument("--inputs", default=None, help="comma list of input channels")
     p.add_argument("--outputs", default=None, help="comma list of output channels")
@@ -46,6 +53,8 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.identification.record import IdentifyOptions, identify_record
     from modal_twin.io.imported import read_imported
 
+    if a.out is not None:
+        check_new_in(a.out, OUTPUTS, a.force)  # before the work
     block, channels = read_imported(a.bag)
     opts = IdentifyOptions(method=a.method, inputs=_names(a.inputs),
                            outputs=_names(a.outputs), directions=_names(a.directions),
@@ -92,17 +101,17 @@ def _report(a: argparse.Namespace, rec: Any) -> int:
               f"{100 * d:.1f} % from order {o0} to {o1}; treat it with care",
               file=sys.stderr)
     if a.out is not None:
-        _write(a.out, rec, a.bag)
+        _write(a.out, rec, a.bag, a.force)
     return ExitCode.OK
 
 
-def _write(out: Path, rec: Any, bag: Path) -> None:
+def _write(out: Path, rec: Any, bag: Path, force: bool) -> None:
     with step(f"identify: writing {out}"):
-        _files(out, rec, bag)
-    print(f"identify: wrote {out}/modes.json, modes.uff, stabilization.png, mac.png")
+        _files(out, rec, bag, force)
+    print(f"identify: wrote {out}/{', '.join(OUTPUTS)}")
 
 
-def _files(out: Path, rec: Any, bag: Path) -> None:
+def _files(out: Path, rec: Any, bag: Path, force: bool) -> None:
     from modal_twin.identification import automac
     from modal_twin.io.modes_file import read_geometry_files, write_modes
     from modal_twin.viz._figure import save_figure
@@ -110,11 +119,11 @@ def _files(out: Path, rec: Any, bag: Path) -> None:
     from modal_twin.viz.stabilization import plot_stabilization
 
     mm = rec.modes
-    write_modes(out, rec, read_geometry_files(bag) if bag.is_dir() else None)
+    write_modes(out, rec, read_geometry_files(bag) if bag.is_dir() else None, force=force)
     save_figure(plot_stabilization(rec.diagram, selected_f_hz=mm.f_hz,
                                    f_max_hz=rec.settings.band_hz[1], spectrum=rec.spectrum,
                                    title=f"stabilization diagram ({rec.method})"),
-                out / "stabilization.png")
+                out / "stabilization.png", force=force)
     labels = [f"{f:.2f} Hz" for f in mm.f_hz]
     save_figure(plot_mac(automac(mm.shapes), labels, labels, title="auto-MAC"),
-                out / "mac.png")
+                out / "mac.png", force=force)

@@ -286,6 +286,7 @@ def load_measured_geometry(path: Path) -> Any:
     from modal_twin.errors import ConfigError
     from modal_twin.io.channel_map import MAP_FILE, read_channel_map
     from modal_twin.viz.measured_geometry import MeasuredGeometry, geometry_from_uff
+    from modal_twin.yaml_files import read_text
 
     chans: dict[str, tuple[str, str]] = {}
     if path.is_dir():
@@ -295,7 +296,7 @@ def load_measured_geometry(path: Path) -> Any:
             raise ConfigError(msg)
         g: dict[str, Any] = {"nodes": {}, "trace_lines": []}
         for p in parts:
-            d = json.loads(p.read_text())
+            d = json.loads(read_text(p, "geometry file"))
             g["nodes"].update(d.get("nodes", {}))
             g["trace_lines"] += d.get("trace_lines", [])
         if (path / MAP_FILE).is_file():

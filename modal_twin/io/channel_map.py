@@ -40,7 +40,7 @@ from typing import Any
 
 from modal_twin.channels import ChannelSpec, channel_map_from_dict, channel_map_to_dict
 from modal_twin.errors import ConfigError
-from modal_twin.yaml_files import read_yaml
+from modal_twin.yaml_files import read_text, read_yaml
 
 __all__ = ["MAP_FILE", "apply_map", "read_channel_map", "roles_from_locations",
            "write_channel_map"]
@@ -52,10 +52,13 @@ MAP_FILE = "channel_map.json"
 def read_channel_map(path: str | Path) -> list[ChannelSpec]:
     """Channels of a map file (``.json``, ``.yaml`` / ``.yml``), or of a bag's map.
 
+    Bounded before parsing (:func:`modal_twin.yaml_files.read_text`,
+    :func:`~modal_twin.yaml_files.read_yaml`).
+
     Raises
     ------
     ConfigError
-        Missing or malformed file.
+        Missing, malformed or too large file.
     """
     p = Path(path)
     if p.is_dir():
@@ -65,7 +68,7 @@ def read_channel_map(path: str | Path) -> list[ChannelSpec]:
         raise ConfigError(msg)
     if p.suffix.lower() == ".json":
         try:
-            d: Any = json.loads(p.read_text())
+            d: Any = json.loads(read_text(p, "channel map"))
         except (json.JSONDecodeError, UnicodeDecodeError) as err:
             msg = f"{p}: expected a JSON channel map, got unreadable text ({err})"
             raise ConfigError(msg) from err
@@ -113,7 +116,8 @@ def apply_map(channels: list[ChannelSpec], user: list[ChannelSpec], given: list[
 def map_keys(path: str | Path) -> list[set[str]]:
     """Return the keys each channel of a map file states (for :func:`apply_map`)."""
     p = Path(path)
-    d = json.loads(p.read_text()) if p.suffix.lower() == ".json" else read_yaml(p, "map")
+    d = (json.loads(read_text(p, "map")) if p.suffix.lower() == ".json"
+         else read_yaml(p, "map"))
     return [set(r) for r in d.get("channels", [])]
 
 

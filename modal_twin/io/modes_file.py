@@ -25,6 +25,7 @@ from modal_twin.array_files import mat_arrays
 from modal_twin.errors import ConfigError
 from modal_twin.identification.metrics import complexity, mpc
 from modal_twin.identification.record import RecordModes
+from modal_twin.yaml_files import read_text
 
 __all__ = ["ModesFile", "read_geometry_files", "read_modes", "uff_modes_document",
            "uff_nodes", "write_modes",
@@ -62,7 +63,7 @@ class ModesFile:
 
 def _json(p: Path) -> ModesFile:
     try:
-        d = json.loads(p.read_text())
+        d = json.loads(read_text(p, "modes file"))  # bounded before parsing
         modes = d["modes"]
         f = np.array([m["f_hz"] for m in modes], dtype=float)
         S = np.array([np.asarray(m["shape_re"]) + 1j * np.asarray(m["shape_im"])
@@ -71,6 +72,8 @@ def _json(p: Path) -> ModesFile:
         sf = np.array([np.nan if m.get("std_f_hz") is None else m["std_f_hz"] for m in modes],
                       dtype=float)
         md = [x.get("model_dof") for x in d["dofs"]]
+    except ConfigError:
+        raise
     except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
         msg = f"{p}: expected a modes JSON written by `modal-twin identify` ({err!r})"
         raise ConfigError(msg) from err
@@ -132,10 +135,13 @@ def uff_modes_document(path: str | Path) -> dict[str, Any]:
 def read_modes(path: str | Path) -> ModesFile:
     """Modes of a ``.json`` (identify), ``.uff`` / ``.unv`` (dataset 55) or ``.mat`` file.
 
+    A JSON file is bounded before parsing (:func:`modal_twin.yaml_files.read_text`), a
+    ``.mat`` or UFF file by what it unpacks to (:mod:`modal_twin.array_files`).
+
     Raises
     ------
     ConfigError
-        Missing file, unknown kind or a file without modes.
+        Missing file, unknown kind, too large, or a file without modes.
     """
     p = Path(path)
     if not p.is_file():
@@ -169,7 +175,7 @@ def read_geometry_files(folder: str | Path) -> dict[str, Any]:
     g: dict[str, Any] = {"nodes": {}, "trace_lines": []}
     for f in sorted(Path(folder).glob("geometry_*.json")):
         try:
-            d = json.loads(f.read_text())
+            d = json.loads(read_text(f, "geometry file"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
             msg = f"{f}: not a geometry JSON written by `modal-twin import` ({err})"
             raise ConfigError(msg) from err
@@ -219,13 +225,13 @@ def modes_document(rec: RecordModes, geometry: dict[str, Any] | None = None) -> 
 
 
 def write_modes(folder: str | Path, rec: RecordModes,
-                geometry: dict[str, Any] | None = None) -> list[Path]:
+                geometry: dict[str, Any] | None = None, *, force: bool = True) -> list[Path]:
     """Write ``modes.json`` and ``modes.uff`` (UFF 55) of ``rec`` into ``folder``.
 
     ``geometry`` is the bag's test geometry (:func:`read_geometry_files`); both files carry
     it with the channels' nodes, directions and names (:func:`write_uff55`). Each file is
     written to a temporary name and renamed: an interrupted write leaves the previous file
-    or none.
+    or none. Without ``force`` an existing file is refused.
     """
     from modal_twin.io.imported import atomic_file
 
@@ -233,10 +239,10 @@ def write_modes(folder: str | Path, rec: RecordModes,
     out.mkdir(parents=True, exist_ok=True)
     doc = modes_document(rec, geometry)
     text = json.dumps(doc, indent=1).replace("NaN", "null")
-    with atomic_file(out / "modes.json") as tmp:
+    with atomic_file(out / "modes.json", force=force) as tmp:
         tmp.write_text(text)
     mm = rec.modes
-    with atomic_file(out / "modes.uff") as tmp:
+    with atomic_file(out / "modes.uff", force=force) as tmp:
         tmp.unlink()
         write_modes_uff(tmp, mm.f_hz, mm.zeta, mm.shapes, doc["dofs"], doc["geometry"])
     return [out / "modes.json", out / "modes.uff"]

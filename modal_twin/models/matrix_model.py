@@ -41,6 +41,7 @@ import scipy.sparse as sp
 
 from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import ConfigError, ModelError, ShapeError
+from modal_twin.validation import LIMITS
 
 __all__ = [
     "MATRIX_SUFFIXES",
@@ -131,6 +132,19 @@ def _natural(s: str) -> list[Any]:
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", s)]
 
 
+def _check_dofs(shape: tuple[int, ...], name: str, source: str) -> None:
+    """Refuse a matrix declaring more rows or columns than ``LIMITS["n_dof"]`` DOFs.
+
+    A sparse matrix may declare any shape in a few bytes; the modes of its DOFs would
+    allocate in proportion (:data:`~modal_twin.validation.LIMITS`).
+    """
+    hi = int(LIMITS["n_dof"].hi)
+    if max(shape, default=0) > hi:
+        msg = (f"{source}: {name} declares shape {shape}; expected at most {hi} rows and "
+               "columns (LIMITS['n_dof'])")
+        raise ConfigError(msg)
+
+
 def _square(a: Any, name: str, n: int | None, source: str) -> sp.csr_array:
     A = sp.csr_array(a.astype(float)) if sp.issparse(a) else sp.csr_array(
         np.asarray(a, dtype=float))
@@ -176,6 +190,7 @@ def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
     if mkey is None:
         msg = f"{source}: expected a mass matrix 'M' or 'M0', found {sorted(a)}"
         raise ModelError(msg)
+    _check_dofs(tuple(np.shape(a[mkey])), mkey, source)  # .npz members checked on reading
     M = _square(a[mkey], mkey, None, source)
     n = M.shape[0]
     subs = [k[2:] for k in a if k.startswith("K_") and k not in ("K_whole", "K_j")]
@@ -257,6 +272,7 @@ def _from_members(a: dict[str, Any], source: str) -> dict[str, Any]:
                    f"{data.shape}, indices {ind.shape}, indptr {ptr.shape}, shape "
                    f"{shape.tolist()}); expected a CSR matrix")
             raise ConfigError(msg)
+        _check_dofs(tuple(int(s) for s in shape), f"sparse matrix {n!r}", source)
         try:
             A = sp.csr_array((data.astype(float), ind, ptr), shape=(int(shape[0]),
                                                                     int(shape[1])))

@@ -11,6 +11,8 @@ from pathlib import Path
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from modal_twin.paths import atomic_file
+
 __all__ = ["channel_parts", "new_figure", "png_bytes", "png_data_uri", "save_figure"]
 
 _PART = re.compile(r"^(?P<place>[A-Za-z]+\d*)(?:_(?P<mid>.+?))?_(?P<code>[a-z]+)$")
@@ -59,12 +61,15 @@ def short_labels(labels: Sequence[str], width: int = 14) -> list[str]:
     return [s if len(s) <= width else s[: width - 1] + "\u2026" for s in labels]
 
 
-def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
+def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110, force: bool = True
+                ) -> Path:
     """Write ``fig`` as a PNG at ``path`` (parents made) and return the path.
 
-    The command line's figures are the report's, written to files.
+    The command line's figures are the report's, written to files: to a temporary name and
+    renamed (:func:`modal_twin.paths.atomic_file`; an existing file refused unless ``force``).
     """
     out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_bytes(png_bytes(fig, dpi=dpi))
+    data = png_bytes(fig, dpi=dpi)
+    with atomic_file(out, force=force) as tmp:
+        tmp.write_bytes(data)
     return out

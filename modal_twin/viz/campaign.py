@@ -12,11 +12,11 @@ from modal_twin.viz._png import save_png
 __all__ = ["plot_campaign"]
 
 
-def plot_campaign(result: CampaignResult, out_png: str | Path) -> Path:
+def plot_campaign(result: CampaignResult, out_png: str | Path, *, force: bool = True) -> Path:
     """Write a PNG: frequency (top) and damping (bottom) of each mode track against time.
 
     Time is in hours from the first window's start; each track is one colour, with a
-    marker per window that holds it.
+    marker per window that holds it. An existing ``out_png`` is refused unless ``force``.
     """
     import matplotlib
 
@@ -38,4 +38,4 @@ def plot_campaign(result: CampaignResult, out_png: str | Path) -> Path:
         ax.grid(True, alpha=0.3)
     if result.n_tracks:
         af.legend(fontsize=7, ncol=3)
-    return save_png(fig, out_png)
+    return save_png(fig, out_png, force=force)

@@ -20,6 +20,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from modal_twin.models.versions import history
+from modal_twin.paths import atomic_file, check_new
 from modal_twin.viz._figure import channel_parts, new_figure
 
 __all__ = ["error_history_figure", "plot_error_history"]
@@ -94,11 +95,17 @@ def version_labels(notes: Sequence[tuple[str, str]], width: int = 18) -> list[st
     return [f"{lab}\n{note[:width]}" for lab, note in notes]
 
 
-def plot_error_history(folder: str | Path, out_png: str | Path) -> Path:
-    """Write the error history of the model versions in ``folder`` as a PNG."""
+def plot_error_history(folder: str | Path, out_png: str | Path, *, force: bool = True
+                       ) -> Path:
+    """Write the error history of the model versions in ``folder`` as a PNG.
+
+    Written to a temporary name and renamed (:func:`modal_twin.paths.atomic_file`); an
+    existing ``out_png`` is refused unless ``force``, before the figure is drawn.
+    """
+    out = check_new(out_png, force)
     versions = history(folder)
     fig = error_history_figure(version_labels([(v.label, v.note) for v in versions]),
                                [v.errors for v in versions])
-    out = Path(out_png)
-    fig.savefig(out, dpi=110)
+    with atomic_file(out, force=force) as tmp:
+        fig.savefig(tmp, dpi=110)
     return out

@@ -58,6 +58,17 @@ def test_campaign_over_two_bags(tmp_path: Path) -> None:
     assert doc["n_windows"] == 4
     assert doc["channels"] == list(CH)
     assert (tmp_path / "out" / "campaign.png").stat().st_size > 10_000
+    again = ("--window", "400", "--f-range", "0.5,10", "--jobs", "1", "--out",
+             str(tmp_path / "out"))
+    kept = _cli(str(tmp_path / "day1"), *again)  # the outputs exist: refused, kept
+    assert kept.returncode == 2
+    assert kept.stderr.strip().endswith("campaign.csv exists; give --force to overwrite it")
+    assert json.loads((tmp_path / "out" / "campaign.json").read_text())["n_windows"] == 4
+    forced = _cli(str(tmp_path / "day1"), *again, "--force")
+    assert forced.returncode == 0, forced.stderr
+    assert json.loads((tmp_path / "out" / "campaign.json").read_text())["n_windows"] == 1
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "campaign.csv", "campaign.json", "campaign.png"]  # no temporary left
 
 
 def test_campaign_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:

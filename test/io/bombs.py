@@ -119,3 +119,18 @@ def csv_of_zeros(path: Path, n_rows: int, n_cols: int) -> Path:
             fh.write(block)
         fh.write(row * (n_rows % 4096))
     return path
+
+
+def yaml_alias_bomb(path: Path, levels: int = 9, width: int = 9) -> Path:
+    """YAML "billion laughs": ``width ** levels`` strings (10^9 at 9 x 9) in 500 bytes."""
+    lines = [f"l0: &l0 [{', '.join(['lol'] * width)}]"]
+    lines += [f"l{k}: &l{k} [{', '.join([f'*l{k - 1}'] * width)}]" for k in range(1, levels)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def sparse_file(path: Path, n_bytes: int) -> Path:
+    """A file of ``n_bytes`` that takes no disk (a hole: ``truncate``)."""
+    with path.open("wb") as fh:
+        fh.truncate(n_bytes)
+    return path

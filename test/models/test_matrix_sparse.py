@@ -14,8 +14,7 @@ import scipy.sparse as sp
 
 from modal_twin.cli import main
 from modal_twin.errors import ConfigError
-from modal_twin.io.matfiles import load_matrix_model
-from modal_twin.models.matrix_model import read_matrix_arrays, sparse_members
+from modal_twin.models.matrix_model import load_matrix_model, read_matrix_arrays, sparse_members
 
 BRIDGE = "realdata/model_updating/SteelPedestrianBridge__Experiment__Experiment_Model_Updating__" \
          "SteelPedestrianBridgeExp.mat"
@@ -116,3 +115,54 @@ def test_bridge_exports_sparse_small_with_the_same_modes(shared_dir: Path, tmp_p
     np.testing.assert_allclose(fb, fa, rtol=1e-12)
     for ka, kb in zip(a.K_j, b.K_j, strict=True):
         assert abs(ka - kb).max() == 0.0
+
+
+def _declaring(path: Path, n: int, *, cols: int | None = None) -> Path:
+    """A sparse M and K of ``n`` x ``cols`` (default ``n``) declared, one entry each (CSR)."""
+    nnz_rows = np.zeros(n + 1, np.int32)
+    nnz_rows[1:] = 1  # the one entry in row 0
+    members = {}
+    for k in ("M", "K"):
+        members.update({f"{k}__data": np.array([1.0]), f"{k}__indices": np.array([0], np.int32),
+                        f"{k}__indptr": nnz_rows,
+                        f"{k}__shape": np.array([n, cols or n], np.int64)})
+    np.savez_compressed(path, sparse_format=np.array("csr"), **members)
+    return path
+
+
+def test_a_sparse_matrix_declaring_too_many_dofs_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """2 M DOFs in 18 kB (the modes would take 2e6 x 61 floats): one line, exit 2."""
+    from modal_twin.validation import LIMITS
+
+    hi = int(LIMITS["n_dof"].hi)
+    assert hi == 1 << 20
+    bomb = _declaring(tmp_path / "bomb.npz", 2 * hi)
+    assert bomb.stat().st_size < 100_000
+    with pytest.raises(ConfigError, match=rf"sparse matrix 'K' declares shape \({2 * hi}, "
+                                          rf"{2 * hi}\); expected at most {hi} rows"):
+        read_matrix_arrays(bomb)
+    wide = _declaring(tmp_path / "wide.npz", 3, cols=1 << 40)  # few rows, 2^40 columns
+    with pytest.raises(ConfigError, match=r"declares shape \(3, 1099511627776\)"):
+        read_matrix_arrays(wide)
+    out = tmp_path / "o.npz"
+    for argv in (["model", "info", str(bomb)], ["export", "model", str(bomb), "--out", str(out)]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and err.endswith("(LIMITS['n_dof'])"), err
+    assert not out.exists()
+
+
+def test_the_dof_limit_is_exact(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """At the limit a model reads (its matrices as written), one DOF more is refused; a
+    dense or .mat M is held to the same limit."""
+    from modal_twin.validation import LIMITS, Limit
+
+    monkeypatch.setitem(LIMITS, "n_dof", Limit(1, 4, integer=True))
+    mm = load_matrix_model(_declaring(tmp_path / "four.npz", 4))
+    assert mm.n_dof == 4 and mm.M.toarray()[0, 0] == 1.0 and mm.M.nnz == 1
+    with pytest.raises(ConfigError, match=r"sparse matrix 'K' declares shape \(5, 5\)"):
+        read_matrix_arrays(_declaring(tmp_path / "five.npz", 5))
+    np.savez(tmp_path / "dense.npz", M=np.eye(5), K=np.eye(5))
+    with pytest.raises(ConfigError, match=r"M declares shape \(5, 5\); expected at most 4"):
+        load_matrix_model(tmp_path / "dense.npz")
