@@ -21,6 +21,7 @@ of them:
 from __future__ import annotations
 
 import csv
+import os
 import struct
 import zipfile
 import zlib
@@ -489,8 +490,8 @@ def read_text_bounded(path: str | Path, *, max_bytes: int = FILE_UNPACKED_MAX_BY
     p = Path(path)
     check_text_file(p, max_bytes=max_bytes)
     try:
-        with p.open("rb") as fh:
-            return fh.read(max_bytes // TEXT_FACTOR + 1)
+        with p.open("rb") as fh:  # its own size: no buffer of the whole limit
+            return fh.read(min(os.fstat(fh.fileno()).st_size, max_bytes // TEXT_FACTOR) + 1)
     except OSError as err:
         msg = f"{p}: cannot read ({err})"
         raise ConfigError(msg) from err
