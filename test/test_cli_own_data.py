@@ -370,7 +370,10 @@ def test_bridge_updates_from_the_command_line(shared_dir: Path, tmp_path: Path,
     pre = "SteelPedestrianBridge__Experiment__Experiment_Model_Updating__"
     model = _real(shared_dir, "model_updating", pre + "SteelPedestrianBridgeExp.mat")
     modes = _real(shared_dir, "model_updating", pre + "ExpModeInfo_FEM.mat")
-    assert main(["update", str(model), "--modes", str(modes), "--out", str(tmp_path)]) == 0
+    rules = Path(__file__).resolve().parents[1] / "config" / "matrix_models" / \
+        "pedestrian_bridge.yaml"  # the data set's parameter order and bounds (README)
+    assert main(["update", str(model), "--rules", str(rules), "--modes", str(modes),
+                 "--out", str(tmp_path)]) == 0
     rep = json.loads((tmp_path / "update_v1.json").read_text())
     assert max(abs(v) for v in rep["df_pct_after"]) <= 0.52  # bench_updating.py: 0.519
     assert min(rep["mac_after"]) >= 0.885
