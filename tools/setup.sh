@@ -10,6 +10,19 @@ PY="$VENV/bin/python"
 STAMP="$VENV/.modal_twin_setup"
 PYTHON=${PYTHON:-python3}
 
+# The browser tests render the HTML report in a real headless Chromium: Debian's package
+# where apt is there (a fresh machine, CI); checked on every run, installed only when missing.
+if ! command -v chromium >/dev/null 2>&1 && ! command -v chromium-browser >/dev/null 2>&1 \
+    && command -v apt-get >/dev/null 2>&1; then
+  SUDO=""
+  if [ "$(id -u)" != 0 ]; then SUDO="sudo -n"; fi
+  echo "setup: installing Debian's chromium (the browser tests of the HTML report)"
+  if ! { $SUDO apt-get update -q >/dev/null 2>&1 && \
+         DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q chromium >/dev/null 2>&1; }; then
+    echo "setup: could not install chromium with apt-get; the browser tests will skip and say why"
+  fi
+fi
+
 fingerprint() {
   # Everything whose change must redo a step.
   cat requirements/*.txt setup.py setup.cfg package.xml tools/setup.sh \
