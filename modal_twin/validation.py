@@ -45,7 +45,8 @@ MEMORY_BUDGET_BYTES = 1 << 28
 
 FILE_UNPACKED_MAX_BYTES = 1 << 29
 """Most a data file (NPZ, .mat, CSV, UFF, strong-motion zip) may unpack to (512 MiB),
-judged on its declared shapes before anything is allocated (:mod:`modal_twin.array_files`)."""
+judged on its declared shapes before anything is allocated
+(:mod:`modal_twin.models.array_files`)."""
 
 TEXT_FILE_MAX_BYTES = 64 * 2**20
 """Largest JSON or YAML file read (64 MiB: a modes JSON of 4,096 channels and 200 modes

@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from modal_twin._types import FloatArray
-from modal_twin.array_files import hdf5_datasets, mat_arrays
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, OptionError
+from modal_twin.models.array_files import hdf5_datasets, mat_arrays
 from modal_twin.paths import check_regular
 
 __all__ = ["RESPONSE_QUANTITIES", "SDOFRecord", "displacement_from_acceleration",

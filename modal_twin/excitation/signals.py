@@ -12,8 +12,8 @@ import numpy as np
 from scipy import signal
 
 from modal_twin._types import FloatArray
-from modal_twin.array_files import npz_arrays, read_csv_numbers
 from modal_twin.errors import ConfigError, OptionError, SignalError
+from modal_twin.models.array_files import npz_arrays, read_csv_numbers
 from modal_twin.validation import check_array_budget, check_field
 
 __all__ = [

@@ -23,8 +23,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from modal_twin._types import FloatArray, IntArray
-from modal_twin.array_files import mat_arrays
 from modal_twin.errors import ConfigError
+from modal_twin.models.array_files import mat_arrays
 from modal_twin.models.matrix_model import read_matrix_rules
 
 __all__ = [

@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 
 from modal_twin._types import ComplexArray, FloatArray, IntArray
-from modal_twin.array_files import mat_arrays
 from modal_twin.errors import ConfigError
 from modal_twin.identification.metrics import complexity, mpc
 from modal_twin.identification.record import RecordModes
+from modal_twin.models.array_files import mat_arrays
 from modal_twin.yaml_files import read_text
 
 __all__ = ["ModesFile", "read_geometry_files", "read_modes", "uff_modes_document",
@@ -136,7 +136,7 @@ def read_modes(path: str | Path) -> ModesFile:
     """Modes of a ``.json`` (identify), ``.uff`` / ``.unv`` (dataset 55) or ``.mat`` file.
 
     A JSON file is bounded before parsing (:func:`modal_twin.yaml_files.read_text`), a
-    ``.mat`` or UFF file by what it unpacks to (:mod:`modal_twin.array_files`).
+    ``.mat`` or UFF file by what it unpacks to (:mod:`modal_twin.models.array_files`).
 
     Raises
     ------

@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from modal_twin._types import FloatArray
-from modal_twin.array_files import read_text_bounded, regular_file, zip_texts
 from modal_twin.errors import SignalError
+from modal_twin.models.array_files import read_text_bounded, regular_file, zip_texts
 
 __all__ = [
     "StrongMotionChannel",

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from modal_twin._types import FloatArray
-from modal_twin.array_files import MAX_CHANNELS, npz_arrays, npz_members, read_csv_numbers
 from modal_twin.channels import ROLES, ChannelSpec
 from modal_twin.errors import ConfigError
+from modal_twin.models.array_files import MAX_CHANNELS, npz_arrays, npz_members, read_csv_numbers
 
 __all__ = ["UNITS", "read_csv", "read_npz"]
 

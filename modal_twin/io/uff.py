@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 
 from modal_twin._types import ComplexArray, FloatArray
-from modal_twin.array_files import check_text_file
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
+from modal_twin.models.array_files import check_text_file
 
 __all__ = ["AXIS_CODES", "CHANNELS_TAG", "UffContents", "read_uff", "read_uff55", "uff_role",
            "write_uff55",

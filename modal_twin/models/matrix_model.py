@@ -288,7 +288,7 @@ def read_matrix_arrays(path: str | Path) -> dict[str, Any]:
     """Return the named arrays of a ``.mat`` (MATLAB 4 to 7.3) or ``.npz`` file.
 
     Refused before loading when they would unpack to more than
-    :data:`~modal_twin.validation.FILE_UNPACKED_MAX_BYTES` (:mod:`modal_twin.array_files`;
+    :data:`~modal_twin.validation.FILE_UNPACKED_MAX_BYTES` (:mod:`modal_twin.models.array_files`;
     a sparse matrix counts by its members). Sparse NPZ members come back as
     :class:`scipy.sparse.csr_array` (module docstring).
 
@@ -298,7 +298,7 @@ def read_matrix_arrays(path: str | Path) -> dict[str, Any]:
         Another kind of file, one that does not read, one too large unpacked, or sparse
         members that are not one consistent CSR matrix.
     """
-    from modal_twin.array_files import mat_arrays, npz_arrays
+    from modal_twin.models.array_files import mat_arrays, npz_arrays
 
     p = Path(path)
     if p.suffix.lower() == ".npz":

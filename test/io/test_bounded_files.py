@@ -23,7 +23,12 @@ from bombs import (
     zip_of_zeros,
 )
 
-from modal_twin.array_files import (
+from modal_twin.errors import ConfigError
+from modal_twin.excitation.signals import load_record
+from modal_twin.io.strong_motion import read_record
+from modal_twin.io.tabular import read_csv, read_npz
+from modal_twin.io.uff import read_uff
+from modal_twin.models.array_files import (
     mat_arrays,
     mat_sizes,
     npz_arrays,
@@ -31,11 +36,6 @@ from modal_twin.array_files import (
     read_csv_numbers,
     zip_texts,
 )
-from modal_twin.errors import ConfigError
-from modal_twin.excitation.signals import load_record
-from modal_twin.io.strong_motion import read_record
-from modal_twin.io.tabular import read_csv, read_npz
-from modal_twin.io.uff import read_uff
 from modal_twin.models.matrix_model import read_matrix_arrays
 from modal_twin.validation import FILE_UNPACKED_MAX_BYTES
 
