@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.evidence import turning_points as evidence_turning_points
 
 __all__ = ["Behaviour", "classify_behaviour", "turning_points"]
 
@@ -83,27 +84,15 @@ class Behaviour:
 
 
 def turning_points(u: FloatArray, *, min_move: float = 0.02) -> np.ndarray:
-    """Return the drift's reversals (moves under ``min_move`` of its range ignored)."""
+    """Return the drift's reversals (moves under ``min_move`` of its range ignored).
+
+    The reversals of :func:`.evidence.turning_points` without its leading first sample.
+    """
     x = np.asarray(u, float)
-    if x.size < 3:
+    thr = min_move * float(np.ptp(x)) if x.size else 0.0
+    if x.size < 3 or thr <= 0:
         return np.zeros(0, dtype=int)
-    thr = min_move * float(np.ptp(x))
-    if thr <= 0:
-        return np.zeros(0, dtype=int)
-    out: list[int] = []
-    ext, rising = 0, None
-    for i in range(1, x.size):
-        if rising is None:
-            if abs(x[i] - x[0]) > thr:
-                rising = x[i] > x[0]
-                ext = i
-            continue
-        if (rising and x[i] > x[ext]) or (not rising and x[i] < x[ext]):
-            ext = i
-        elif abs(x[i] - x[ext]) > thr:
-            out.append(ext)
-            rising, ext = not rising, i
-    return np.asarray(out, dtype=int)
+    return evidence_turning_points(x, thr)[1:]
 
 
 def _cycles(u: FloatArray, r: FloatArray, tp: np.ndarray

@@ -22,6 +22,7 @@ from functools import partial
 from typing import Any
 
 import numpy as np
+from scipy import signal
 
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.effect_kind import Job, PlacedEffect, Round
@@ -58,18 +59,14 @@ def delay_of(measured: FloatArray, predicted: FloatArray, fs_hz: float, *,
     """
     y = np.asarray(measured, float) - np.mean(measured)
     p = np.asarray(predicted, float) - np.mean(predicted)
-    n = y.size
-    nfft = 1 << int(np.ceil(np.log2(2 * n)))
-    xc = np.fft.irfft(np.fft.rfft(y, nfft) * np.conj(np.fft.rfft(p, nfft)), nfft)
-    lags = int(min(max(2, round(max_s * fs_hz)), n - 2))
-    seg = xc[:lags + 1]
-    k = int(np.argmax(seg))
-    frac = 0.0
-    lo = xc[k - 1] if k > 0 else xc[-1]
-    hi = xc[k + 1]
-    den = lo - 2 * xc[k] + hi
-    if den < 0:
-        frac = float(np.clip(0.5 * (lo - hi) / den, -0.5, 0.5))
+    xc = signal.correlate(y, p, mode="full", method="fft")
+    lag = signal.correlation_lags(y.size, p.size, mode="full")
+    zero = int(np.flatnonzero(lag == 0)[0])
+    lags = int(min(max(2, round(max_s * fs_hz)), y.size - 2))
+    k = int(np.argmax(xc[zero:zero + lags + 1]))
+    lo, mid, hi = xc[zero + k - 1], xc[zero + k], xc[zero + k + 1]
+    den = lo - 2 * mid + hi
+    frac = float(np.clip(0.5 * (lo - hi) / den, -0.5, 0.5)) if den < 0 else 0.0
     return max(0.0, (k + frac) / fs_hz)
 
 
