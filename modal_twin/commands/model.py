@@ -22,6 +22,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     mi.add_argument("--json", action="store_true")
     mi.add_argument("--modes", type=int, default=None, help="modes to compute")
     mi.add_argument("--show", type=int, default=12, help="modes to list")
+    mi.add_argument("--carbody", choices=("rigid", "shell"), default=None,
+                    help="3D vehicle file: the carbody model (default: the file's "
+                         "carbody.model)")
     mi.add_argument("--rules", type=Path, default=None,
                     help="matrix file: YAML of the data set's parameter order and bounds "
                          "(e.g. config/matrix_models/pedestrian_bridge.yaml)")

@@ -38,9 +38,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="random phases of the track")
     p.add_argument("--sweep", default=None, metavar="A:B:STEP",
                    help="run each speed from A to B km/h in STEP and print one line each")
+    p.add_argument("--carbody", choices=("rigid", "shell"), default=None,
+                   help="carbody model: rigid (6 DOF) or the Craig-Bampton shell carbody "
+                        "(default: the file's carbody.model)")
     p.add_argument("--bending-hz", type=float, default=None, metavar="F",
-                   help="add the carbody's first vertical bending (uniform free-free beam "
-                        "mode at F Hz, 2 %% damping) until the shell carbody is in")
+                   help="add to the rigid carbody its first vertical bending (uniform "
+                        "free-free beam mode at F Hz, 2 %% damping)")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.set_defaults(func=run)
 
@@ -78,6 +81,11 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.models.vehicle3d_spec import load_vehicle3d
 
     spec = load_vehicle3d(a.vehicle)
+    if a.carbody is not None:
+        spec = spec.with_carbody(a.carbody)
+    if a.bending_hz is not None and spec.carbody_model != "rigid":
+        msg = "--bending-hz: expected the rigid carbody (the shell has its own bending modes)"
+        raise OptionError(msg)
     veh = build_vehicle3d(spec)
     if a.bending_hz is not None:
         cb = with_bending_mode(veh.carbody, length=spec.v("carbody", "length"),
@@ -131,12 +139,17 @@ def vehicle3d_info(a: argparse.Namespace) -> int:
     from modal_twin.models.vehicle3d_spec import load_vehicle3d
 
     spec = load_vehicle3d(a.file)
+    if getattr(a, "carbody", None) is not None:
+        spec = spec.with_carbody(a.carbody)
     veh = build_vehicle3d(spec)
     hunt = critical_speed(veh, np.arange(10.0, 300.01, 5.0))
     modes = carbody_modes(veh, spec.speed)
-    mass = float(np.trace(veh.M[:3, :3]) / 3 + 2 * spec.v("bogie", "mass")
-                 + 4 * spec.v("wheelset", "mass"))
-    info = {"name": spec.name, "n_dof": veh.n_dof, "n_state": veh.n_state,
+    show = getattr(a, "show", None)
+    if show is not None:
+        modes = modes[: max(int(show), 0)]
+    mass = carbody_mass(veh) + 2 * spec.v("bogie", "mass") + 4 * spec.v("wheelset", "mass")
+    info = {"name": spec.name, "carbody": veh.carbody.name, "n_dof": veh.n_dof,
+            "n_carbody_coordinates": veh.carbody.n, "n_state": veh.n_state,
             "maxwell_elements": list(veh.maxwell_names), "total_mass_kg": mass,
             "speed_kmh": spec.speed_kmh, "critical_speed_kmh": _finite(3.6 * hunt.v_critical),
             "hunting_f_hz": _finite(hunt.f_critical_hz),
@@ -155,6 +168,15 @@ def vehicle3d_info(a: argparse.Namespace) -> int:
     for k, m in enumerate(modes, 1):
         print(f"{k:>4d} {m.f_hz:9.4f} {100 * m.zeta:8.2f}  carbody {m.label}")
     return ExitCode.OK
+
+
+def carbody_mass(veh: Any) -> float:
+    """Return the carbody's mass in the vehicle, kg (a shell carbody's rigid-body mass)."""
+    src = veh.carbody.source
+    rigid_mass = getattr(src, "rigid_mass", None)
+    if rigid_mass is not None:
+        return float(rigid_mass[0, 0])
+    return float(np.trace(veh.M[:3, :3]) / 3)
 
 
 def _finite(v: float) -> float | None:

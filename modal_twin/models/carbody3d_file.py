@@ -29,7 +29,8 @@ from modal_twin.models.carbody_modes import name_modes
 from modal_twin.models.fe import solve_modes
 from modal_twin.yaml_files import read_yaml
 
-__all__ = ["carbody3d_info", "format_carbody3d_info", "is_carbody3d_file", "load_carbody3d"]
+__all__ = ["carbody3d_info", "carbody3d_params", "config_section", "format_carbody3d_info",
+           "is_carbody3d_file", "load_carbody3d"]
 
 _ZONE_KEYS = ("E", "nu", "rho", "t", "t_b", "nsm", "E_service")
 _MESH_KEYS = ("n_length", "n_width", "n_height")
@@ -42,7 +43,9 @@ def is_carbody3d_file(path: str | Path) -> bool:
     return isinstance(doc, Mapping) and "carbody3d" in doc
 
 
-def _mapping(v: object, where: str, src: str, allowed: tuple[str, ...]) -> Mapping[str, Any]:
+def config_section(v: object, where: str, src: str, allowed: tuple[str, ...]
+                   ) -> Mapping[str, Any]:
+    """Return ``v`` if it is a mapping of ``allowed`` keys; else one-line :class:`ConfigError`."""
     if not isinstance(v, Mapping):
         msg = f"{src}: {where}: expected a mapping, got {type(v).__name__}"
         raise ConfigError(msg)
@@ -80,27 +83,40 @@ def load_carbody3d(path: str | Path) -> tuple[str, CarbodyParams, int]:
     """
     src = str(path)
     doc = read_yaml(path, "model file")
-    sec = _mapping(doc.get("carbody3d") if isinstance(doc, Mapping) else None, "carbody3d",
+    sec = config_section(doc.get("carbody3d") if isinstance(doc, Mapping) else None, "carbody3d",
                    src, _TOP_KEYS)
+    p = carbody3d_params(sec, "carbody3d", src)
+    n_modes = _int(sec.get("modes", 30), "carbody3d.modes", src, 7, 200)
+    name = sec.get("name", Path(path).stem)
+    return str(name), p, n_modes
+
+
+def carbody3d_params(sec: Mapping[str, Any], where: str, src: str) -> CarbodyParams:
+    """Return the :class:`CarbodyParams` of a section's ``in_service``, ``mesh``, ``zones``.
+
+    Used for a ``carbody3d`` file and a 3D vehicle file's ``carbody_shell`` section.
+
+    Raises
+    ------
+    ConfigError
+        Bad values (one line naming ``src`` and ``where.key``).
+    """
     p = CarbodyParams()
     in_service = sec.get("in_service", True)
     if not isinstance(in_service, bool):
-        msg = f"{src}: carbody3d.in_service: expected true or false, got {in_service!r}"
+        msg = f"{src}: {where}.in_service: expected true or false, got {in_service!r}"
         raise ConfigError(msg)
-    mesh = _mapping(sec.get("mesh", {}), "carbody3d.mesh", src, _MESH_KEYS)
-    sizes = {k: _int(v, f"carbody3d.mesh.{k}", src, 2, 400) for k, v in mesh.items()}
+    mesh = config_section(sec.get("mesh", {}), f"{where}.mesh", src, _MESH_KEYS)
+    sizes = {k: _int(v, f"{where}.mesh.{k}", src, 2, 400) for k, v in mesh.items()}
     zones = dict(p.zones)
-    for zname, over in _mapping(sec.get("zones", {}), "carbody3d.zones", src, ZONES).items():
-        vals = _mapping(over, f"carbody3d.zones.{zname}", src, _ZONE_KEYS)
+    for zname, over in config_section(sec.get("zones", {}), f"{where}.zones", src, ZONES).items():
+        vals = config_section(over, f"{where}.zones.{zname}", src, _ZONE_KEYS)
         zones[zname] = replace(zones[zname], **{
-            k: _number(v, f"carbody3d.zones.{zname}.{k}", src) for k, v in vals.items()})
-    n_modes = _int(sec.get("modes", 30), "carbody3d.modes", src, 7, 200)
-    name = sec.get("name", Path(path).stem)
-    p = replace(p, in_service=in_service, zones=zones,
-                n_length=sizes.get("n_length", p.n_length),
-                n_width=sizes.get("n_width", p.n_width),
-                n_height=sizes.get("n_height", p.n_height))
-    return str(name), p, n_modes
+            k: _number(v, f"{where}.zones.{zname}.{k}", src) for k, v in vals.items()})
+    return replace(p, in_service=in_service, zones=zones,
+                   n_length=sizes.get("n_length", p.n_length),
+                   n_width=sizes.get("n_width", p.n_width),
+                   n_height=sizes.get("n_height", p.n_height))
 
 
 def carbody3d_info(car: CarbodyFE, n_modes: int = 30, *, name: str = "carbody",

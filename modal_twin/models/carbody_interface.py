@@ -1,24 +1,25 @@
-"""The carbody as a reduced model with six-DOF interface points: rigid now, flexible later.
+"""The carbody as a reduced model with six-DOF interface points: rigid or flexible.
 
 The 3D vehicle (:mod:`modal_twin.models.vehicle3d`) sees its carbody only through a
 :class:`ReducedCarbody`: mass, stiffness and damping matrices over the carbody's own
-coordinates ``q_c`` (n of them), and for each **seat** (the four secondary-suspension
-seats, names ``seat_1L, seat_1R, seat_2L, seat_2R``; bogie 1 leading, L = +y) a matrix
-``T`` (6 x n) giving the seat's small motion ``[u_x, u_y, u_z, theta_x, theta_y,
-theta_z] = T q_c``; for each floor **point** a matrix ``P`` (3 x n) giving its
-displacement. A suspension element attached at ``p`` near seat ``s`` moves with the seat
-as a rigid offset (the bolster is rigidly bolted to the underframe, [002] Sec. 5.1)::
+coordinates ``q_c`` (n of them), and for each **seat** (the four secondary-suspension seats,
+names ``seat_1L, seat_1R, seat_2L, seat_2R``; bogie 1 leading, L = +y) a matrix ``T`` (6 x
+n) giving the seat's small motion ``[u_x, u_y, u_z, theta_x, theta_y, theta_z] = T q_c`` (a
+shell carbody adds its centre pins ``pivot_1, pivot_2``); for each floor **point** a matrix
+``P`` (3 x n) giving its displacement. A suspension element attached at ``p`` near seat
+``s`` moves with the seat as a rigid offset (the bolster is rigidly bolted to the
+underframe, [002] Sec. 5.1)::
 
     u(p) = [I, -skew(p - p_s)] T_s q_c
 
-A Craig-Bampton carbody (:mod:`modal_twin.models.craig_bampton`) enters with
-``q_c = [u_b; eta]``: ``T_s`` selects the seat node's six boundary DOFs and ``P`` the floor
-node's translations from the reduced basis. The rigid carbody of :func:`rigid_carbody`
+A Craig-Bampton carbody (:mod:`modal_twin.models.carbody_shell`) enters with
+``q_c = [u_b; eta]`` or its free-free modes: ``T_s`` is the seat node's motion and ``P``
+the floor node's translations from the reduced basis. The rigid carbody of :func:`rigid_carbody`
 has ``q_c`` = the six motions of its centre of gravity ``G``::
 
     M = diag(m, m, m, I_xx, I_yy, I_zz),  K = C = 0,  T_s = [[I, -skew(p_s - G)], [0, I]]
 
-Until the shell carbody is in, :func:`with_bending_mode` adds one flexible coordinate
+A light stand-in for the shell: :func:`with_bending_mode` adds one flexible coordinate
 ``eta`` to a carbody: the first free-free vertical bending of a uniform beam of length
 ``L`` and the carbody's mass ``m`` (Blevins, *Formulas for Natural Frequency and Mode
 Shape*, 1979, Table 8-1, free-free: ``beta L = 4.73004``)::
@@ -35,7 +36,7 @@ pitches ``theta_y = -phi'(x) eta``; a floor point moves ``u_z = phi(x) eta``.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -85,6 +86,12 @@ class ReducedCarbody:
         Floor points and their displacement matrices.
     coordinates : tuple of str
         Names of the n coordinates (default ``q0 .. q<n-1>``).
+    motion : (k, n) float array, optional
+        Physical motions (m, rad) that stand for the carbody in a vehicle mode's shares,
+        for carbodies whose coordinates are not physical (modal ones); None: ``q_c``.
+    source : object, optional
+        What the carbody was reduced from (a shell carbody:
+        :class:`modal_twin.models.carbody_shell.ShellCarbody`), for naming its modes.
     """
 
     name: str
@@ -94,6 +101,8 @@ class ReducedCarbody:
     seats: Mapping[str, tuple[FloatArray, FloatArray]]
     points: Mapping[str, tuple[FloatArray, FloatArray]]
     coordinates: tuple[str, ...] = ()
+    motion: FloatArray | None = None
+    source: object = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         n = self.M.shape[0]

@@ -1,8 +1,9 @@
 """3D rigid-flexible trailer car on a linear wheel-rail contact ([002] Sec. 5.1, Fig. 13).
 
 Bodies and coordinates (x forward, y left, z up; rotations about x, y, z: roll, pitch,
-yaw): the carbody through its reduced model (:mod:`modal_twin.models.carbody_interface`;
-rigid now: six DOFs of ``G``), two bogie frames of six DOFs each, four wheelsets with
+yaw): the carbody through its reduced model (:mod:`modal_twin.models.carbody_interface`:
+rigid, six DOFs of ``G``, or the Craig-Bampton shell of :mod:`modal_twin.models.
+carbody_shell`), two bogie frames of six DOFs each, four wheelsets with
 lateral ``y`` and yaw ``psi`` (their vertical ``z`` and roll ``phi`` follow the track's
 vertical profile and cross level, their longitudinal motion is held). The small motion of
 a point ``p`` of a rigid body with reference point ``o`` is ``[I, -skew(p - o)] [u;
@@ -19,10 +20,12 @@ input ``u``: ``d = g' q + h' u``. Springs store ``k d^2 / 2``; dashpots dissipat
 Elements: per axle box a primary spring in x, y, z and a vertical dashpot (wheelset ->
 bogie); per air spring x, y, z springs and a vertical Maxwell damper (bogie -> seat); per
 bogie a lateral Maxwell damper, two yaw (anti-yaw) Maxwell dampers at ``+-half_spacing``, a
-traction rod (x) and an anti-roll bar, a roll stiffness on the relative roll measured at
-the two seats ``(d_zL - d_zR) / (2 half_spacing)``. The wheel-rail forces are the linear
-contact of :mod:`modal_twin.models.wheel_rail` on each wheelset's ``(y, psi)`` with the
-alignment ``y_a`` under it. Gravity's roll (pendulum) terms of the bodies are neglected.
+traction rod (x) and an anti-roll bar (the lateral damper and the traction rod act at the
+carbody's centre pin ``pivot_<b>`` when it has one, else offset from ``seat_<b>L``), a roll
+stiffness on the relative roll measured at the two seats ``(d_zL - d_zR) / (2
+half_spacing)``. The wheel-rail forces are the linear contact of
+:mod:`modal_twin.models.wheel_rail` on each wheelset's ``(y, psi)`` with the alignment
+``y_a`` under it. Gravity's roll (pendulum) terms of the bodies are neglected.
 
 First-order model, state ``s = [q; q'; e]``, input ``w = [u; u']`` with
 ``u = [z_1..4, phi_1..4, ya_1..4]`` (:func:`modal_twin.models.track3d.track_inputs_3d`)::
@@ -49,6 +52,7 @@ import scipy.signal
 from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.models.carbody_interface import ReducedCarbody, offset_matrix, rigid_carbody
+from modal_twin.models.carbody_shell import vehicle_shell_carbody
 from modal_twin.models.vehicle3d_spec import Vehicle3DSpec
 from modal_twin.models.wheel_rail import WheelRailContact, contact_matrices
 
@@ -206,12 +210,18 @@ class Vehicle3D:
 
         Kinematic modes: oscillatory eigenvalues (above ``f_min_hz``) whose eigenvector
         puts at least ``kinematic_share`` of ``|q|^2`` in the wheelsets' lateral and yaw
-        coordinates (0 takes every oscillatory mode).
+        coordinates (0 takes every oscillatory mode); a carbody with a ``motion`` matrix
+        (modal coordinates) enters ``|q|^2`` by those physical motions.
         """
         A, _ = self.state_space(speed)
         lam, X = np.linalg.eig(A)
         ws = [i for pair in self._wheelset_dofs for i in pair]
         Q = np.abs(X[: self.n_dof]) ** 2
+        motion = self.carbody.motion
+        if motion is not None:  # a modal carbody counts by its physical motion (m, rad)
+            nc = self.carbody.n
+            Q = np.vstack([np.abs(motion @ X[:nc]) ** 2, Q[nc:]])
+            ws = [i - nc + motion.shape[0] for i in ws]
         share = Q[ws].sum(axis=0) / Q.sum(axis=0)
         osc = (lam.imag > 2.0 * math.pi * f_min_hz) & (share >= kinematic_share)
         return np.asarray(lam[osc], dtype=np.complex128)
@@ -416,7 +426,8 @@ def _secondary(spec: Vehicle3DSpec, carbody: ReducedCarbody, n: int, b: int,
                                 c=v(dev, "c")))
         seat_dz.append(ez @ (_carbody_at(carbody, n, seat, p)[0] - bog.at(p)[0]))
     pc = np.array([xb, 0.0, hs])
-    car_c = _carbody_at(carbody, n, f"seat_{b + 1}L", pc)
+    pin = f"pivot_{b + 1}" if f"pivot_{b + 1}" in carbody.seats else f"seat_{b + 1}L"
+    car_c = _carbody_at(carbody, n, pin, pc)  # a flexible carbody's centre pin
     out.append(_element(f"lateral_damper_{b + 1}", "maxwell", bog.at(pc), car_c, ey,
                         k=v("lateral_damper", "k_series"), c=v("lateral_damper", "c")))
     out.append(_element(f"traction_rod_{b + 1}", "spring", bog.at(pc), car_c, ex,
@@ -458,10 +469,17 @@ def build_vehicle3d(spec: Vehicle3DSpec, carbody: ReducedCarbody | None = None) 
     spec : Vehicle3DSpec
     carbody : ReducedCarbody, optional
         A flexible carbody with the four seats and the spec's floor points; default: the
-        rigid carbody of the spec's mass and inertia.
+        spec's ``carbody_model``: the rigid carbody of the spec's mass and inertia, or the
+        Craig-Bampton shell carbody (:func:`modal_twin.models.carbody_shell.
+        vehicle_shell_carbody`; some seconds to build and reduce, kept in memory).
     """
     v = spec.v
-    cb = _default_carbody(spec) if carbody is None else carbody
+    if carbody is not None:
+        cb = carbody
+    elif spec.carbody_model == "shell":
+        cb = vehicle_shell_carbody(spec)
+    else:
+        cb = _default_carbody(spec)
     nc = cb.n
     n = nc + 2 * 6 + 2 * N_AXLES
     names = [f"car_{k}" for k in cb.coordinate_names]

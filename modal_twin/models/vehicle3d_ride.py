@@ -30,6 +30,7 @@ import numpy as np
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
+from modal_twin.models.carbody_shell import shell_mode_labels
 from modal_twin.models.ride import FloorPSD, floor_psd, sperling_index
 from modal_twin.models.track import german_vertical_psd
 from modal_twin.models.track3d import (
@@ -64,7 +65,8 @@ class CarbodyMode:
     ----------
     label : str
         The carbody coordinate with the largest share (bounce, pitch, sway, roll, yaw,
-        surge; a flexible carbody's coordinate by its name, e.g. ``bending1``).
+        surge; a flexible carbody's coordinate by its name, e.g. ``bending1``; the shell
+        carbody's mode type, e.g. ``vertical bending 1``).
     f_hz, zeta : float
         Damped frequency (Hz) and damping ratio.
     share : float
@@ -82,7 +84,10 @@ def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
     """Oscillatory modes with at least ``min_share`` of their kinetic energy in the carbody.
 
     Energy share ``x_c^H M_cc x_c / x^H M x`` of the mode shape ``x`` (displacements);
-    the label is the carbody coordinate of the largest kinetic energy ``M_ii |x_i|^2``.
+    the label is the carbody coordinate of the largest kinetic energy ``M_ii |x_i|^2``,
+    or, for the shell carbody, the type named from the recovered shape
+    (:func:`modal_twin.models.carbody_shell.shell_mode_labels`: ``bounce`` ... ``yaw``,
+    ``diamond 1``, ``vertical bending 1`` ...).
     Modes below ``f_min_hz`` (the car's slow lateral drift at a crawl) are left out. Sorted
     by frequency.
     """
@@ -96,9 +101,11 @@ def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
     share = car / total
     Ed = np.diag(M)[:nc, None] * np.abs(Xq[:nc]) ** 2
     out = []
-    for i in np.flatnonzero((lam.imag > 2.0 * math.pi * f_min_hz) & (share >= min_share)):
+    sel = np.flatnonzero((lam.imag > 2.0 * math.pi * f_min_hz) & (share >= min_share))
+    shell = shell_mode_labels(vehicle.carbody, lam[sel].imag / (2 * math.pi), Xq[:nc, sel])
+    for j, i in enumerate(sel):
         name = vehicle.dof_names[int(np.argmax(Ed[:, i]))]
-        label = _CAR_LABELS.get(name, name.removeprefix("car_"))
+        label = _CAR_LABELS.get(name, name.removeprefix("car_")) if shell is None else shell[j]
         out.append(CarbodyMode(label, float(lam[i].imag / (2 * math.pi)),
                                float(-lam[i].real / abs(lam[i])), float(share[i])))
     return tuple(sorted(out, key=lambda m: m.f_hz))

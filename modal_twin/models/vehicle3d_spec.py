@@ -3,7 +3,16 @@
 The file has ``kind: vehicle3d`` and the sections below (SI units; every suspension value
 is per element, e.g. per axle box or per air spring):
 
-``carbody``  ``{mass, Ixx, Iyy, Izz, length, cg_height, floor_height, pivot_spacing}``
+``carbody``  ``{model, mass, Ixx, Iyy, Izz, length, cg_height, floor_height, pivot_spacing}``
+  ``model``: ``rigid`` (default; six DOFs of the mass and inertia given) or ``shell`` (the
+  Craig-Bampton shell carbody of the ``carbody_shell`` section,
+  :mod:`modal_twin.models.carbody_shell`; its own mass and inertia, the numbers here
+  serve the static axle load). The vertical-plane vehicle's beam carbody is the other
+  vehicle file (``config/vehicles/trailer_car.yaml``, :mod:`modal_twin.models.vehicle`).
+``carbody_shell`` (optional)  ``{in_service, mesh, zones}`` as a ``carbody3d`` file
+  (:mod:`modal_twin.models.carbody3d_file`) and ``{f_cut_hz, f_keep_hz, zeta}``: the CB
+  cut-off, the flexible free-free modes kept in the vehicle (plus residual vectors) and
+  their modal damping; the seats take ``secondary.half_spacing``.
 ``bogie``  ``{mass, Ixx, Iyy, Izz, cg_height, wheelbase}``
 ``wheelset``  ``{mass, Izz}`` (lateral and yaw; vertical and roll follow the track)
 ``contact``  ``{conicity, r0, b, f11, f22}`` (:mod:`modal_twin.models.wheel_rail`)
@@ -25,17 +34,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from modal_twin.errors import ConfigError
+from modal_twin.models.carbody3d import CarbodyParams
+from modal_twin.models.carbody3d_file import carbody3d_params, config_section
 from modal_twin.models.vehicle_spec import _num as read_number
 from modal_twin.yaml_files import read_yaml
 
 __all__ = [
+    "CARBODY_MODELS",
     "DEFAULT_VEHICLE3D_YAML",
     "FloorPoint",
+    "ShellSpec",
     "Vehicle3DSpec",
     "is_vehicle3d_file",
     "load_vehicle3d",
@@ -67,6 +80,32 @@ _SCHEMA: dict[str, dict[str, bool]] = {
 }
 
 
+CARBODY_MODELS: tuple[str, ...] = ("rigid", "shell")
+"""Carbody models of the 3D vehicle (``carbody.model``)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ShellSpec:
+    """The shell carbody of a 3D vehicle (``carbody_shell``; module docstring).
+
+    Attributes
+    ----------
+    params : CarbodyParams
+        Mesh, zones, service state (seat spacing set from the vehicle when built).
+    f_cut_hz : float
+        Craig-Bampton cut-off, Hz.
+    f_keep_hz : float or None
+        Flexible free-free modes kept in the vehicle, Hz (None: all CB coordinates).
+    zeta : float
+        Modal damping of the flexible modes.
+    """
+
+    params: CarbodyParams = field(default_factory=CarbodyParams)
+    f_cut_hz: float = 60.0
+    f_keep_hz: float | None = 40.0
+    zeta: float = 0.02
+
+
 @dataclass(frozen=True, slots=True)
 class FloorPoint:
     """A floor accelerometer: ``label``, ``x`` (m from the centre, + front), ``y`` (+ left)."""
@@ -88,6 +127,9 @@ class Vehicle3DSpec:
     floor_points : tuple of FloorPoint
     speed_kmh : float
     source : str
+    carbody_model : {"rigid", "shell"}
+    shell : ShellSpec
+        Used when ``carbody_model`` is ``"shell"``.
     """
 
     name: str
@@ -95,6 +137,21 @@ class Vehicle3DSpec:
     floor_points: tuple[FloorPoint, ...]
     speed_kmh: float = 300.0
     source: str = "<spec>"
+    carbody_model: str = "rigid"
+    shell: ShellSpec = field(default_factory=ShellSpec)
+
+    def with_carbody(self, model: str) -> Vehicle3DSpec:
+        """Copy with another carbody model (:data:`CARBODY_MODELS`).
+
+        Raises
+        ------
+        ConfigError
+            Unknown model.
+        """
+        if model not in CARBODY_MODELS:
+            msg = f"carbody.model: expected one of {list(CARBODY_MODELS)}, got {model!r}"
+            raise ConfigError(msg)
+        return replace(self, carbody_model=model)
 
     def v(self, section: str, key: str) -> float:
         """One value, e.g. ``spec.v("yaw_damper", "c")``."""
@@ -173,6 +230,11 @@ def load_vehicle3d(path: str | Path | None = None) -> Vehicle3DSpec:
         raise ConfigError(msg)
     values = {sec: {k: _number(doc.get(sec), k, sec, src, z) for k, z in keys.items()}
               for sec, keys in _SCHEMA.items()}
+    model = doc["carbody"].get("model", "rigid")
+    if model not in CARBODY_MODELS:
+        msg = f"{src}: carbody.model: expected one of {list(CARBODY_MODELS)}, got {model!r}"
+        raise ConfigError(msg)
+    shell = _shell_spec(doc.get("carbody_shell", {}), src)
     pts = doc.get("floor_points")
     if not isinstance(pts, list) or not pts:
         msg = f"{src}: floor_points: expected a non-empty list, got {pts!r}"
@@ -192,4 +254,24 @@ def load_vehicle3d(path: str | Path | None = None) -> Vehicle3DSpec:
         floor.append(FloorPoint(str(item["label"]), float(xy[0]), float(xy[1])))
     speed = _number(doc, "speed_kmh", "<top>", src, False) if "speed_kmh" in doc else 300.0
     return Vehicle3DSpec(name=str(doc.get("name", p.stem)), values=values,
-                         floor_points=tuple(floor), speed_kmh=speed, source=src)
+                         floor_points=tuple(floor), speed_kmh=speed, source=src,
+                         carbody_model=str(model), shell=shell)
+
+
+_SHELL_KEYS = ("in_service", "mesh", "zones", "f_cut_hz", "f_keep_hz", "zeta")
+
+
+def _shell_spec(sec: object, src: str) -> ShellSpec:
+    """Read the ``carbody_shell`` section (module docstring)."""
+    where = "carbody_shell"
+    sec = config_section(sec, where, src, _SHELL_KEYS)
+    d = ShellSpec()
+    f_cut = read_number(sec, "f_cut_hz", where, src, default=d.f_cut_hz)
+    f_keep = (None if "f_keep_hz" in sec and sec["f_keep_hz"] is None
+              else read_number(sec, "f_keep_hz", where, src, default=d.f_keep_hz))
+    zeta = read_number(sec, "zeta", where, src, positive=False, default=d.zeta)
+    if not zeta < 1.0:
+        msg = f"{src}: {where}.zeta: expected a damping ratio in [0, 1), got {zeta!r}"
+        raise ConfigError(msg)
+    return ShellSpec(params=carbody3d_params(sec, where, src), f_cut_hz=f_cut,
+                     f_keep_hz=f_keep, zeta=zeta)
