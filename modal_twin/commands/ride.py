@@ -202,8 +202,10 @@ def _print_run(r: Any) -> None:
         pz = " ".join(f"{f:5.2f}" for f in r.psd.peaks_hz[iz])
         py = " ".join(f"{f:5.2f}" for f in r.psd.peaks_hz[iy])
         print(f"{lab:<10} {r.W[iz]:5.2f} {r.W[iy]:5.2f}  {pz:<20}  {py}")
+    shown = [m for m in r.modes if m.f_hz <= 20.0]  # the ride band's (all of a rigid car's)
+    more = f" and {len(r.modes) - len(shown)} above 20 Hz" if len(shown) < len(r.modes) else ""
     print("carbody modes (shaking check: PSD peaks near these): " + ", ".join(
-        f"{m.label} {m.f_hz:.2f} Hz ({100 * m.zeta:.0f} %)" for m in r.modes))
+        f"{m.label} {m.f_hz:.2f} Hz ({100 * m.zeta:.0f} %)" for m in shown) + more)
     if math.isfinite(r.kinematic[0]):
         print(f"least-damped kinematic mode: {r.kinematic[1]:.2f} Hz, zeta "
               f"{100 * r.kinematic[0]:.1f} %")
@@ -212,7 +214,8 @@ def _print_run(r: Any) -> None:
 def _print_sweep(runs: list[Any], branch: dict[float, tuple[float, float]]) -> None:
     mid = [c for c in runs[0].channels if "_mid_" in c] or list(runs[0].channels[:2])
     head = " ".join(f"{'W ' + c[len('floor_'):]:>9}" for c in mid)
-    bend = next((m for m in runs[0].modes if m.label.startswith("bending")), None)
+    bend = next((m for m in runs[0].modes  # the beam mode, or the shell's first bending
+                 if m.label.startswith(("bending", "vertical bending"))), None)
     extra = f"  PSD mid_z at {bend.f_hz:.2f} Hz" if bend is not None else ""
     print(f"{'km/h':>6} {head}  lateral peak [Hz]  hunting f [Hz] zeta [%]{extra}")
     for r in runs:
