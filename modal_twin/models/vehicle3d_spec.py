@@ -232,7 +232,10 @@ def load_vehicle3d(path: str | Path | None = None) -> Vehicle3DSpec:
               for sec, keys in _SCHEMA.items()}
     model = doc["carbody"].get("model", "rigid")
     if model not in CARBODY_MODELS:
-        msg = f"{src}: carbody.model: expected one of {list(CARBODY_MODELS)}, got {model!r}"
+        hint = (" (the beam carbody is the vertical-plane vehicle, "
+                "config/vehicles/trailer_car.yaml)" if model == "beam" else "")
+        msg = (f"{src}: carbody.model: expected one of {list(CARBODY_MODELS)}, got "
+               f"{model!r}{hint}")
         raise ConfigError(msg)
     shell = _shell_spec(doc.get("carbody_shell", {}), src)
     pts = doc.get("floor_points")

@@ -71,7 +71,8 @@ def test_file_selects_the_carbody_model(tmp_path):
     text = Path(base.source).read_text()
     bad = tmp_path / "v.yaml"
     bad.write_text(text.replace("model: rigid", "model: beam"))
-    with pytest.raises(ConfigError, match=r"carbody.model: expected one of \['rigid', 'shell'\]"):
+    with pytest.raises(ConfigError, match=r"carbody.model: expected one of \['rigid', 'shell'\], "
+                       r"got 'beam' \(the beam carbody is the vertical-plane vehicle"):
         load_vehicle3d(bad)
     bad.write_text(text.replace("f_keep_hz: 40.0", "f_keep: 40.0"))
     with pytest.raises(ConfigError, match=r"carbody_shell: unknown keys \['f_keep'\]"):
@@ -165,6 +166,21 @@ def test_hunting_with_the_flexible_carbody_is_near_the_rigid_one(spec, car, shel
     assert np.isfinite(h_flex.v_critical) and np.isfinite(h_rigid.v_critical)
     assert h_flex.v_critical == pytest.approx(h_rigid.v_critical, rel=0.04)
     assert h_flex.f_critical_hz == pytest.approx(h_rigid.f_critical_hz, rel=0.04)
+    # the time domain agrees: a disturbed wheelset settles at 0.9 Vc and hunts at 1.1 Vc,
+    # growing at the unstable eigenvalue's rate
+    fs, T = 400.0, 20.0
+    s0 = np.zeros(car.n_state)
+    s0[car.dof("ws1_y")] = 1e-3
+    for frac in (0.9, 1.1):
+        V = frac * h_flex.v_critical
+        r = car.simulate(np.zeros((24, round(T * fs) + 1)), fs, V, s0=s0, dofs=("ws1_y",))
+        y, t = r.dofs[0], r.t
+        rms = [np.std(y[(t >= t0) & (t < t0 + 1.0)]) for t0 in (10.0, 18.0)]
+        slope = np.log(rms[1] / rms[0]) / 8.0
+        if frac < 1:
+            assert slope < 0
+        else:
+            assert slope == pytest.approx(np.max(car.kinematic_modes(V).real), rel=0.05)
 
 
 def test_model_names_the_coupled_carbody_modes(car):
