@@ -25,10 +25,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from modal_twin.cli import main
-from modal_twin.errors import ConfigError
+from modal_twin.errors import ConfigError, OptionError
 from modal_twin.models.carbody_interface import rigid_carbody
 from modal_twin.models.carbody_reduction import reduced_modes
-from modal_twin.models.carbody_shell import ShellCarbody
+from modal_twin.models.carbody_shell import ShellCarbody, shell_carbody
 from modal_twin.models.fe import solve_modes
 from modal_twin.models.hunting import critical_speed
 from modal_twin.models.vehicle3d import build_vehicle3d
@@ -235,3 +235,19 @@ def test_ride_and_model_info_take_the_shell_car(spec, car, shell, capsys):
     assert main(["ride", "--carbody", "shell", "--bending-hz", "8.7"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("modal-twin ride: --bending-hz") and err.count("\n") == 1
+
+
+def test_cb_coordinates_and_the_modal_basis_give_the_same_car(spec, car, shell):
+    """``f_keep_hz=None`` couples the CB coordinates themselves (283): same low modes."""
+    pts = {p.label: (p.x, p.y) for p in spec.floor_points}
+    full = shell_carbody(shell.car, shell.cb, points=pts, z0=shell.z0, f_keep_hz=None)
+    assert full.n == shell.cb.n_boundary + shell.cb.n_modes > 3 * car.carbody.n
+    big = build_vehicle3d(spec, full)
+    V = 300.0 / 3.6
+    a = [m.f_hz for m in carbody_modes(car, V) if m.f_hz < 20.0]
+    b = [m.f_hz for m in carbody_modes(big, V) if m.f_hz < 20.0]
+    assert len(a) == len(b) and np.max(np.abs(np.array(a) / np.array(b) - 1.0)) < 2e-3
+    with pytest.raises(OptionError, match="zeta: expected a finite value in"):
+        shell_carbody(shell.car, shell.cb, points=pts, z0=1.0, zeta=-0.1)
+    with pytest.raises(OptionError, match="f_keep_hz: expected a finite value > 0"):
+        shell_carbody(shell.car, shell.cb, points=pts, z0=1.0, f_keep_hz=0.0)
