@@ -150,6 +150,9 @@ class DelayLine:
                  zeros: Sequence[tuple[int, float, float]] = ()) -> None:
         self.fs_hz = float(fs_hz)
         self.zeros = tuple((int(i), float(b), float(r)) for i, b, r in zeros)
+        if not np.all(np.isfinite([v for z in self.zeros for v in z[1:]])):
+            msg = f"sensor zeros: expected finite offsets and rates, got {list(zeros)}"
+            raise OptionError(msg)
         self.n_seen = 0
         self.rows = np.array([i for i, _ in delays_s], dtype=int)
         d = np.array([t for _, t in delays_s], float) * fs_hz

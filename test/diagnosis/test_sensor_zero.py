@@ -11,6 +11,7 @@ import pytest
 from scipy import signal
 
 from modal_twin.diagnosis.sensors import screen_sensors, shifted_zero
+from modal_twin.errors import OptionError
 from modal_twin.models.effects import EffectSpec
 from modal_twin.models.plant import DelayLine, with_sensor_effects
 
@@ -31,6 +32,8 @@ def test_a_creeping_zero_block_by_block_is_offset_plus_rate_times_time() -> None
     out = np.concatenate([line.apply(y[:, a:a + 37]) for a in range(0, 1000, 37)], axis=1)
     np.testing.assert_allclose(out[1], y[1] + 0.3 - 0.05 * t, atol=1e-12)
     np.testing.assert_array_equal(out[[0, 2]], y[[0, 2]])
+    with pytest.raises(OptionError, match="finite"):
+        DelayLine([], FS, zeros=[(0, float("nan"), 0.0)])
 
 
 def test_shifted_zero_recovers_offset_and_drift_within_their_sigma() -> None:
