@@ -54,9 +54,11 @@ class EffectSpec:
 # a rigidly attached mass hung on a spring-damper instead (f_hz, zeta): an effect that
 # changes the structure, not a device law (modal_twin.diagnosis.attachments)
 MOUNT_LAW = "elastic_mount"
-# what a sensor reports is off (a gain, an orientation about z, a time delay): the component
-# is a channel
-SENSOR_LAWS = ("sensor_gain", "sensor_angle", "sensor_delay")
+# what a sensor reports is off (a gain, an orientation about z, a time delay, a reversed
+# polarity, a zero that is off or creeps, crossed cables of a horizontal pair): the
+# component is a channel
+SENSOR_LAWS = ("sensor_gain", "sensor_angle", "sensor_delay", "sensor_polarity",
+               "sensor_offset", "sensor_drift", "sensor_swap")
 EFFECT_LAWS: tuple[str, ...] = law_names(relative=True)
 """Laws that build from parameters relative to a component's nominal k, c, W."""
 

@@ -53,6 +53,9 @@ class Plant:
         Channels whose sensor reports late (a time delay: a sensor or a converter whose
         clock lags), applied after the readout by a :class:`DelayLine` the caller keeps
         across blocks (:meth:`delay_line`).
+    zeros : tuple of (channel index, offset, rate per s)
+        Channels whose zero is off and creeps, ``offset + rate t`` (``t`` from the first
+        sample the :class:`DelayLine` sees), added after the delays by the same line.
     """
 
     system: ReducedSystem
@@ -63,6 +66,7 @@ class Plant:
     name: str = ""
     readout: FloatArray | None = None
     delays_s: tuple[tuple[int, float], ...] = ()
+    zeros: tuple[tuple[int, float, float], ...] = ()
 
     def __post_init__(self) -> None:
         if len(self.sources) != len(self.channels):
@@ -96,8 +100,10 @@ class Plant:
         return ag
 
     def delay_line(self, fs_hz: float) -> DelayLine | None:
-        """Return the delay line of the delayed channels at ``fs_hz`` (None: none delayed)."""
-        return DelayLine(self.delays_s, fs_hz) if self.delays_s else None
+        """Return the line of the delayed and creeping channels at ``fs_hz`` (None: none)."""
+        if not self.delays_s and not self.zeros:
+            return None
+        return DelayLine(self.delays_s, fs_hz, zeros=self.zeros)
 
     def measure(self, res: SimResult, line: DelayLine | None = None) -> FloatArray:
         """Channels (n_channels, nt) from a simulation result.
@@ -107,10 +113,10 @@ class Plant:
         silently).
         """
         out = self._measure(res)
-        if not self.delays_s:
+        if not self.delays_s and not self.zeros:
             return out
         if line is None:
-            msg = (f"plant {self.name!r} has delayed channels: measure() needs its "
+            msg = (f"plant {self.name!r} has delayed or creeping channels: measure() needs its "
                    "delay_line(fs_hz)")
             raise OptionError(msg)
         return line.apply(out)
@@ -134,9 +140,20 @@ class DelayLine:
     the cubic Lagrange weights: causal (the same result block by block as for the whole
     record), exact for cubic signals, amplitude error about 1e-3 at a tenth of the sampling
     rate. Samples before the first one are zero (the structure at rest).
+
+    ``zeros`` (channel row, offset, rate per s) are then added, ``offset + rate t`` with
+    ``t`` counted from the first sample the line sees (a zero that creeps from the start of
+    a record, as a charge amplifier's output after its reset).
     """
 
-    def __init__(self, delays_s: Sequence[tuple[int, float]], fs_hz: float) -> None:
+    def __init__(self, delays_s: Sequence[tuple[int, float]], fs_hz: float, *,
+                 zeros: Sequence[tuple[int, float, float]] = ()) -> None:
+        self.fs_hz = float(fs_hz)
+        self.zeros = tuple((int(i), float(b), float(r)) for i, b, r in zeros)
+        if not np.all(np.isfinite([v for z in self.zeros for v in z[1:]])):
+            msg = f"sensor zeros: expected finite offsets and rates, got {list(zeros)}"
+            raise OptionError(msg)
+        self.n_seen = 0
         self.rows = np.array([i for i, _ in delays_s], dtype=int)
         d = np.array([t for _, t in delays_s], float) * fs_hz
         if np.any(d < 0) or not np.all(np.isfinite(d)):
@@ -156,8 +173,18 @@ class DelayLine:
         self.tail = np.zeros((d.size, self.keep))
 
     def apply(self, y: FloatArray) -> FloatArray:
-        """Return ``y`` (n_channels, nt) with the delayed rows read late; the tail is kept."""
-        out = np.array(y, float, copy=True)
+        """Return ``y`` (n_channels, nt) with delayed rows read late, creeping zeros added.
+
+        The tail and the time are kept for the next block.
+        """
+        out = self._delay(np.array(y, float, copy=True))
+        t = (self.n_seen + np.arange(out.shape[-1])) / self.fs_hz
+        for row, offset, rate in self.zeros:
+            out[row] += offset + rate * t
+        self.n_seen += out.shape[-1]
+        return out
+
+    def _delay(self, out: FloatArray) -> FloatArray:
         if self.rows.size == 0:
             return out
         nt = out.shape[-1]
@@ -172,16 +199,21 @@ class DelayLine:
 
 
 def with_sensor_effects(plant: Plant, effects: Iterable[EffectSpec]) -> Plant:
-    """Return the plant seen through sensors with gain, orientation or timing errors.
+    """Return the plant seen through sensors with gain, orientation, timing or zero errors.
 
-    Gain: ``sensor_gain`` with ``gain``; orientation: ``sensor_angle`` with ``angle_deg``,
-    turning the channel's ``_x`` / ``_y`` pair about z; time delay: ``sensor_delay`` with
-    ``delay_s`` (>= 0). The component of such an effect is a channel name.
+    Gain: ``sensor_gain`` with ``gain``; reversed polarity: ``sensor_polarity`` (a gain of
+    -1); orientation: ``sensor_angle`` with ``angle_deg``, turning the channel's ``_x`` /
+    ``_y`` pair about z; crossed cables: ``sensor_swap``, the channel and its horizontal
+    partner read each other; time delay: ``sensor_delay`` with ``delay_s`` (>= 0); a zero
+    that is off: ``sensor_offset`` with ``offset``; one that creeps: ``sensor_drift`` with
+    ``offset`` and ``rate`` (per second, from the start of a record). The component of
+    such an effect is a channel name.
 
     Raises
     ------
     OptionError
-        An unknown channel, or an angle on a channel without its horizontal partner.
+        An unknown channel, or an angle or a swap on a channel without its horizontal
+        partner.
     """
     effects = tuple(effects)
     if not effects:
@@ -189,6 +221,7 @@ def with_sensor_effects(plant: Plant, effects: Iterable[EffectSpec]) -> Plant:
     names = plant.channel_names
     R = np.eye(len(names)) if plant.readout is None else plant.readout.copy()
     delays = dict(plant.delays_s)
+    zeros = {i: (b, r) for i, b, r in plant.zeros}
     for e in effects:
         if e.component not in names:
             msg = f"{e.law}: unknown channel {e.component!r}; channels: {list(names)[:8]} ..."
@@ -196,19 +229,32 @@ def with_sensor_effects(plant: Plant, effects: Iterable[EffectSpec]) -> Plant:
         i = names.index(e.component)
         if e.law == "sensor_delay":
             delays[i] = float(e.params.get("delay_s", 0.0))
-            continue
-        if e.law == "sensor_gain":
-            R[i] *= float(e.params.get("gain", 1.0))
-            continue
-        stem, _, axis = e.component.rpartition("_")
-        partner = f"{stem}_{'y' if axis == 'x' else 'x'}"
-        if axis not in ("x", "y") or partner not in names:
-            msg = f"sensor_angle at {e.component!r}: needs the horizontal pair {partner!r}"
-            raise OptionError(msg)
-        j = names.index(partner)
-        a = np.deg2rad(float(e.params.get("angle_deg", 0.0)))
-        row_i, row_j = R[i].copy(), R[j].copy()
-        s = 1.0 if axis == "x" else -1.0
-        R[i] = np.cos(a) * row_i + s * np.sin(a) * row_j
+        elif e.law in ("sensor_offset", "sensor_drift"):
+            zeros[i] = (float(e.params.get("offset", 0.0)), float(e.params.get("rate", 0.0)))
+        elif e.law in ("sensor_gain", "sensor_polarity"):
+            R[i] *= -1.0 if e.law == "sensor_polarity" else float(e.params.get("gain", 1.0))
+        else:
+            _turn_or_swap(R, names, e)
     return replace(plant, readout=R, name=f"{plant.name}+sensors",
-                   delays_s=tuple(sorted(delays.items())))
+                   delays_s=tuple(sorted(delays.items())),
+                   zeros=tuple((i, b, r) for i, (b, r) in sorted(zeros.items())))
+
+
+def _turn_or_swap(R: FloatArray, names: tuple[str, ...], e: EffectSpec) -> None:
+    """Turn (``sensor_angle``) or swap (``sensor_swap``) a channel's row of ``R``, in place.
+
+    The other row is its horizontal partner's (``_x`` <-> ``_y``).
+    """
+    stem, _, axis = e.component.rpartition("_")
+    partner = f"{stem}_{'y' if axis == 'x' else 'x'}"
+    if axis not in ("x", "y") or partner not in names:
+        msg = f"{e.law} at {e.component!r}: needs the horizontal pair {partner!r}"
+        raise OptionError(msg)
+    i, j = names.index(e.component), names.index(partner)
+    row_i, row_j = R[i].copy(), R[j].copy()
+    if e.law == "sensor_swap":
+        R[i], R[j] = row_j, row_i
+        return
+    a = np.deg2rad(float(e.params.get("angle_deg", 0.0)))
+    s = 1.0 if axis == "x" else -1.0
+    R[i] = np.cos(a) * row_i + s * np.sin(a) * row_j

@@ -55,6 +55,12 @@ First run before any mechanism for them (2026-11-25, main at e45ae40; output in
 ``test/benchmarks/results/hidden_effects_new_baseline.txt``): 9 of 18 right, 4 false
 claims, 1 crash (the joint refit on a record with channels the model lacks, fixed since),
 after / noise median 1.21, worst 27.6; wall time median 30 s, worst 211 s per case.
+Three sensor cases added for item 2 of issue 20 (a reversed polarity, a zero that creeps,
+the crossed x / y cables of one accelerometer), run on main 8a7814d before any mechanism
+for them: 0 of 3 right (a gain of -1; nothing, worst channel 5.8x its floor; one turn by
+90 degrees, worst channel 60x); with the sensor kind's polarity / offset / drift / swap
+candidates 3 of 3, also at ``--seed-offset 100``
+(``test/benchmarks/results/hidden_effects_sensor_item2.txt``).
 
 Run::
 

@@ -363,3 +363,32 @@ def test_bench_scores_new_cases_strictly() -> None:
     ctrl = cases["new_veh_control_devices"]
     assert score_strict(ctrl, {"effects": []})["both"]
     assert score_strict(ctrl, {"effects": [eff("damping", "secondary")]})["false_claims"] == 1
+    # issue 20, item 2: a reversed polarity is not a gain, a drift not an offset, a swap not
+    # a turn
+    flip = cases["new_sensor_polarity_F1_C2_y"]
+    assert score_strict(flip, {"effects": [eff("sensor", "F1_C2_y", "sensor_polarity")]})["both"]
+    assert not score_strict(flip, {"effects": [eff("sensor", "F1_C2_y", "sensor_gain")]})["both"]
+    creep = cases["new_sensor_drift_F2_C3_y"]
+    assert score_strict(creep, {"effects": [eff("sensor", "F2_C3_y", "sensor_drift")]})["both"]
+    assert not score_strict(creep, {"effects": [eff("sensor", "F2_C3_y",
+                                                    "sensor_offset")]})["both"]
+    cross = cases["new_sensor_swap_F3_C1"]
+    assert score_strict(cross, {"effects": [eff("sensor", "F3_C1_x", "sensor_swap")]})["both"]
+    assert not score_strict(cross, {"effects": [eff("sensor", "F3_C1_x", "sensor_angle"),
+                                                eff("sensor", "F3_C1_y", "sensor_angle")]})["both"]
+
+
+def test_reversed_creeping_and_crossed_readings() -> None:
+    from _truth.records import creeping, measured
+
+    fs, nt = 500.0, 5000
+    rng = np.random.default_rng(2)
+    clean = rng.standard_normal((3, nt))
+    names = ("S_x", "S_y", "S_z")
+    rec = measured(("ax",), np.zeros((1, nt)), names, clean, fs, 0.0, 3, "t",
+                   {"S_z": -1.0}, drifts={"S_y": (0.1, -0.02)}, swaps=(("S_x", "S_y"),))
+    t = np.arange(nt) / fs
+    np.testing.assert_allclose(creeping(nt, fs, 0.1, -0.02), 0.1 - 0.02 * t)
+    np.testing.assert_allclose(rec.data[0], clean[1] + 0.1 - 0.02 * t)  # S_y's, on S_x
+    np.testing.assert_allclose(rec.data[1], clean[0])
+    np.testing.assert_allclose(rec.data[2], -clean[2])

@@ -29,7 +29,9 @@ from .vehicle import VehicleTruth
 
 # words one of which a law's name must contain to be of a kind (Hidden.kind)
 KIND_WORDS = {"gain": ("gain",), "delay": ("delay", "lag", "time", "shift"),
-              "orientation": ("angle", "orient", "rotat", "turn")}
+              "orientation": ("angle", "orient", "rotat", "turn"),
+              "polarity": ("polarity", "sign", "flip", "invert", "revers"),
+              "drift": ("drift", "creep", "trend"), "swap": ("swap", "exchang", "cross")}
 
 FAMILIES = ("hysteresis", "friction", "softening", "hardening", "gap", "damping",
             "stiffness", "mass", "elastic_attachment", "sensor", "nothing")
@@ -43,7 +45,8 @@ class Hidden:
     place: str
     also_families: tuple[str, ...] = ()
     aliases: tuple[str, ...] = ()
-    kind: str = ""  # "" any; sensor: "gain" | "delay" | "orientation"
+    kind: str = ""  # "" any; sensor: "gain" | "delay" | "orientation" | "polarity" |
+    # "drift" | "swap"
 
     def family_ok(self, family: str) -> bool:
         """The named family is this effect's (or an accepted neighbour)."""
@@ -74,6 +77,8 @@ class Case:
     delays: dict[str, float] = field(default_factory=dict)  # channel -> s
     turns: dict[str, float] = field(default_factory=dict)  # sensor -> degrees about z
     table_channels: bool = False  # the record also carries the table's x / y acceleration
+    drifts: dict[str, tuple[float, float]] = field(default_factory=dict)  # ch -> (b, b/s)
+    swaps: tuple[tuple[str, str], ...] = ()  # channels whose readings are exchanged
 
 
 def _nominal() -> BuildingTruth:
@@ -349,6 +354,18 @@ NEW_CASES: tuple[Case, ...] = (
     # control of the car with its device channels
     Case("new_veh_control_devices", "vehicle", (),
          lambda: VehicleTruth(device_channels=True), 1.0, seed=67, new=True, quiet_pct=0.05),
+    # issue 20, item 2 (added 2026-11-26, run on main's head 8a7814d before any mechanism
+    # for them): the y axis of one accelerometer reads with reversed polarity ...
+    Case("new_sensor_polarity_F1_C2_y", "building", (_sensor("F1_C2", "polarity"),),
+         _nominal, 2.0, gains={"F1_C2_y": -1.0}, seed=68, new=True),
+    # ... the zero of one accelerometer axis creeps (0.02 m/s2 + 0.005 m/s2 per s from
+    # each record's start: a charge amplifier's drift after its reset; nothing high-passes
+    # the records) ...
+    Case("new_sensor_drift_F2_C3_y", "building", (_sensor("F2_C3", "drift"),), _nominal,
+         1.5, seed=69, new=True, drifts={"F2_C3_y": (0.02, 0.005)}),
+    # ... and the x / y cables of one accelerometer crossed
+    Case("new_sensor_swap_F3_C1", "building", (_sensor("F3_C1", "swap"),), _nominal, 1.5,
+         seed=70, new=True, swaps=(("F3_C1_x", "F3_C1_y"),)),
 )
 
 
@@ -385,5 +402,6 @@ def records(case: Case, *, quick: bool = False) -> dict[str, Noisy]:
         out[k] = measured(inputs, u, names, clean, fs, case.noise_pct,
                           s + {"train": 1, "test": 2, "low": 3}[k],
                           f"{case.name}:{k}", case.gains, pct_of=pct_of,
-                          delays=case.delays, turns=case.turns)
+                          delays=case.delays, turns=case.turns, drifts=case.drifts,
+                          swaps=case.swaps)
     return out

@@ -8,7 +8,10 @@ Noise: white Gaussian, ``pct`` % of each clean channel's RMS (per channel when a
 nearly noise-free drift and force channels beside 1-3 % accelerometers), seeded; the
 achieved floor RMS(noise) / RMS(measured) is returned per channel. Sensor faults: a gain,
 a time delay (:func:`delayed`), the two horizontal axes of a sensor turned
-(:func:`rotated`).
+(:func:`rotated`), a reversed polarity (a gain of -1), a zero that creeps (:func:`creeping`:
+an offset plus a constant rate from the start of each record, as a charge amplifier's
+output drifts with its input's leakage current after each reset), two channels' cables
+exchanged (``swaps``).
 """
 
 from __future__ import annotations
@@ -95,20 +98,30 @@ def rotated(xy: FloatArray, angle_deg: float) -> FloatArray:
     return np.array([c * xy[0] + s * xy[1], -s * xy[0] + c * xy[1]])
 
 
+def creeping(nt: int, fs_hz: float, offset: float, rate: float) -> FloatArray:
+    """What a creeping zero adds to a reading: ``offset + rate * t``, ``t`` from the
+    record's first sample (the amplifier is reset when a record starts)."""
+    return offset + rate * (np.arange(nt) / fs_hz)
+
+
 def measured(inputs: tuple[str, ...], u: FloatArray, names: tuple[str, ...],
              clean: FloatArray, fs_hz: float, pct: float, seed: int, source: str,
              gains: dict[str, float] | None = None, *,
              pct_of: dict[str, float] | None = None,
              delays: dict[str, float] | None = None,
-             turns: dict[str, float] | None = None) -> Noisy:
+             turns: dict[str, float] | None = None,
+             drifts: dict[str, tuple[float, float]] | None = None,
+             swaps: tuple[tuple[str, str], ...] = ()) -> Noisy:
     """Add a sensor gain error (``gains``: channel -> factor) and white noise of ``pct`` %
     of each channel's clean RMS.
 
     ``pct_of`` (channel -> %) overrides ``pct`` for some channels (e.g. nearly noise-free
     drift and force channels); ``delays`` (channel -> s) delays channels
     (:func:`delayed`); ``turns`` (sensor stem -> degrees) turns the ``_x`` / ``_y`` pair
-    of a sensor (:func:`rotated`). Delays and turns act on the clean signal, before the
-    noise (the noise of a sensor is its own).
+    of a sensor (:func:`rotated`); ``drifts`` (channel -> (offset, rate per s)) adds a
+    creeping zero (:func:`creeping`); ``swaps`` exchanges the readings of two channels
+    (their cables crossed). Delays, turns and drifts act on the clean signal, before the
+    noise (the noise of a sensor is its own); a swap exchanges the noisy readings.
     """
     y = clean.copy()
     for ch, g in (gains or {}).items():
@@ -118,6 +131,8 @@ def measured(inputs: tuple[str, ...], u: FloatArray, names: tuple[str, ...],
         y[[ix, iy]] = rotated(y[[ix, iy]], ang)
     for ch, tau in (delays or {}).items():
         y[names.index(ch)] = delayed(y[names.index(ch)], fs_hz, tau)
+    for ch, (offset, rate) in (drifts or {}).items():
+        y[names.index(ch)] += creeping(y.shape[-1], fs_hz, offset, rate)
     rng = np.random.default_rng(10_000 + seed)
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
     if pct_of:
@@ -126,5 +141,9 @@ def measured(inputs: tuple[str, ...], u: FloatArray, names: tuple[str, ...],
     else:
         noise = rng.standard_normal(y.shape) * rms * pct / 100.0
     meas = y + noise
+    for a, b in swaps:
+        ia, ib = names.index(a), names.index(b)
+        meas[[ia, ib]] = meas[[ib, ia]]
+        noise[[ia, ib]] = noise[[ib, ia]]
     floor = np.sqrt(np.mean(noise**2, axis=1)) / np.sqrt(np.mean(meas**2, axis=1))
     return Noisy(fs_hz, inputs, u, names, meas, source, floor)
