@@ -47,7 +47,7 @@ from modal_twin.acquisition.decimation import decimate
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError, SignalError
 from modal_twin.identification.auto import AutoSettings, choose_settings, rms_spread
-from modal_twin.identification.clustering import cluster_modes
+from modal_twin.identification.clustering import ZETA_MIN, cluster_modes
 from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
 from modal_twin.identification.polymax import polymax
@@ -433,7 +433,8 @@ def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float],
         cm = cluster_modes(diag, zeta_max=opts.zeta_max, f_range_hz=band, mpc_min=MPC_MIN)
         notes.append(f"modes by clustering the poles of {len(sweep.orders)} orders: cut-off "
                      f"distance {cm.cutoff:.3f} from the data, a mode needs {cm.n_min} poles "
-                     f"with damping in (0, {100 * opts.zeta_max:g} %) and MPC >= {MPC_MIN:g}")
+                     f"with damping in ({100 * ZETA_MIN:g}, {100 * opts.zeta_max:g} %) and MPC >= "
+                     f"{MPC_MIN:g}")
         return diag, cm.modes, False, list(cm.dropped)
     tries = [opts.thresholds] + ([RELAXED] if opts.relax and opts.thresholds != RELAXED
                                  else [])
