@@ -300,3 +300,20 @@ def test_berkeley_two_modes_and_the_1_6_hz_column_said(tmp_path: Path) -> None:
     oo = identify_record(block, chans, IdentifyOptions(method="polymax", inputs=()))
     assert any("positive half-spectra" in n for n in oo.notes)
     assert np.min(np.abs(oo.modes.f_hz - 1.248)) < 0.01  # the second mode, output-only
+
+
+def test_cli_prints_the_clustering_and_keeps_the_old_rule_on_request(  # type: ignore[no-untyped-def]
+        bag: Path, capsys) -> None:
+    assert main(["identify", str(bag), "--method", "n4sid"]) == 0
+    out = capsys.readouterr().out
+    assert "modes by clustering the poles of 30 orders: cut-off distance" in out
+    lines = out.splitlines()
+    head = next(k for k, ln in enumerate(lines) if ln.startswith("mode    f [Hz]"))
+    rows = [ln.split() for ln in lines[head + 1:] if ln[:4].strip().isdigit()]
+    f = np.array([float(r[1]) for r in rows])
+    np.testing.assert_allclose(f, exact_f_hz(), rtol=0.01)  # every mode, nothing else
+    assert all(int(r[-1]) >= 20 for r in rows)  # cluster sizes of 30 orders
+    if "not reported:" in out:
+        assert "f [Hz] zeta [%] poles  orders  reason" in out
+    assert main(["identify", str(bag), "--method", "n4sid", "--selection", "stability"]) == 0
+    assert "modes by clustering" not in capsys.readouterr().out
