@@ -53,6 +53,9 @@ def chain(seed: int, harmonic_hz: float | None = None) -> tuple[np.ndarray, np.n
 
 @pytest.mark.parametrize("seed", [3, 4])
 def test_chain_every_mode_within_half_a_percent_and_nothing_else(seed: int) -> None:
+    """Not a guarantee: of the seeds 1-4, 8, 9 tried, seed 8 adds one spurious cluster
+    (5.66 Hz, 13 of 30 orders, zeta 2.5 %, MPC 0.93, its blocks' std 2 % of f); the
+    others report the five modes within 0.3 % and nothing else."""
     y, f_true = chain(seed)
     rec = identify_record(*_block(y), IdentifyOptions(method="ssi-cov", f_min_hz=0.5))
     assert rec.modes.f_hz.size == 5, rec.modes.f_hz
