@@ -84,9 +84,11 @@ OUTPUT_ONLY = ("ssi-cov",)
 """The methods that use no input."""
 SELECTIONS = ("clusters", "stability")
 """Mode selections: clustering of the poles (default) or the stability rule of [004]."""
-MPC_MIN = 0.5
-"""Smallest median MPC of a reported cluster: below it the shapes scatter in the complex
-plane like noise."""
+MPC_MIN = 0.2
+"""Smallest median MPC of a reported cluster: below it the shape's entries scatter almost
+evenly round the complex plane, like noise. Low on purpose: a non-proportionally damped
+mode is complex (the demo building's isolation modes at 0.68 Hz, about 8 % damped, have
+MPC 0.28-0.45)."""
 STRICT = {"rel_tol_f": 0.01, "rel_tol_zeta": 0.05, "mac_min": 0.95}
 """Stability thresholds of sec. 3 of [004]."""
 RELAXED = {"rel_tol_f": 0.02, "rel_tol_zeta": 0.2, "mac_min": 0.9}

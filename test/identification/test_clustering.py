@@ -166,3 +166,32 @@ def test_bad_options_are_errors() -> None:
         cluster_modes(d, frac_orders=1.5)
     with pytest.raises(OptionError, match="selection: expected one of"):
         IdentifyOptions(selection="by-eye")
+
+
+def test_the_building_isolation_modes_complex_and_0_9_percent_apart() -> None:
+    """The demo's building (model of [004]) on its shaking table, N4SID as the report runs
+    it: every mode below 20 Hz within 0.5 %, the two isolation modes 0.68 / 0.69 Hz
+    (about 8 % damped by the isolators: complex shapes, MPC 0.3-0.5) among them."""
+    from modal_twin.models.building import DEFAULT_BUILDING_YAML
+    from modal_twin.models.loading import load_model
+    from modal_twin.twin.simulator import simulate
+
+    plant = load_model(DEFAULT_BUILDING_YAML, n_modes=16).plant()
+    fs, n = 50.0, 10_000
+    rng = np.random.default_rng(1)
+    b, a = sig.butter(4, 20.0, fs=fs)
+    ag = np.zeros((6, n))
+    ag[:3] = sig.lfilter(b, a, rng.standard_normal((3, n)), axis=1)
+    y = plant.measure(simulate(plant.system, ag, 1.0 / fs))[:42]
+    y = y + 0.02 * y.std(axis=1, keepdims=True) * rng.standard_normal(y.shape)
+    names = ("u0", "u1", "u2", *(f"y{k}" for k in range(42)))
+    chans = [ChannelSpec(c, "acceleration", role="input" if c[0] == "u" else "output")
+             for c in names]
+    rec = identify_record(SignalBlock(names, fs, 0, np.vstack([ag[:3], y])), chans,
+                          IdentifyOptions(method="n4sid", orders=tuple(range(2, 41, 2)),
+                                          f_max_hz=20.0))
+    S = plant.system
+    f_true = np.sqrt(np.abs(sla.eigh(S.K, S.M, eigvals_only=True))) / (2 * np.pi)
+    f_true = f_true[f_true < 20.0]
+    assert rec.modes.f_hz.size == f_true.size == 11
+    np.testing.assert_allclose(rec.modes.f_hz, f_true, rtol=0.005)
