@@ -3,8 +3,10 @@
 One call, :func:`modal_twin.identification.record.identify_record` (the node and
 ``campaign`` make the same one): inputs and outputs from the roles of the bag's channel
 map (``--inputs`` / ``--outputs`` override them); band, decimation, block rows and orders
-chosen from the record and printed; the relaxed stability thresholds tried when the
-default ones give no mode, and said. Writes ``modes.json`` and ``modes.uff`` (UFF 55,
+chosen from the record and printed; the modes by clustering the poles (``--selection
+stability``: the stability rule of [004], relaxed when it gives no mode, and said),
+each with its cluster's size, and every column of poles not reported in a table with the
+reason. Writes ``modes.json`` and ``modes.uff`` (UFF 55,
 :mod:`modal_twin.io.modes_file`), ``stabilization.png`` and ``mac.png`` into ``--out``
 (each to a temporary name, then renamed; an existing one refused before the work unless
 ``--force``).
@@ -18,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from modal_twin.exit_codes import ExitCode
-from modal_twin.identification.record import METHODS
+from modal_twin.identification.record import METHODS, SELECTIONS
 from modal_twin.paths import check_new_in
 from modal_twin.progress import step
 
@@ -34,6 +36,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("bag", type=Path, help="bag written by `modal-twin import` (or a run)")
     p.add_argument("--method", choices=METHODS, default=None,
                    help="default: n4sid when the bag has driven inputs, else ssi-cov")
+    p.add_argument("--selection", choices=SELECTIONS, default=None,
+                   help="clusters: hierarchical clustering of the poles (default of n4sid "
+                        "and ssi-cov); stability: the [004] stability rule, relaxed when it "
+                        "finds none (default of polymax)")
     p.add_argument("--out", type=Path, default=None, help="folder for JSON, UFF 55, PNGs")
     p.add_argument("--force", action="store_true", help="--out: overwrite existing files")
     p.add_argument("--f-max", type=float, default=None, help="upper band edge, Hz")
@@ -58,7 +64,7 @@ def run(a: argparse.Namespace) -> int:
     block, channels = read_imported(a.bag)
     opts = IdentifyOptions(method=a.method, inputs=_names(a.inputs),
                            outputs=_names(a.outputs), directions=_names(a.directions),
-                           f_max_hz=a.f_max)
+                           f_max_hz=a.f_max, selection=a.selection)
     with step(f"identify: {a.bag.name} ({block.n_samples / block.fs_hz:.0f} s, "
               f"{len(channels)} channels)"):
         rec = identify_record(block, channels, opts)
@@ -81,8 +87,12 @@ def _report(a: argparse.Namespace, rec: Any) -> int:
     from modal_twin.identification.auto import drifting_modes
 
     mm, s, diag = rec.modes, rec.settings, rec.diagram
-    for d_col in rec.dropped:
-        print(f"not reported: {d_col.describe()}")
+    if rec.dropped:
+        print(f"not reported: {len(rec.dropped)} columns of poles")
+        print(f"{'f [Hz]':>9} {'zeta [%]':>8} {'poles':>5} {'orders':>7}  reason")
+    for d in rec.dropped:
+        print(f"{d.f_hz:9.4f} {100 * d.zeta:8.2f} {d.n_poles:5d} {d.orders[0]:>3}-"
+              f"{d.orders[1]:<3}  {d.reason}")
     if mm.f_hz.size == 0:
         print(f"warning: no mode found in {s.band_hz[0]:.3g}-{s.band_hz[1]:.3g} Hz: no "
               f"cluster of poles stayed stable over orders {rec.sweep.orders[0]}.."

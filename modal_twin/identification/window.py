@@ -17,6 +17,7 @@ from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, OptionError
 from modal_twin.identification.record import (
     METHODS,
+    SELECTIONS,
     IdentifyOptions,
     RecordModes,
     identify_record,
@@ -55,11 +56,16 @@ class IdentificationConfig:
     mac_min: float = field(default=0.95, metadata={"doc": "stability: MAC"})
     relax: bool = field(default=True, metadata={
         "doc": "no mode at these thresholds: try 2 %, 20 %, MAC 0.9"})
+    selection: str = field(default="", metadata={
+        "doc": "clusters | stability ('' = clusters, stability for polymax)"})
     zeta_max: float = field(default=0.2, metadata={"doc": "reject poles above this damping"})
 
     def __post_init__(self) -> None:
         if self.method and self.method not in METHODS:
             msg = f"method: expected one of {list(METHODS)} or '', got {self.method!r}"
+            raise ConfigError(msg)
+        if self.selection and self.selection not in SELECTIONS:
+            msg = f"selection: expected one of {list(SELECTIONS)}, got {self.selection!r}"
             raise ConfigError(msg)
         if not (self.window_s > 0 and self.period_s >= 0 and self.max_order in range(0, 401)
                 and self.max_order != 1 and self.order_step >= 1 and self.block_rows >= 0):
@@ -89,7 +95,7 @@ class IdentificationConfig:
             orders=orders if orders is None or len(orders) >= 2 else None,
             thresholds={"rel_tol_f": self.rel_tol_f, "rel_tol_zeta": self.rel_tol_zeta,
                         "mac_min": self.mac_min},
-            relax=self.relax, zeta_max=self.zeta_max)
+            relax=self.relax, selection=self.selection or None, zeta_max=self.zeta_max)
 
 
 def identify_window(block: SignalBlock, cfg: IdentificationConfig,

@@ -1,0 +1,364 @@
+r"""Automatic selection of physical modes by hierarchical clustering of the poles.
+
+The procedure of Magalhaes, Cunha & Caetano (2009) with the data-derived cut-off of
+Reynders, Houbrechts & De Roeck (2012), on the poles of every model order of a
+:class:`~modal_twin.identification.modal_model.StabilizationDiagram`:
+
+1. **Distance** between two poles :math:`i, j` (Reynders, Houbrechts & De Roeck 2012):
+
+   .. math:: d_{ij} = \frac{|\lambda_i - \lambda_j|}{\max(|\lambda_i|, |\lambda_j|)}
+             + 1 - \mathrm{MAC}_{ij},
+
+   with the continuous pole :math:`\lambda = \omega(-\zeta + j\sqrt{1 - \zeta^2})`, so the
+   first term combines the relative frequency difference and the damping difference
+   (:math:`\approx \sqrt{(\Delta f / f)^2 + \Delta\zeta^2}`) and MAC is Eq. (6) of [002].
+2. **Poles that repeat**: each pole's distance to the nearest pole of the next model
+   order (the previous one for the last order), :math:`d_{\rm next}`. The poles of a
+   physical mode repeat closely over orders, spurious ones do not: a two-class k-means on
+   :math:`\log d_{\rm next}` (:func:`scipy.cluster.vq.kmeans2`) separates them, and the
+   cut-off distance is :math:`d_c = \bar d + 2 s_d` of the repeating class (as Reynders
+   et al. 2012 derive theirs), kept in [:data:`CUT_MIN`, :data:`CUT_MAX`]. Poles with
+   :math:`d_{\rm next} > d_c` are left out.
+3. **Clusters**: single-linkage hierarchical clustering of the repeating poles
+   (:func:`scipy.cluster.hierarchy.linkage`) cut at :math:`d_c`: a pole joins the cluster
+   of its nearest neighbour, so a column that drifts slowly over the orders stays one
+   cluster while the MAC term keeps close modes of distinct shapes apart.
+4. **Outliers** (Magalhaes et al. 2009): in each cluster, poles damped outside
+   (``zeta_min``, ``zeta_max``) are removed (a harmonic's column is damped at about
+   zero), then at most one pole per model order is kept (the
+   nearest to the cluster's median pole), then poles whose damping lies more than
+   three scaled median absolute deviations from the median.
+5. **Physical modes**: a cluster is reported when it keeps at least ``n_min`` poles
+   (``frac_orders`` of the model orders, at least 3, and ``rel_size`` of the largest
+   cluster: physical modes form the large clusters, spurious poles the small ones, as
+   in the last stage of Reynders et al. 2012), its median MPC (Eqs. (7)-(9) of
+   [002]) is at least ``mpc_min``, its damping's standard deviation is at most
+   ``zeta_cv_max`` times its median (a column of noise poles near the unit circle
+   scatters about a damping near zero), and no larger reported cluster lies within
+   ``rel_tol_dup`` in frequency with MAC above ``mac_dup`` (a duplicate). Its
+   representative is the median frequency and damping of its poles, with the shape of
+   the pole nearest that median; its size is the number of poles kept.
+
+Every cluster of at least 3 poles that is not reported comes back as a
+:class:`~modal_twin.identification.stabilization.DroppedColumn` with the reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.cluster.hierarchy as sch
+from scipy.cluster.vq import kmeans2
+
+from modal_twin._types import ComplexArray, FloatArray, IntArray
+from modal_twin.errors import OptionError
+from modal_twin.identification.metrics import mpc
+from modal_twin.identification.modal_model import ModalModel, StabilizationDiagram
+from modal_twin.identification.stabilization import DroppedColumn, _unit_shapes
+
+__all__ = ["CUT_MAX", "CUT_MIN", "ZETA_MIN", "ClusteredModes", "cluster_modes",
+           "pole_distances"]
+
+CUT_MIN = 0.015
+"""Smallest cut-off distance (1.5 % in frequency with equal shapes): the poles of a
+mode on a real record drift over the orders by more than those of adjacent orders differ."""
+CUT_MAX = 0.1
+"""Largest cut-off distance: noisier poles are not merged beyond it."""
+MIN_COLUMN = 3
+"""Fewest poles of a cluster listed as a column when not reported."""
+ZETA_MIN = 0.001
+"""Least damping of a physical pole (0.1 %): a harmonic in the response or a noise pole
+near the unit circle shows as a column damped at about zero."""
+
+
+@dataclass(frozen=True, slots=True)
+class ClusteredModes:
+    """What :func:`cluster_modes` reports.
+
+    Attributes
+    ----------
+    modes : ModalModel
+        The clusters' representatives (``n_support``: poles kept in each cluster).
+    dropped : tuple of DroppedColumn
+        Clusters of at least 3 poles not reported, with the reason.
+    cutoff : float
+        The cut-off distance :math:`d_c` derived from the data.
+    n_min : int
+        Fewest poles a reported cluster keeps.
+    """
+
+    modes: ModalModel
+    dropped: tuple[DroppedColumn, ...]
+    cutoff: float
+    n_min: int
+
+
+def _lambda(f: FloatArray, z: FloatArray) -> ComplexArray:
+    w = 2 * np.pi * f
+    out: ComplexArray = w * (-z + 1j * np.sqrt(np.clip(1 - z**2, 0.0, None)))
+    return out
+
+
+def pole_distances(f_a: FloatArray, z_a: FloatArray, u_a: ComplexArray,
+                   f_b: FloatArray, z_b: FloatArray, u_b: ComplexArray) -> FloatArray:
+    r"""Distances :math:`d_{ij}` of the module docstring between two sets of poles.
+
+    Parameters
+    ----------
+    f_a, z_a : (n_a,) arrays
+        Frequencies (Hz) and damping ratios.
+    u_a : (n_ch, n_a) complex array
+        Shapes of unit norm.
+    f_b, z_b, u_b
+        The same for the second set.
+
+    Returns
+    -------
+    (n_a, n_b) array
+    """
+    la, lb = _lambda(f_a, z_a), _lambda(f_b, z_b)
+    rel = np.abs(la[:, None] - lb[None, :]) / np.maximum(
+        np.maximum(np.abs(la)[:, None], np.abs(lb)[None, :]), 1e-300)
+    M = np.minimum(np.abs(u_a.conj().T @ u_b) ** 2, 1.0)
+    out: FloatArray = rel + 1.0 - M
+    return out
+
+
+def _cutoff(d_next: FloatArray) -> float:
+    r"""Cut-off :math:`\bar d + 2 s_d` of the repeating class of ``d_next`` (step 2)."""
+    d = d_next[np.isfinite(d_next)]
+    if d.size < 4:
+        return CUT_MIN
+    x = np.log(np.maximum(d, 1e-12))[:, None]
+    init = np.array([[x.min()], [x.max()]])
+    rep = d
+    if init[0, 0] != init[1, 0]:
+        cent, lab = kmeans2(x, init, minit="matrix", iter=50)
+        rep = d[lab == int(np.argmin(cent[:, 0]))]
+    return float(np.clip(rep.mean() + 2 * rep.std(), CUT_MIN, CUT_MAX))
+
+
+def _empty(n_ch: int, method: str) -> ModalModel:
+    e = np.zeros(0)
+    i = np.zeros(0, np.int64)
+    return ModalModel(e, e, np.zeros((n_ch, 0), complex), e, e, method, 0, i, i)
+
+
+def cluster_modes(diagram: StabilizationDiagram, *, zeta_max: float = 0.2,
+                  zeta_min: float = ZETA_MIN,
+                  f_range_hz: tuple[float, float] | None = None,
+                  frac_orders: float = 0.2, rel_size: float = 0.35, mpc_min: float = 0.0,
+                  zeta_cv_max: float = 1.0,
+                  rel_tol_dup: float = 0.02, mac_dup: float = 0.8) -> ClusteredModes:
+    """Physical modes of a diagram by clustering its poles (module docstring).
+
+    Parameters
+    ----------
+    diagram : StabilizationDiagram
+        Poles of every order (the stability flags are not used: the clustering judges
+        the poles by how closely they repeat).
+    zeta_max, zeta_min : float
+        Poles damped outside (``zeta_min``, ``zeta_max``) are not physical.
+    f_range_hz : (float, float), optional
+        Report modes in this band only (a column outside it that would be a mode is
+        listed as dropped).
+    frac_orders : float
+        A mode's cluster keeps poles at this fraction of the model orders (at least 3).
+    rel_size : float
+        ... and at least this fraction of the largest cluster's poles.
+    mpc_min : float
+        Smallest median MPC of a reported cluster (0: off).
+    zeta_cv_max : float
+        Largest spread of a reported cluster's damping, its standard deviation over its
+        median (noise poles near the unit circle scatter about a damping near zero).
+    rel_tol_dup, mac_dup : float
+        A cluster within ``rel_tol_dup`` in frequency of a larger reported one whose
+        shape has MAC above ``mac_dup`` with it is a duplicate.
+
+    Returns
+    -------
+    ClusteredModes
+
+    Raises
+    ------
+    OptionError
+        Not ``0 <= zeta_min < zeta_max <= 1``, ``frac_orders`` outside (0, 1],
+        ``rel_size`` or ``mpc_min`` outside [0, 1].
+    """
+    if not (0.0 <= zeta_min < zeta_max <= 1.0 and 0.0 < frac_orders <= 1.0
+            and 0.0 <= rel_size <= 1.0 and 0.0 <= mpc_min <= 1.0):
+        msg = (f"zeta_min, zeta_max, frac_orders, rel_size, mpc_min: expected 0 <= zeta_min "
+               f"< zeta_max <= 1 and values in (0, 1], [0, 1], [0, 1], got {zeta_min!r}, "
+               f"{zeta_max!r}, {frac_orders!r}, {rel_size!r}, {mpc_min!r}")
+        raise OptionError(msg)
+    n_ord = len(diagram.poles)
+    n_min = max(MIN_COLUMN, int(np.ceil(frac_orders * n_ord)))
+    lo, hi = f_range_hz if f_range_hz is not None else (0.0, np.inf)
+    t = _pole_table(diagram)
+    cut = _cutoff(t.d_next)
+    rep = np.nonzero(t.d_next <= cut)[0]
+    if rep.size < MIN_COLUMN:
+        return ClusteredModes(_empty(t.u.shape[0], diagram.method), (), cut, n_min)
+    D = pole_distances(t.f[rep], t.z[rep], t.u[:, rep], t.f[rep], t.z[rep], t.u[:, rep])
+    D = 0.5 * (D + D.T)
+    np.fill_diagonal(D, 0.0)
+    lab = sch.fcluster(sch.linkage(D[np.triu_indices(rep.size, 1)], method="single"),
+                       t=cut, criterion="distance")
+    groups = []  # (all poles, those damped in range, those kept after outliers)
+    for c in np.unique(lab):
+        idx = rep[lab == c]
+        if idx.size >= MIN_COLUMN:  # fewer: scattered poles, not a column
+            ok = idx[(t.z[idx] > zeta_min) & (t.z[idx] < zeta_max)]
+            groups.append((idx, ok, _damping_inliers(_one_per_order(ok, t), t.z)))
+    inside = [bool(lo <= np.median(t.f[g[0]]) <= hi) for g in groups]
+    n_min = max(n_min, int(np.ceil(rel_size * max(
+        (g[2].size for g, i in zip(groups, inside, strict=True) if i), default=0))))
+    cands, dropped = [], []
+    for (idx, ok, kept), within in zip(groups, inside, strict=True):
+        span = (int(diagram.orders[t.order_ix[idx].min()]),
+                int(diagram.orders[t.order_ix[idx].max()]))
+        fm0, zm0 = float(np.median(t.f[idx])), float(np.median(t.z[idx]))
+        if not within:
+            if kept.size >= n_min:  # a column outside the band; noise there is not listed
+                dropped.append(DroppedColumn(fm0, zm0, int(idx.size), span,
+                                             f"outside the band {lo:.3g}-{hi:.3g} Hz"))
+            continue
+        if kept.size < n_min:
+            if ok.size < idx.size - ok.size:
+                why = (f"damping {100 * zm0:.2f} % outside ({100 * zeta_min:g}, "
+                       f"{100 * zeta_max:g} %) at {idx.size - ok.size} of its {idx.size} poles"
+                       + (" (a harmonic or noise)" if zm0 <= zeta_min else ""))
+            else:
+                why = (f"too few poles: {kept.size} of {n_ord} orders after outliers, a mode "
+                       f"needs {n_min} ({100 * frac_orders:g} % of the orders, "
+                       f"{100 * rel_size:g} % of the largest cluster)")
+            dropped.append(DroppedColumn(fm0, zm0, int(idx.size), span, why))
+            continue
+        c_, why = _candidate(t, kept, span, mpc_min, zeta_cv_max)
+        if why:
+            dropped.append(DroppedColumn(c_.f_hz, c_.zeta, c_.size, span, why))
+        else:
+            cands.append(c_)
+    modes = _without_duplicates(cands, t, rel_tol_dup, mac_dup, dropped)
+    return ClusteredModes(_model(diagram, modes, t),
+                          tuple(sorted(dropped, key=lambda d: d.f_hz)), cut, n_min)
+
+
+@dataclass(frozen=True, slots=True)
+class _Poles:
+    """Every pole of the diagram in one table (finite, positive frequency)."""
+
+    order_ix: IntArray  # index of its model order
+    pole_ix: IntArray  # index in that order's PoleSet
+    f: FloatArray
+    z: FloatArray
+    u: ComplexArray  # unit shapes, (n_ch, n_poles)
+    d_next: FloatArray  # distance to the nearest pole of the next order
+
+
+@dataclass(frozen=True, slots=True)
+class _Cluster:
+    f_hz: float
+    zeta: float
+    best: int  # the pole nearest the median
+    size: int
+    span: tuple[int, int]
+
+
+def _pole_table(diagram: StabilizationDiagram) -> _Poles:
+    P = diagram.poles
+    n_ord = len(P)
+    sets = []  # per order: indices kept, f, zeta, unit shapes
+    for p in P:
+        q = np.nonzero(np.isfinite(p.f_hz) & np.isfinite(p.zeta) & (p.f_hz > 0)
+                       & np.all(np.isfinite(p.shapes), axis=0))[0]
+        sets.append((q, p.f_hz[q].astype(float), p.zeta[q].astype(float),
+                     _unit_shapes(p.shapes[:, q], "phi_a")))
+    d_next = []
+    for k, (_q, f, z, u) in enumerate(sets):
+        _, fb, zb, ub = sets[k + 1 if k + 1 < n_ord else max(k - 1, 0)]
+        if f.size == 0 or fb.size == 0:
+            d_next.append(np.full(f.size, np.inf))
+        else:
+            d_next.append(pole_distances(f, z, u, fb, zb, ub).min(axis=1))
+    return _Poles(np.concatenate([np.full(s[0].size, k) for k, s in enumerate(sets)]),
+                  np.concatenate([s[0] for s in sets]),
+                  np.concatenate([s[1] for s in sets]), np.concatenate([s[2] for s in sets]),
+                  np.concatenate([s[3] for s in sets], axis=1), np.concatenate(d_next))
+
+
+def _candidate(t: _Poles, kept: IntArray, span: tuple[int, int], mpc_min: float,
+               zeta_cv_max: float) -> tuple[_Cluster, str]:
+    """Return the cluster's median pole and why it is not a mode ('' when it is one)."""
+    fm, zm = float(np.median(t.f[kept])), float(np.median(t.z[kept]))
+    lm = _lambda(np.array([fm]), np.array([zm]))[0]
+    best = int(kept[np.argmin(np.abs(_lambda(t.f[kept], t.z[kept]) - lm))])
+    c = _Cluster(fm, zm, best, int(kept.size), span)
+    m = float(np.median(mpc(t.u[:, kept])))
+    if m < mpc_min:
+        return c, f"MPC {m:.2f} below {mpc_min:g} (a noise-like, complex shape)"
+    sz = float(np.std(t.z[kept]))
+    if sz > zeta_cv_max * zm:
+        return c, (f"damping not determined: its poles scatter by {100 * sz:.2f} % about a "
+                   f"median of {100 * zm:.2f} %")
+    return c, ""
+
+
+def _without_duplicates(cands: list[_Cluster], t: _Poles, rel_tol: float, mac_min: float,
+                        dropped: list[DroppedColumn]) -> list[_Cluster]:
+    """Return the candidates less those that repeat a larger one (each said)."""
+    modes: list[_Cluster] = []
+    for c in sorted(cands, key=lambda c_: -c_.size):
+        macs = [float(np.abs(t.u[:, m.best].conj() @ t.u[:, c.best]) ** 2) for m in modes]
+        dup = [(m, x) for m, x in zip(modes, macs, strict=True)
+               if abs(m.f_hz - c.f_hz) <= rel_tol * m.f_hz and x > mac_min]
+        if dup:
+            m, x = dup[0]
+            dropped.append(DroppedColumn(c.f_hz, c.zeta, c.size, c.span,
+                                         f"duplicate of the reported {m.f_hz:.3f} Hz (MAC "
+                                         f"{x:.2f}, {m.size} poles against {c.size})"))
+        else:
+            modes.append(c)
+    return sorted(modes, key=lambda c_: c_.f_hz)
+
+
+def _one_per_order(idx: IntArray, t: _Poles) -> IntArray:
+    """At most one pole per model order: the nearest to the median pole."""
+    f, z, order_ix = t.f, t.z, t.order_ix
+    if idx.size == 0:
+        return idx
+    lm = _lambda(np.array([np.median(f[idx])]), np.array([np.median(z[idx])]))[0]
+    dist = np.abs(_lambda(f[idx], z[idx]) - lm)
+    out = []
+    for o in np.unique(order_ix[idx]):
+        sub = np.nonzero(order_ix[idx] == o)[0]
+        out.append(idx[sub[np.argmin(dist[sub])]])
+    return np.array(out, dtype=np.int64)
+
+
+def _damping_inliers(idx: IntArray, z: FloatArray, k: float = 3.0) -> IntArray:
+    """Poles whose damping is within ``k`` scaled MADs (1.4826 MAD) of the median."""
+    if idx.size < 3:
+        return idx
+    med = np.median(z[idx])
+    mad = 1.4826 * np.median(np.abs(z[idx] - med))
+    if mad == 0:
+        return idx
+    out: IntArray = idx[np.abs(z[idx] - med) <= k * mad]
+    return out
+
+
+def _model(diagram: StabilizationDiagram, modes: list[_Cluster], t: _Poles) -> ModalModel:
+    if not modes:
+        return _empty(t.u.shape[0], diagram.method)
+    P = diagram.poles
+    sel = [(int(t.order_ix[c.best]), int(t.pole_ix[c.best])) for c in modes]
+    shapes = np.stack([P[k].shapes[:, q] for k, q in sel], axis=1).astype(np.complex128)
+    orders = np.array([int(diagram.orders[k]) for k, _ in sel], dtype=np.int64)
+    return ModalModel(
+        np.array([c.f_hz for c in modes]), np.array([c.zeta for c in modes]), shapes,
+        np.array([P[k].std_f_hz[q] for k, q in sel], dtype=float),
+        np.array([P[k].std_zeta[q] for k, q in sel], dtype=float),
+        diagram.method, int(orders.max()), orders,
+        np.array([c.size for c in modes], dtype=np.int64))
