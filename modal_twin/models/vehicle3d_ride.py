@@ -18,7 +18,9 @@ output PSD is::
     S_y(f) = sum_c |G_c(f)|^2 S_c(2 pi f / V) 2 pi / V,
     G_c = sum_a exp(-i w tau_a) (H_{y, u_ca}(w) + i w H_{y, u'_ca}(w)),  w = 2 pi f
 
-with ``H(w) = C_y (i w I - A)^-1 B + D_y`` of the vehicle's state space.
+with ``H(w) = C_y (i w I - A)^-1 B + D_y`` of the vehicle's state space. The flexible
+carbody's resonance in it (:func:`bending_peak`): the largest ``S_y`` within a band about
+the coupled car's first vertical bending, on a fine grid.
 """
 
 from __future__ import annotations
@@ -43,8 +45,10 @@ from modal_twin.models.track3d import (
 from modal_twin.models.vehicle3d import N_AXLES, N_U, Vehicle3D
 
 __all__ = [
+    "BendingPeak",
     "CarbodyMode",
     "RideResult",
+    "bending_peak",
     "carbody_modes",
     "floor_psd_theory",
     "ride_run",
@@ -248,3 +252,66 @@ def floor_psd_theory(vehicle: Vehicle3D, speed: float, f_hz: FloatArray, *,
             G = (H[:, cols] + 1j * w * H[:, dcols]) @ np.exp(-1j * w * tau)
             out[:, k] += np.abs(G) ** 2 * S[k] * 2.0 * math.pi / speed * inband[k]
     return out
+
+
+@dataclass(frozen=True, slots=True)
+class BendingPeak:
+    """The floor PSD at the carbody's first vertical bending (:func:`bending_peak`).
+
+    Attributes
+    ----------
+    f_mode_hz : float
+        Damped frequency of the coupled car's ``vertical bending 1``, Hz.
+    f_peak_hz : float
+        Frequency of the largest floor PSD within the band about it, Hz.
+    psd_peak : float
+        That PSD, (m/s^2)^2/Hz.
+    channel : str
+    """
+
+    f_mode_hz: float
+    f_peak_hz: float
+    psd_peak: float
+    channel: str
+
+
+def bending_peak(vehicle: Vehicle3D, speed: float, *, channel: str = "floor_mid_z",
+                 level: str = "low", half_band_hz: float = 0.6,
+                 df_hz: float = 0.005) -> BendingPeak | None:
+    """Floor PSD peak at the first vertical bending by spectral theory (module docstring).
+
+    Parameters
+    ----------
+    vehicle : Vehicle3D
+    speed : float
+        m/s.
+    channel : str
+        Floor channel (``floor_<label>_z`` / ``_y``).
+    level : {"low", "high"}
+    half_band_hz, df_hz : float
+        The band ``f_mode +- half_band_hz`` searched on a grid of ``df_hz``, Hz.
+
+    Returns
+    -------
+    BendingPeak or None
+        None when the carbody has no mode named ``vertical bending 1`` (a rigid carbody).
+
+    Raises
+    ------
+    OptionError
+        Unknown channel.
+    """
+    modes = carbody_modes(vehicle, speed)
+    vb = next((m for m in modes if m.label == "vertical bending 1"), None)
+    if vb is None:
+        return None
+    A, B = vehicle.state_space(speed)
+    names = list(vehicle.floor_outputs(A, B)[2])
+    if channel not in names:
+        msg = f"channel: expected one of {names}, got {channel!r}"
+        raise OptionError(msg)
+    f = np.arange(vb.f_hz - half_band_hz, vb.f_hz + half_band_hz + 0.5 * df_hz, df_hz)
+    S = floor_psd_theory(vehicle, speed, f, level=level)[names.index(channel)]
+    k = int(np.argmax(S))
+    return BendingPeak(f_mode_hz=vb.f_hz, f_peak_hz=float(f[k]), psd_peak=float(S[k]),
+                       channel=channel)

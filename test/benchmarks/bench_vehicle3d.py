@@ -9,8 +9,8 @@ hunting critical speed (10-300 m/s in 5 m/s steps, then Brent). Then the same ca
 the Craig-Bampton shell carbody (``carbody.model: shell``, :mod:`modal_twin.models.
 carbody_shell`): its assembly time (shell FE built, CB-reduced, coupled: wall and process
 CPU; and the coupling alone from the reduction in memory), the real-time factor of
-``simulate`` and ``ride_run`` and its hunting sweep (``shell_*`` keys; ``--no-shell`` skips it). Last line: one JSON
-object.
+``simulate`` and ``ride_run`` and its hunting sweep (``shell_*`` keys; ``--no-shell``
+skips it). Last line: one JSON object.
 
 Run: ``OMP_NUM_THREADS=1 python test/benchmarks/bench_vehicle3d.py [--repeat 5] [--no-shell]``.
 """
