@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from modal_twin._types import FloatArray
+from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import OptionError
 from modal_twin.models.carbody_shell import shell_mode_labels
 from modal_twin.models.ride import FloorPSD, floor_psd, sperling_index
@@ -49,6 +49,7 @@ __all__ = [
     "CarbodyMode",
     "RideResult",
     "bending_peak",
+    "carbody_mode_shapes",
     "carbody_modes",
     "floor_psd_theory",
     "ride_run",
@@ -87,6 +88,17 @@ def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
                   f_min_hz: float = 0.1) -> tuple[CarbodyMode, ...]:
     """Oscillatory modes with at least ``min_share`` of their kinetic energy in the carbody.
 
+    As :func:`carbody_mode_shapes`, without the shapes.
+    """
+    return carbody_mode_shapes(vehicle, speed, min_share=min_share, f_min_hz=f_min_hz)[0]
+
+
+def carbody_mode_shapes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
+                        f_min_hz: float = 0.1) -> tuple[tuple[CarbodyMode, ...], ComplexArray]:
+    """Carbody-dominated modes and their shapes (vehicle coordinates, one column each).
+
+    Oscillatory modes with at least ``min_share`` of their kinetic energy in the carbody.
+
     Energy share ``x_c^H M_cc x_c / x^H M x`` of the mode shape ``x`` (displacements);
     the label is the carbody coordinate of the largest kinetic energy ``M_ii |x_i|^2``,
     or, for the shell carbody, the type named from the recovered shape
@@ -112,7 +124,8 @@ def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
         label = _CAR_LABELS.get(name, name.removeprefix("car_")) if shell is None else shell[j]
         out.append(CarbodyMode(label, float(lam[i].imag / (2 * math.pi)),
                                float(-lam[i].real / abs(lam[i])), float(share[i])))
-    return tuple(sorted(out, key=lambda m: m.f_hz))
+    order = sorted(range(len(out)), key=lambda j: out[j].f_hz)
+    return tuple(out[j] for j in order), Xq[:, sel[order]] if order else Xq[:, :0]
 
 
 @dataclass(frozen=True, slots=True)
