@@ -89,10 +89,12 @@ def test_first_vertical_bending_has_two_nodes(car) -> None:
     assert np.abs(uy).max() < 0.2 * np.abs(uz).max()  # a vertical mode
     # the rigid part (bounce, pitch) of the coupled mode removed: the bending shape's nodes
     flex = uz - np.polyval(np.polyfit(x, uz, 1), x)
-    crossings = x[:-1][np.diff(np.sign(flex)) != 0]
-    assert crossings.size == 2
-    L = x.max() - x.min()
-    np.testing.assert_allclose(np.sort(np.abs(crossings - x.min()) / L)[0], 0.224, atol=0.08)
+    i = np.flatnonzero(np.diff(np.sign(flex)) != 0)
+    assert i.size == 2
+    xc = x[i] - flex[i] * (x[i + 1] - x[i]) / (flex[i + 1] - flex[i])  # linear in between
+    # measured 0.190 and 0.774 on this mesh (a uniform beam: 0.224, 0.776)
+    np.testing.assert_allclose((xc - x.min()) / (x.max() - x.min()), [0.224, 0.776],
+                               atol=0.06)
     assert np.sign(flex[0]) == np.sign(flex[-1]) != np.sign(flex[len(flex) // 2])
     with pytest.raises(OptionError, match="carbody mode 'wobble': expected one of"):
         vs.modes(veh, veh.spec.speed, labels=["wobble"])
