@@ -25,6 +25,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     mi.add_argument("--carbody", choices=("rigid", "shell"), default=None,
                     help="3D vehicle file: the carbody model (default: the file's "
                          "carbody.model)")
+    mi.add_argument("--carbody-params", type=Path, default=None, metavar="FILE",
+                    help="3D vehicle file: zone factors of the shell carbody "
+                         "(carbody_zone_factors, the carbody updating's result); implies "
+                         "--carbody shell")
     mi.add_argument("--rules", type=Path, default=None,
                     help="matrix file: YAML of the data set's parameter order and bounds "
                          "(e.g. config/matrix_models/pedestrian_bridge.yaml)")
@@ -54,6 +58,9 @@ def run(a: argparse.Namespace) -> int:
         raise OptionError(msg)
     if is_vehicle3d_file(a.file):  # config/vehicles/*_3d.yaml (kind: vehicle3d)
         return ride.vehicle3d_info(a)
+    if getattr(a, "carbody_params", None) is not None:
+        msg = f"--carbody-params: only for a 3D vehicle file (kind: vehicle3d), got {a.file}"
+        raise OptionError(msg)
     if is_vehicle_file(a.file):  # config/vehicles
         return _vehicle_info(a)
     if is_carbody3d_file(a.file):  # config/carbodies: the 3D shell carbody

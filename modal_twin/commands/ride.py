@@ -20,7 +20,7 @@ import numpy as np
 from modal_twin.errors import OptionError
 from modal_twin.exit_codes import ExitCode
 
-__all__ = ["register", "run", "vehicle3d_info"]
+__all__ = ["register", "run", "vehicle3d_info", "with_carbody_options"]
 
 MAX_SWEEP = 60
 
@@ -41,6 +41,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--carbody", choices=("rigid", "shell"), default=None,
                    help="carbody model: rigid (6 DOF) or the Craig-Bampton shell carbody "
                         "(default: the file's carbody.model)")
+    p.add_argument("--carbody-params", type=Path, default=None, metavar="FILE",
+                   help="zone factors of the shell carbody (carbody_zone_factors: the "
+                        "carbody updating's result); implies --carbody shell")
     p.add_argument("--bending-hz", type=float, default=None, metavar="F",
                    help="add to the rigid carbody its first vertical bending (uniform "
                         "free-free beam mode at F Hz, 2 %% damping)")
@@ -80,9 +83,7 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.models.vehicle3d_ride import ride_run
     from modal_twin.models.vehicle3d_spec import load_vehicle3d
 
-    spec = load_vehicle3d(a.vehicle)
-    if a.carbody is not None:
-        spec = spec.with_carbody(a.carbody)
+    spec = with_carbody_options(load_vehicle3d(a.vehicle), a)
     if a.bending_hz is not None and spec.carbody_model != "rigid":
         msg = "--bending-hz: expected the rigid carbody (the shell has its own bending modes)"
         raise OptionError(msg)
@@ -138,9 +139,7 @@ def vehicle3d_info(a: argparse.Namespace) -> int:
     from modal_twin.models.vehicle3d_ride import carbody_modes
     from modal_twin.models.vehicle3d_spec import load_vehicle3d
 
-    spec = load_vehicle3d(a.file)
-    if getattr(a, "carbody", None) is not None:
-        spec = spec.with_carbody(a.carbody)
+    spec = with_carbody_options(load_vehicle3d(a.file), a)
     veh = build_vehicle3d(spec)
     hunt = critical_speed(veh, np.arange(10.0, 300.01, 5.0))
     modes = carbody_modes(veh, spec.speed)
@@ -168,6 +167,30 @@ def vehicle3d_info(a: argparse.Namespace) -> int:
     for k, m in enumerate(modes, 1):
         print(f"{k:>4d} {m.f_hz:9.4f} {100 * m.zeta:8.2f}  carbody {m.label}")
     return ExitCode.OK
+
+
+def with_carbody_options(spec: Any, a: argparse.Namespace) -> Any:
+    """Apply ``--carbody`` and ``--carbody-params FILE`` (zone factors: the shell carbody).
+
+    Raises
+    ------
+    OptionError
+        ``--carbody-params`` with ``--carbody rigid``, or a bad factor in the file.
+    ConfigError
+        An unreadable or malformed zone-factor file.
+    """
+    from modal_twin.models.carbody3d_file import load_zone_factors
+
+    carbody = getattr(a, "carbody", None)
+    path = getattr(a, "carbody_params", None)
+    if path is not None and carbody == "rigid":
+        msg = "--carbody-params: expected the shell carbody (zone factors), got --carbody rigid"
+        raise OptionError(msg)
+    if carbody is not None or path is not None:
+        spec = spec.with_carbody("shell" if path is not None else carbody)
+    if path is not None:
+        spec = spec.with_zone_factors(load_zone_factors(path))
+    return spec
 
 
 def carbody_mass(veh: Any) -> float:

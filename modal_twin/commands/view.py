@@ -13,6 +13,10 @@ below 10 %, yellow, red from 30 %).
 MODEL may be a vehicle file: the car seen from the side (carbody, bogies, wheelsets,
 suspensions, equipment) with its coupled modes (:mod:`modal_twin.viz.vehicle_scene`); with
 ``--bag`` its floor sensors' motion is expanded with as many coupled modes as sensors.
+A 3D vehicle file (``kind: vehicle3d``) is drawn with the shell carbody's mesh, bogies and
+wheelsets (:mod:`modal_twin.viz.vehicle3d_scene`), animating its carbody modes at the
+file's speed: the lowest ``--n-modes``, or those named by ``--carbody-mode`` (e.g.
+``"vertical bending 1"``; ``--carbody-params`` applies an updating's zone factors).
 
 MODEL may also be a test geometry: a UFF file with nodes and trace lines, or a bag
 ``modal-twin import`` wrote with one (its channels' nodes are the sensors); ``--modes`` (the
@@ -53,6 +57,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="recorded or imported bag: its motion, measured beside the twin")
     p.add_argument("--window", type=float, default=0.0,
                    help="--bag: seconds shown (default three periods of the first mode)")
+    p.add_argument("--carbody-mode", action="append", default=None, metavar="LABEL",
+                   help="3D vehicle: a carbody mode to animate by name (repeatable), e.g. "
+                        "'vertical bending 1', 'diamond 1', 'bounce'")
+    p.add_argument("--carbody-params", type=Path, default=None, metavar="FILE",
+                   help="3D vehicle: zone factors of the shell carbody (carbody updating)")
     p.add_argument("--html", type=Path, default=None,
                    help="write a static HTML page instead of starting a server")
     p.add_argument("--force", action="store_true", help="--html: overwrite an existing file")
@@ -81,6 +90,34 @@ def model_scene(model: Path, n_modes: int) -> tuple[list[object], str]:
         modes = building_modes(mv.structure, n_modes) if n_modes > 0 else None
     return (scene_commands(geom, modes, blamed=blamed),
             overlay_html(geom, modes, blamed))
+
+
+def vehicle3d_scene_commands(args: argparse.Namespace) -> tuple[list[object], str]:
+    """meshcat commands and caption of a 3D vehicle file with the shell carbody."""
+    from modal_twin.commands.ride import with_carbody_options
+    from modal_twin.errors import ConfigError
+    from modal_twin.models.vehicle3d import build_vehicle3d
+    from modal_twin.models.vehicle3d_spec import load_vehicle3d
+    from modal_twin.viz.scene import overlay_html, scene_commands
+    from modal_twin.viz.vehicle3d_scene import vehicle3d_scene
+
+    if args.modes is not None or args.bag is not None:
+        msg = (f"{args.model}: a 3D vehicle shows its carbody modes (--carbody-mode); "
+               "--modes and --bag are for a building, a test geometry or the vertical-plane car")
+        raise ConfigError(msg)
+    spec = load_vehicle3d(args.model).with_carbody("shell")
+    spec = with_carbody_options(spec, args)
+    veh = build_vehicle3d(spec)
+    vs = vehicle3d_scene(veh)
+    modes = vs.modes(veh, spec.speed, labels=args.carbody_mode, n_modes=args.n_modes)
+    return scene_commands(vs.geom, modes), overlay_html(vs.geom, modes)
+
+
+def _is_vehicle3d(path: Path) -> bool:
+    from modal_twin.models.vehicle3d_spec import is_vehicle3d_file
+
+    return path.is_file() and path.suffix.lower() in (".yaml", ".yml") and \
+        is_vehicle3d_file(path)
 
 
 def _vehicle(mv: Any) -> tuple[Any, Any]:
@@ -340,6 +377,11 @@ def _scene(args: argparse.Namespace) -> tuple[list[object], str]:
     """Return the scene the arguments ask for (module docstring)."""
     from modal_twin.errors import ConfigError
 
+    if _is_vehicle3d(args.model):
+        return vehicle3d_scene_commands(args)
+    if args.carbody_mode is not None or args.carbody_params is not None:
+        msg = f"--carbody-mode, --carbody-params: only for a 3D vehicle file, got {args.model}"
+        raise ConfigError(msg)
     _check_drawable(args.model)
     if args.modes is not None and args.model.is_file() and _is_vehicle(args.model):
         msg = (f"{args.model}: --modes draws on a building or a test geometry; a vehicle "

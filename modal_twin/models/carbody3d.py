@@ -29,18 +29,20 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
 
 from modal_twin._types import FloatArray, IntArray
-from modal_twin.errors import ModelError
+from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.fe import FEAssembly, NodeId
 from modal_twin.models.fe.shell import ShellModel
 
 __all__ = [
     "ZONES",
+    "ZONE_FACTOR_NAMES",
     "CarbodyFE",
     "CarbodyParams",
     "Equipment",
@@ -52,6 +54,10 @@ __all__ = [
 
 ZONES: tuple[str, ...] = ("underframe", "side_wall", "roof", "end_wall", "window_belt", "door")
 """Zone names: the four of [002] Table 1, then the window belt and the door openings."""
+
+ZONE_FACTOR_NAMES: tuple[str, ...] = tuple(f"{k}_{z}" for z in ZONES for k in ("E", "rho"))
+"""Zone factors of the carbody updating (:mod:`modal_twin.updating.carbody`): ``E_<zone>``
+and ``rho_<zone>``, the names of the shell matrices' linear parameters."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -228,6 +234,36 @@ class CarbodyParams:
     def empty(self) -> CarbodyParams:
         """Return the same carbody as an empty shell."""
         return replace(self, in_service=False)
+
+    def with_zone_factors(self, factors: Mapping[str, float]) -> CarbodyParams:
+        """Return a copy with zone moduli and densities times ``factors``.
+
+        ``factors`` maps :data:`ZONE_FACTOR_NAMES` entries (the carbody updating's
+        parameters) to factors: ``E_<zone>`` scales the zone's modulus empty and in service
+        (``E`` and ``E_service``), ``rho_<zone>`` its structural density (the
+        non-structural mass stays). Both enter the shell matrices linearly, so the copy's
+        matrices are those of the updating's parametric model at ``factors``.
+
+        Raises
+        ------
+        OptionError
+            An unknown name, or a factor not finite and > 0.
+        """
+        zones = dict(self.zones)
+        for name, value in factors.items():
+            if name not in ZONE_FACTOR_NAMES:
+                msg = f"zone factor {name!r}: expected one of {list(ZONE_FACTOR_NAMES)}"
+                raise OptionError(msg)
+            f = float(value)
+            if not (math.isfinite(f) and f > 0.0):
+                msg = f"zone factor {name}: expected a finite value > 0, got {value!r}"
+                raise OptionError(msg)
+            kind, zone = name.split("_", 1)
+            z = zones[zone]
+            fields = ("E", "E_service") if kind == "E" else ("rho",)
+            zones[zone] = replace(z, **{k: getattr(z, k) * f for k in fields
+                                        if getattr(z, k) is not None})
+        return replace(self, zones=zones)
 
 
 @dataclass(frozen=True, slots=True)

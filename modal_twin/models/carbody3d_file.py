@@ -12,25 +12,38 @@ file's ``carbody``)::
       modes: 30                 # modes computed (rigid ones included)
 
 Every other parameter keeps the default of :class:`~.carbody3d.CarbodyParams`.
+
+A **zone-factor file** holds the carbody updating's result (:mod:`modal_twin.updating.
+carbody`): factors on the zone moduli and densities of a carbody, which
+``modal-twin ride --carbody-params FILE`` applies to the vehicle's shell carbody::
+
+    carbody_zone_factors:       # E_<zone> / rho_<zone> (CarbodyParams.with_zone_factors)
+      E_side_wall: 0.893
+      E_underframe: 1.081
 """
 
 from __future__ import annotations
 
 import contextlib
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from modal_twin.errors import ConfigError
-from modal_twin.models.carbody3d import ZONES, CarbodyFE, CarbodyParams
+from modal_twin.models.carbody3d import ZONE_FACTOR_NAMES, ZONES, CarbodyFE, CarbodyParams
 from modal_twin.models.carbody_modes import name_modes
 from modal_twin.models.fe import solve_modes
 from modal_twin.yaml_files import read_yaml
 
 __all__ = ["carbody3d_info", "carbody3d_params", "config_section", "format_carbody3d_info",
-           "is_carbody3d_file", "load_carbody3d"]
+           "is_carbody3d_file", "load_carbody3d", "load_zone_factors", "save_zone_factors"]
+
+ZONE_FACTORS_KEY = "carbody_zone_factors"
 
 _ZONE_KEYS = ("E", "nu", "rho", "t", "t_b", "nsm", "E_service")
 _MESH_KEYS = ("n_length", "n_width", "n_height")
@@ -117,6 +130,47 @@ def carbody3d_params(sec: Mapping[str, Any], where: str, src: str) -> CarbodyPar
                    n_length=sizes.get("n_length", p.n_length),
                    n_width=sizes.get("n_width", p.n_width),
                    n_height=sizes.get("n_height", p.n_height))
+
+
+def load_zone_factors(path: str | Path) -> dict[str, float]:
+    """Return the factors of a zone-factor file (module docstring).
+
+    Raises
+    ------
+    ConfigError
+        Unreadable file, no ``carbody_zone_factors`` mapping, an unknown name or a factor
+        that is not a finite number > 0 (one line naming the file and the key).
+    """
+    src = str(path)
+    doc = read_yaml(path, "zone-factor file")
+    where = ZONE_FACTORS_KEY
+    sec = config_section(doc.get(where) if isinstance(doc, Mapping) else None, where, src,
+                         ZONE_FACTOR_NAMES)
+    out = {}
+    for name, v in sec.items():
+        f = _number(v, f"{where}.{name}", src)
+        if not f > 0.0:
+            msg = f"{src}: {where}.{name}: expected a factor > 0, got {v!r}"
+            raise ConfigError(msg)
+        out[str(name)] = f
+    return out
+
+
+def save_zone_factors(path: str | Path, factors: Mapping[str, float]) -> None:
+    """Write ``factors`` as a zone-factor file that :func:`load_zone_factors` reads.
+
+    Names from :data:`~.carbody3d.ZONE_FACTOR_NAMES`; written to a temporary file beside
+    ``path``, then renamed (a reader never sees half a file).
+    """
+    bad = sorted(str(k) for k in factors if k not in ZONE_FACTOR_NAMES)
+    if bad:
+        msg = f"factors: unknown names {bad} (expected some of {list(ZONE_FACTOR_NAMES)})"
+        raise ConfigError(msg)
+    p = Path(path)
+    tmp = p.with_name(p.name + ".tmp")
+    tmp.write_text(yaml.safe_dump({ZONE_FACTORS_KEY: {str(k): float(v) for k, v in
+                                                      factors.items()}}, sort_keys=False))
+    os.replace(tmp, p)
 
 
 def carbody3d_info(car: CarbodyFE, n_modes: int = 30, *, name: str = "carbody",

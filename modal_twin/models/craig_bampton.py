@@ -11,7 +11,12 @@ and the reduced matrices are ``Mr = T' M T``, ``Kr = T' K T``, where
     Kr = [[K_bb + K_bi Psi, 0], [0, diag(omega_k^2)]]                    (CB eq. 2)
 
 (the coupling ``K_bq`` vanishes because ``K_ib + K_ii Psi = 0``). ``K_ii`` is factored once
-(sparse LU) and serves both ``Psi`` and the shift-invert eigen-solution (``sigma = 0``).
+(``L D L'`` by QDLDL when it is positive definite, else sparse LU) and serves both ``Psi``
+and the shift-invert eigen-solution (``sigma = 0``). With a cut-off ``f_c`` the number of
+fixed-interface modes below it is counted first from the inertia of ``K_ii - (2 pi f_c)^2
+M_ii`` (Sylvester's law, :func:`~modal_twin.models.fe.eigen.count_eigenvalues_below`), so
+one Lanczos run asks for that many plus one (the next mode proves the count); only when the
+count cannot be read or proves short does the search double the number asked.
 :func:`cb_check` verifies a reduction the way pyyeti's ``cbcheck`` does: rigid-body mass,
 the numerical ``K_bq`` of ``T' K T``, symmetry, and the system frequencies against the full
 model.
@@ -25,6 +30,7 @@ R. R. Craig, M. C. C. Bampton, "Coupling of substructures for dynamic analyses",
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,7 +40,13 @@ import scipy.sparse.linalg as spla
 
 from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import ModelError, OptionError, ShapeError
-from modal_twin.models.fe.eigen import Matrix, lowest_eigenpairs, solve_modes
+from modal_twin.models.fe.definite import ldl_factor
+from modal_twin.models.fe.eigen import (
+    Matrix,
+    count_eigenvalues_below,
+    lowest_eigenpairs,
+    solve_modes,
+)
 
 __all__ = ["CBCheck", "CBReduction", "cb_check", "craig_bampton"]
 
@@ -167,17 +179,13 @@ def craig_bampton(
     K_ii = sp.csc_array(Ks[i][:, i])
     M_ii = sp.csc_array(Ms[i][:, i])
     K_ib = Ks[i][:, b].toarray()
-    try:
-        lu = spla.splu(K_ii)  # factor once: constraint modes and eigen-solution
-    except RuntimeError as err:
-        msg = (f"K_ii: expected nonsingular (boundary_dofs must restrain every rigid-body "
-               f"motion of the interior), got: {err}")
-        raise ModelError(msg) from err
-    Psi = -lu.solve(K_ib)  # CB eq. 1: constraint modes Psi = -K_ii^-1 K_ib
+    solve, definite = _factor(K_ii)  # factor once: constraint modes and eigen-solution
+    Psi = -solve(K_ib)  # CB eq. 1: constraint modes Psi = -K_ii^-1 K_ib
     if not np.all(np.isfinite(Psi)):
         msg = "K_ii: expected nonsingular, the constraint modes are not finite"
         raise ModelError(msg)
-    lam, Phi = _fixed_interface_modes(K_ii, M_ii, lu, n_modes, f_cut_hz, dense_max_dof)
+    lam, Phi = _fixed_interface_modes(K_ii, M_ii, solve, definite, n_modes, f_cut_hz,
+                                      dense_max_dof)
     n_b, n_q = b.size, lam.size
     T = np.zeros((n, n_b + n_q))
     T[b, np.arange(n_b)] = 1.0
@@ -197,27 +205,71 @@ def craig_bampton(
                        else float(f_cut_hz))
 
 
+def _factor(K_ii: sp.csc_array) -> tuple[Callable[[FloatArray], FloatArray], bool]:
+    """Return ``(x -> K_ii^-1 x, positive definite)`` from one factorisation of ``K_ii``.
+
+    ``L D L'`` (QDLDL, :func:`~modal_twin.models.fe.definite.ldl_factor`) when the entries
+    are finite, the diagonal positive and every pivot positive: ``K_ii`` is then positive
+    definite (Sylvester) and its solves are about four times cheaper than SuperLU's with
+    column pivoting. Anything else goes to SuperLU (an indefinite but nonsingular ``K_ii``),
+    which refuses a singular one.
+    """
+    ok = bool(np.all(np.isfinite(K_ii.data)) and np.all(K_ii.diagonal() > 0.0))
+    ldl = ldl_factor(K_ii) if ok else None
+    if ldl is not None and np.all(ldl[1] > 0.0):
+        factor = ldl[0]
+
+        def solve(x: FloatArray) -> FloatArray:
+            x = np.asarray(x, dtype=float)
+            if x.ndim == 1:
+                return np.asarray(factor.solve(x))
+            out = np.empty_like(x)
+            for j in range(x.shape[1]):
+                out[:, j] = factor.solve(x[:, j])
+            return out
+
+        return solve, True
+    try:
+        lu = spla.splu(K_ii)
+    except RuntimeError as err:
+        msg = (f"K_ii: expected nonsingular (boundary_dofs must restrain every rigid-body "
+               f"motion of the interior), got: {err}")
+        raise ModelError(msg) from err
+    return lambda x: np.asarray(lu.solve(np.asarray(x, dtype=float))), False
+
+
 def _fixed_interface_modes(
-    K_ii: sp.csc_array, M_ii: sp.csc_array, lu: spla.SuperLU, n_modes: int | None,
-    f_cut_hz: float | None, dense_max_dof: int,
+    K_ii: sp.csc_array, M_ii: sp.csc_array, solve: Callable[[FloatArray], FloatArray],
+    definite: bool, n_modes: int | None, f_cut_hz: float | None, dense_max_dof: int,
 ) -> tuple[FloatArray, FloatArray]:
+    """Lowest fixed-interface modes: ``n_modes`` of them, or every one below ``f_cut_hz``.
+
+    With a cut-off and a positive definite ``K_ii`` the count below it (Sturm,
+    :func:`count_eigenvalues_below`) sets the number asked of one shift-invert run, plus one
+    mode above the cut-off that proves the count; a count that cannot be read or proves
+    short falls back to doubling the number asked (12, 24, 48, ...).
+    """
     n_i = K_ii.shape[0]
     if n_modes == 0:
         return np.zeros(0), np.zeros((n_i, 0))
     n_mass = int(np.count_nonzero(M_ii.diagonal() > 0.0))
     limit = min(n_i, n_mass) if n_modes is None else min(n_modes, n_i, n_mass)
     if f_cut_hz is None:
-        lam, Phi, _ = lowest_eigenpairs(K_ii, M_ii, limit, sigma=0.0, solve=lu.solve,
+        lam, Phi, _ = lowest_eigenpairs(K_ii, M_ii, limit, sigma=0.0, solve=solve,
                                         dense_max_dof=dense_max_dof)
         return lam, Phi
     lam_cut = (2.0 * np.pi * f_cut_hz) ** 2
-    k = min(limit, 12)
+    count = count_eigenvalues_below(K_ii, M_ii, lam_cut) if definite else None
+    k = min(limit, 12 if count is None else count + 1)
     while True:
-        lam, Phi, _ = lowest_eigenpairs(K_ii, M_ii, k, sigma=0.0, solve=lu.solve,
+        lam, Phi, _ = lowest_eigenpairs(K_ii, M_ii, k, sigma=0.0, solve=solve,
                                         dense_max_dof=dense_max_dof)
         if lam[-1] >= lam_cut or k >= limit:
             keep = lam < lam_cut
             return lam[keep], Phi[:, keep]
+        if count is not None:
+            _log.warning("craig_bampton: the Sturm count (%d below the cut-off) proved short; "
+                         "doubling the modes asked", count)
         k = min(limit, 2 * k)
 
 

@@ -18,7 +18,9 @@ output PSD is::
     S_y(f) = sum_c |G_c(f)|^2 S_c(2 pi f / V) 2 pi / V,
     G_c = sum_a exp(-i w tau_a) (H_{y, u_ca}(w) + i w H_{y, u'_ca}(w)),  w = 2 pi f
 
-with ``H(w) = C_y (i w I - A)^-1 B + D_y`` of the vehicle's state space.
+with ``H(w) = C_y (i w I - A)^-1 B + D_y`` of the vehicle's state space. The flexible
+carbody's resonance in it (:func:`bending_peak`): the largest ``S_y`` within a band about
+the coupled car's first vertical bending, on a fine grid.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from modal_twin._types import FloatArray
+from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import OptionError
 from modal_twin.models.carbody_shell import shell_mode_labels
 from modal_twin.models.ride import FloorPSD, floor_psd, sperling_index
@@ -43,8 +45,11 @@ from modal_twin.models.track3d import (
 from modal_twin.models.vehicle3d import N_AXLES, N_U, Vehicle3D
 
 __all__ = [
+    "BendingPeak",
     "CarbodyMode",
     "RideResult",
+    "bending_peak",
+    "carbody_mode_shapes",
     "carbody_modes",
     "floor_psd_theory",
     "ride_run",
@@ -83,6 +88,17 @@ def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
                   f_min_hz: float = 0.1) -> tuple[CarbodyMode, ...]:
     """Oscillatory modes with at least ``min_share`` of their kinetic energy in the carbody.
 
+    As :func:`carbody_mode_shapes`, without the shapes.
+    """
+    return carbody_mode_shapes(vehicle, speed, min_share=min_share, f_min_hz=f_min_hz)[0]
+
+
+def carbody_mode_shapes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
+                        f_min_hz: float = 0.1) -> tuple[tuple[CarbodyMode, ...], ComplexArray]:
+    """Carbody-dominated modes and their shapes (vehicle coordinates, one column each).
+
+    Oscillatory modes with at least ``min_share`` of their kinetic energy in the carbody.
+
     Energy share ``x_c^H M_cc x_c / x^H M x`` of the mode shape ``x`` (displacements);
     the label is the carbody coordinate of the largest kinetic energy ``M_ii |x_i|^2``,
     or, for the shell carbody, the type named from the recovered shape
@@ -108,7 +124,8 @@ def carbody_modes(vehicle: Vehicle3D, speed: float, *, min_share: float = 0.5,
         label = _CAR_LABELS.get(name, name.removeprefix("car_")) if shell is None else shell[j]
         out.append(CarbodyMode(label, float(lam[i].imag / (2 * math.pi)),
                                float(-lam[i].real / abs(lam[i])), float(share[i])))
-    return tuple(sorted(out, key=lambda m: m.f_hz))
+    order = sorted(range(len(out)), key=lambda j: out[j].f_hz)
+    return tuple(out[j] for j in order), Xq[:, sel[order]] if order else Xq[:, :0]
 
 
 @dataclass(frozen=True, slots=True)
@@ -248,3 +265,66 @@ def floor_psd_theory(vehicle: Vehicle3D, speed: float, f_hz: FloatArray, *,
             G = (H[:, cols] + 1j * w * H[:, dcols]) @ np.exp(-1j * w * tau)
             out[:, k] += np.abs(G) ** 2 * S[k] * 2.0 * math.pi / speed * inband[k]
     return out
+
+
+@dataclass(frozen=True, slots=True)
+class BendingPeak:
+    """The floor PSD at the carbody's first vertical bending (:func:`bending_peak`).
+
+    Attributes
+    ----------
+    f_mode_hz : float
+        Damped frequency of the coupled car's ``vertical bending 1``, Hz.
+    f_peak_hz : float
+        Frequency of the largest floor PSD within the band about it, Hz.
+    psd_peak : float
+        That PSD, (m/s^2)^2/Hz.
+    channel : str
+    """
+
+    f_mode_hz: float
+    f_peak_hz: float
+    psd_peak: float
+    channel: str
+
+
+def bending_peak(vehicle: Vehicle3D, speed: float, *, channel: str = "floor_mid_z",
+                 level: str = "low", half_band_hz: float = 0.6,
+                 df_hz: float = 0.005) -> BendingPeak | None:
+    """Floor PSD peak at the first vertical bending by spectral theory (module docstring).
+
+    Parameters
+    ----------
+    vehicle : Vehicle3D
+    speed : float
+        m/s.
+    channel : str
+        Floor channel (``floor_<label>_z`` / ``_y``).
+    level : {"low", "high"}
+    half_band_hz, df_hz : float
+        The band ``f_mode +- half_band_hz`` searched on a grid of ``df_hz``, Hz.
+
+    Returns
+    -------
+    BendingPeak or None
+        None when the carbody has no mode named ``vertical bending 1`` (a rigid carbody).
+
+    Raises
+    ------
+    OptionError
+        Unknown channel.
+    """
+    modes = carbody_modes(vehicle, speed)
+    vb = next((m for m in modes if m.label == "vertical bending 1"), None)
+    if vb is None:
+        return None
+    A, B = vehicle.state_space(speed)
+    names = list(vehicle.floor_outputs(A, B)[2])
+    if channel not in names:
+        msg = f"channel: expected one of {names}, got {channel!r}"
+        raise OptionError(msg)
+    f = np.arange(vb.f_hz - half_band_hz, vb.f_hz + half_band_hz + 0.5 * df_hz, df_hz)
+    S = floor_psd_theory(vehicle, speed, f, level=level)[names.index(channel)]
+    k = int(np.argmax(S))
+    return BendingPeak(f_mode_hz=vb.f_hz, f_peak_hz=float(f[k]), psd_peak=float(S[k]),
+                       channel=channel)

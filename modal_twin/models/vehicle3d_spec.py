@@ -153,6 +153,16 @@ class Vehicle3DSpec:
             raise ConfigError(msg)
         return replace(self, carbody_model=model)
 
+    def with_zone_factors(self, factors: Mapping[str, float]) -> Vehicle3DSpec:
+        """Copy whose shell carbody has its zone moduli / densities times ``factors``.
+
+        ``factors``: the carbody updating's result (``E_<zone>``, ``rho_<zone>``;
+        :meth:`~modal_twin.models.carbody3d.CarbodyParams.with_zone_factors`, which raises
+        :class:`~modal_twin.errors.OptionError` on an unknown name or a bad factor).
+        """
+        shell = replace(self.shell, params=self.shell.params.with_zone_factors(factors))
+        return replace(self, shell=shell)
+
     def v(self, section: str, key: str) -> float:
         """One value, e.g. ``spec.v("yaw_damper", "c")``."""
         return float(self.values[section][key])

@@ -141,14 +141,14 @@ def main() -> int:
     print("equipment modes in that band: "
           + ", ".join(f"{m.f_hz:.2f} {m.label}" for m in eq))
     car = build_carbody(base)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     cb = reduce_carbody(car, f_cut_hz=a.f_cut)
-    t_cb = time.perf_counter() - t0
+    t_cb, c_cb = time.perf_counter() - t0, time.process_time() - c0
     chk = cb_check(cb, car.asm.M, car.asm.K, rb=car.asm.rigid_body_modes(),
                    f_compare_hz=a.f_cut / 2)
     f_red, _, rigid = reduced_modes(car, cb)
     print(f"\nCraig-Bampton (default mesh, cut-off {a.f_cut:g} Hz): {cb.n_boundary} boundary "
-          f"DOFs + {cb.n_modes} modes in {t_cb:.1f} s; rigid-body mass error "
+          f"DOFs + {cb.n_modes} modes in {t_cb:.1f} s ({c_cb:.1f} s CPU); rigid-body mass error "
           f"{chk.rb_mass_rel_err:.1e}; max |f_red - f_full| / f_full below {a.f_cut / 2:g} Hz "
           f"{100 * chk.max_f_rel_err:.2f} % ({chk.f_full_hz.size} modes); rigid modes found "
           f"by projection: {int(rigid.sum())}")
@@ -163,7 +163,8 @@ def main() -> int:
         "service_f1_hz": round(body[0].f_hz, 3),
         "paper_empty_f1_hz": 13.03, "paper_service_f1_hz": 8.73,
         "cb_boundary_dof": cb.n_boundary, "cb_modes": cb.n_modes,
-        "cb_reduce_s": round(t_cb, 2), "cb_rb_mass_rel_err": chk.rb_mass_rel_err,
+        "cb_reduce_s": round(t_cb, 2), "cb_reduce_cpu_s": round(c_cb, 2),
+        "cb_rb_mass_rel_err": chk.rb_mass_rel_err,
         "cb_max_f_rel_err_pct": round(100 * chk.max_f_rel_err, 3),
         "cb_f_compare_hz": a.f_cut / 2, "cb_rigid_modes": int(rigid.sum()),
         "cb_first_flexible_hz": round(float(f_red[~rigid][0]), 3),

@@ -16,6 +16,13 @@
    modes paired to the test modes by MAC (Hungarian assignment).
 5. The table beside [002] Fig. 12 (every |df| < 5 %, MAC > 0.8) and the factors recovered vs
    the truth's.
+6. The updated carbody in the vehicle ([002] Sec. 5, ride before / after): the 3D car with
+   the shell carbody (config/vehicles/trailer_car_3d.yaml, this mesh) on the nominal zones,
+   on the updated factors (written to ``--factors-out`` as a zone-factor file, the file
+   ``modal-twin ride --carbody-params`` reads) and on the truth's zones (built by
+   ``_truth``), at ``--speed`` over the same random track: the Sperling indices Wz / Wy at
+   the floor points and the mid-floor vertical PSD peak at the first vertical bending
+   (spectral theory, fine grid).
 
 The candidates are solved on a Ritz basis of the model (``ZoneModel``); the before / after
 figures come from the full sparse model. Mesh: ``--mesh 16,2,2`` (about 2600 DOF, the
@@ -24,7 +31,8 @@ DOF; each sparse solve about 4 s here, only the basis points use it).
 
 usage: python test/benchmarks/bench_carbody_update.py [--mesh 16,2,2] [--samples 500]
        [--maxiter 40] [--popsize 10] [--noise 0.01] [--executor 1]
-       [--params screened|table2] [--bands 7-13.8,15-21]
+       [--params screened|table2] [--bands 7-13.8,15-21] [--speed 300]
+       [--factors-out FILE]
 Last line: JSON with the figures (units in the keys).
 """
 
@@ -34,12 +42,18 @@ import argparse
 import json
 import os
 import sys
+import tempfile
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from modal_twin.identification.metrics import automac, mpc
 from modal_twin.models.carbody3d import CarbodyParams, build_carbody
+from modal_twin.models.carbody3d_file import load_zone_factors, save_zone_factors
+from modal_twin.models.vehicle3d import build_vehicle3d
+from modal_twin.models.vehicle3d_ride import bending_peak, ride_run
+from modal_twin.models.vehicle3d_spec import load_vehicle3d
 from modal_twin.updating.carbody import (
     ZoneModel,
     driving_points,
@@ -51,7 +65,7 @@ from modal_twin.updating.carbody import (
 )
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _truth.carbody import TRUTH_FACTORS, modal_test
+from _truth.carbody import TRUTH_FACTORS, modal_test, truth_params
 
 BANDS = "7-13.8,15-21"  # around the body modes (both meshes); two equipment modes between
 TABLE2 = tuple(f"{k}_{z}" for z in ("underframe", "side_wall", "roof", "end_wall")
@@ -70,6 +84,9 @@ def main() -> None:
     ap.add_argument("--executor", default="1")
     ap.add_argument("--params", choices=("screened", "table2"), default="screened",
                     help="update the screened factors, or the eight of [002] Table 2")
+    ap.add_argument("--speed", type=float, default=300.0, help="ride speed, km/h")
+    ap.add_argument("--factors-out", default=None,
+                    help="zone-factor file of the updated carbody (default: a temporary one)")
     a = ap.parse_args()
     t_start = time.perf_counter()
     nl, nw, nh = (int(v) for v in a.mesh.split(","))
@@ -149,7 +166,9 @@ def main() -> None:
         errors[name] = round(err, 2)
         note = "" if name in up.names else "  (not selected: stays 1)"
         print(f"{name:<16} {tr:6.3f} {fac[name]:8.3f} {err:8.2f}{note}")
+    ride = vehicle_ride(base, {n: float(fac[n]) for n in up.names}, a.speed, a.factors_out)
     figures = {
+        "ride": ride,
         "mesh": a.mesh, "params": a.params, "n_dof": car.asm.n_dof, "n_samples": a.samples,
         "f_test_hz": [round(float(v), 3) for v in f_t],
         "f_before_hz": [round(float(v), 3) for v in up.f_before],
@@ -167,6 +186,50 @@ def main() -> None:
         "wall_time_s": round(time.perf_counter() - t_start, 2),
     }
     print(json.dumps(figures))
+
+
+def vehicle_ride(base: CarbodyParams, factors: dict[str, float], speed_kmh: float,
+                 out: str | None) -> dict[str, dict]:
+    """Step 6: the 3D car on the nominal, updated and truth carbodies (module docstring)."""
+    spec = load_vehicle3d().with_carbody("shell")
+    mesh = {k: getattr(base, k) for k in ("n_length", "n_width", "n_height")}
+    spec = replace(spec, shell=replace(spec.shell, params=replace(spec.shell.params, **mesh)))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = out or os.path.join(tmp, "carbody_zone_factors.yaml")
+        save_zone_factors(path, factors)  # what `modal-twin ride --carbody-params` reads
+        cases = {
+            "before": spec,
+            "after": spec.with_zone_factors(load_zone_factors(path)),
+            "truth": replace(spec, shell=replace(spec.shell, params=truth_params(
+                spec.shell.params, TRUTH_FACTORS))),
+        }
+    rows: dict[str, dict] = {}
+    for name, sp_ in cases.items():
+        veh = build_vehicle3d(sp_)
+        r = ride_run(veh, speed_kmh, duration_s=60.0, fs_hz=400.0, seed=0)
+        pk = bending_peak(veh, speed_kmh / 3.6)
+        assert pk is not None
+        rows[name] = {"sperling": {c[len("floor_"):]: round(float(w), 4)
+                                   for c, w in zip(r.channels, r.W, strict=True)},
+                      "vertical_bending_hz": round(pk.f_mode_hz, 4),
+                      "psd_peak_hz": round(pk.f_peak_hz, 3),
+                      "psd_peak_m2s4_per_hz": float(f"{pk.psd_peak:.4g}")}
+    chans = list(rows["truth"]["sperling"])
+    print(f"\nthe 3D car with the shell carbody at {speed_kmh:g} km/h, low-interference track "
+          f"(seed 0, 60 s at 400 Hz), mesh {base.n_length},{base.n_width},{base.n_height}; "
+          f"updated factors {', '.join(f'{k} {v:.3f}' for k, v in factors.items())}")
+    print(f"{'carbody':<8} " + " ".join(f"{'W ' + c:>10}" for c in chans)
+          + f" {'f_vb Hz':>8} {'PSD peak Hz':>11} {'mid_z PSD (m/s^2)^2/Hz':>24}")
+    for name, row in rows.items():
+        print(f"{name:<8} " + " ".join(f"{row['sperling'][c]:10.3f}" for c in chans)
+              + f" {row['vertical_bending_hz']:8.3f} {row['psd_peak_hz']:11.3f} "
+              f"{row['psd_peak_m2s4_per_hz']:24.4g}")
+    for name in ("before", "after"):
+        d = [abs(rows[name]["sperling"][c] - rows["truth"]["sperling"][c]) for c in chans]
+        rows[name]["sum_abs_dW_vs_truth"] = round(float(sum(d)), 4)
+    print(f"sum over channels |W - W_truth|: before {rows['before']['sum_abs_dW_vs_truth']:.4f}, "
+          f"after {rows['after']['sum_abs_dW_vs_truth']:.4f}")
+    return rows
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from modal_twin.errors import ModelError, OptionError, ShapeError
+from modal_twin.models import craig_bampton as cb_mod
 from modal_twin.models.craig_bampton import cb_check, craig_bampton
 from modal_twin.models.fe import FEModel, solve_modes
 
@@ -143,3 +144,49 @@ def test_cb_bad_input_is_refused():
         cb_check(cb, np.eye(2), K)
     with pytest.raises(ShapeError, match=r"rb: expected \(3, 6\), got \(3, 5\)"):
         cb_check(cb, M, K, rb=np.ones((3, 5)))
+
+
+def _fixed_free_chain(n: int, k: float = 1e6, m: float = 2.0):
+    """Spring-mass chain of n + 1 equal masses, DOF 0 the boundary, the last end free."""
+    K = sp.diags([-np.ones(n), np.r_[2.0 * np.ones(n), 1.0], -np.ones(n)], [-1, 0, 1]) * k
+    M = sp.identity(n + 1, format="csr") * m
+    j = np.arange(1, n + 1)
+    # DOF 0 fixed: lambda_j = 4 k / m sin^2((2j - 1) pi / (2 (2n + 1)))
+    lam = 4.0 * k / m * np.sin((2 * j - 1) * np.pi / (2 * (2 * n + 1))) ** 2
+    return sp.csr_array(K), sp.csr_array(M), np.sqrt(lam) / (2 * np.pi)
+
+
+@pytest.mark.parametrize("n_below", [1, 13, 50])
+def test_cb_cutoff_finds_every_mode_below_it_in_one_search(n_below, monkeypatch):
+    """Every fixed-interface mode below the cut-off, none above, closed form (fixed-free chain).
+
+    13 and 50 modes sit between the old search's steps (12, 24, 48, 96): the Sturm count
+    asks for them in one shift-invert run on the sparse path.
+    """
+    K, M, f_exact = _fixed_free_chain(400)
+    f_cut = 0.5 * (f_exact[n_below - 1] + f_exact[n_below])
+    asked = []
+    real = cb_mod.lowest_eigenpairs
+
+    def counting(K, M, n_modes, **kw):
+        asked.append(n_modes)
+        return real(K, M, n_modes, **kw)
+
+    monkeypatch.setattr(cb_mod, "lowest_eigenpairs", counting)
+    cb = craig_bampton(M, K, [0], f_cut_hz=f_cut, dense_max_dof=10)
+    assert asked == [n_below + 1]  # one run: the count below the cut-off and one above
+    assert cb.n_modes == n_below
+    assert np.allclose(cb.f_fixed_hz, f_exact[:n_below], rtol=1e-10, atol=0)
+    by_count = craig_bampton(M, K, [0], n_modes=n_below + 5, dense_max_dof=10)
+    assert np.allclose(cb.f_fixed_hz, by_count.f_fixed_hz[:n_below], rtol=1e-10, atol=0)
+    assert np.allclose(np.abs(cb.T), np.abs(by_count.T[:, :1 + n_below]), rtol=0, atol=1e-8)
+    dense = craig_bampton(M.toarray(), K.toarray(), [0], f_cut_hz=f_cut, dense_max_dof=1000)
+    assert np.allclose(dense.f_fixed_hz, f_exact[:n_below], rtol=1e-10, atol=0)
+
+
+
+def test_cb_floating_interior_with_positive_diagonal_is_refused():
+    """Two interior masses tied to each other only: K_ii singular with a positive diagonal."""
+    K = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -1.0], [0.0, -1.0, 1.0]])
+    with pytest.raises(ModelError, match="K_ii: expected nonsingular"):
+        craig_bampton(np.eye(3), K, [0], f_cut_hz=10.0)

@@ -8,7 +8,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError
-from modal_twin.models.fe import FEModel, default_shift, solve_modes
+from modal_twin.models.fe import FEModel, count_eigenvalues_below, default_shift, solve_modes
 from modal_twin.models.fe import eigen as eigen_mod
 
 
@@ -110,3 +110,20 @@ def test_rotated_structure_has_the_same_frequencies():
         asm = fem.assemble()
         freqs.append(solve_modes(asm.K, asm.M, 6).f_hz)
     assert np.allclose(freqs[0], freqs[1], rtol=1e-10, atol=0.0)
+
+
+def test_sturm_count_matches_the_closed_form_spectrum():
+    """Negative pivots of K - lam M = eigenvalues below lam (fixed-fixed chain, closed form)."""
+    n, k, m = 60, 1e4, 0.5
+    K = sp.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]) * k
+    M = sp.identity(n) * m
+    lam = 4 * k / m * np.sin(np.arange(1, n + 1) * np.pi / (2 * (n + 1))) ** 2
+    for j in (0, 1, 7, 31, 59):
+        bound = 0.5 * (lam[j] + lam[j + 1]) if j < n - 1 else 2 * lam[-1]
+        assert count_eigenvalues_below(K, M, bound) == j + 1
+    assert count_eigenvalues_below(K, M, 0.5 * lam[0]) == 0
+    Ms = sp.diags(np.r_[np.full(n - 1, m), 0.0])  # a massless DOF: an infinite eigenvalue
+    assert count_eigenvalues_below(K, Ms, 1e12) == n - 1
+    bad = sp.csr_array(K).tolil()
+    bad[3, 3] = np.nan
+    assert count_eigenvalues_below(bad, M, 1.0) is None

@@ -3,7 +3,13 @@
 from __future__ import annotations
 
 from modal_twin.models.fe.assembly import FEAssembly, assemble_model
-from modal_twin.models.fe.eigen import ModalSolution, default_shift, lowest_eigenpairs, solve_modes
+from modal_twin.models.fe.eigen import (
+    ModalSolution,
+    count_eigenvalues_below,
+    default_shift,
+    lowest_eigenpairs,
+    solve_modes,
+)
 from modal_twin.models.fe.elements import (
     DOF_NAMES,
     frame_local_matrices,
@@ -29,6 +35,7 @@ __all__ = [
     "NodeId",
     "ParametricMatrices",
     "assemble_model",
+    "count_eigenvalues_below",
     "default_shift",
     "frame_local_matrices",
     "frame_rotation",

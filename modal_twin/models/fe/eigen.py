@@ -6,6 +6,11 @@ flexible ones, and massless DOFs (``M`` semi-definite) only add infinite eigenva
 the solver never reaches. Sparse: ``scipy.sparse.linalg.eigsh(K, k, M, sigma)`` (ARPACK,
 mode 3). Dense: ``scipy.linalg.eigh(M, K - sigma M)`` gives ``mu = 1 / (lambda - sigma)``;
 its largest ``mu`` are the lowest ``lambda``.
+
+How many eigenvalues lie below a bound ``lambda_c`` is read off one factorisation (Sylvester's
+law of inertia, the Sturm count): for ``K`` positive definite and ``M`` semi-definite, the
+number of negative pivots of ``P (K - lambda_c M) P' = L D L'`` equals the number of
+eigenvalues ``lambda < lambda_c`` (:func:`count_eigenvalues_below`).
 """
 
 from __future__ import annotations
@@ -24,7 +29,13 @@ from modal_twin._types import FloatArray, Matrix
 from modal_twin.errors import ConvergenceError, ModelError, OptionError, ShapeError
 from modal_twin.models.fe.definite import check_entries, ldl_factor
 
-__all__ = ["ModalSolution", "default_shift", "lowest_eigenpairs", "solve_modes"]
+__all__ = [
+    "ModalSolution",
+    "count_eigenvalues_below",
+    "default_shift",
+    "lowest_eigenpairs",
+    "solve_modes",
+]
 
 _log = logging.getLogger(__name__)
 
@@ -87,6 +98,44 @@ def default_shift(K: Matrix, M: Matrix) -> float:
     if not np.any(ok):
         return -1.0
     return -1e-6 * float(np.median(kd[ok] / md[ok]))
+
+
+def count_eigenvalues_below(K: Matrix, M: Matrix, lam: float) -> int | None:
+    """Return the number of eigenvalues of ``K phi = lambda M phi`` below ``lam`` (Sturm count).
+
+    Sylvester's law of inertia: with ``K`` symmetric positive definite and ``M`` symmetric
+    positive semi-definite, ``K - lam M`` has as many negative eigenvalues as the pencil has
+    eigenvalues ``< lam`` (massless DOFs give infinite eigenvalues, never counted), and its
+    ``L D L'`` factorisation (QDLDL, AMD ordering, no pivoting) as many negative pivots.
+
+    Parameters
+    ----------
+    K, M : (n, n) sparse or dense arrays
+        Stiffness (positive definite, not checked here) and mass.
+    lam : float
+        Bound, rad^2/s^2 (``(2 pi f)^2``).
+
+    Returns
+    -------
+    int or None
+        The count; None when it cannot be read (non-finite entries, an exactly zero pivot:
+        ``lam`` is an eigenvalue, or the unpivoted factorisation broke down). An LDL' without
+        pivoting of an indefinite matrix may lose accuracy, so a caller checks the count
+        against the eigenvalues it then computes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> count_eigenvalues_below(np.diag([1.0, 4.0, 9.0]), np.eye(3), 5.0)
+    2
+    """
+    A = sp.csc_matrix(K) - float(lam) * sp.csc_matrix(M)
+    if not np.all(np.isfinite(A.data)):
+        return None
+    ldl = ldl_factor(A)
+    if ldl is None or not np.all(np.isfinite(ldl[1])) or np.any(ldl[1] == 0.0):
+        return None
+    return int(np.count_nonzero(ldl[1] < 0.0))
 
 
 def _shifted_solver(K: sp.csc_array, M: sp.csc_array, sigma: float
