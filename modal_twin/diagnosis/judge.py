@@ -41,8 +41,8 @@ from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.plant import Plant
 
-__all__ = ["figures_on", "judge", "rank", "record_noise_floor", "record_noise_floors",
-           "verdict", "worse_tolerance"]
+__all__ = ["figures_on", "information_criterion", "judge", "rank", "record_noise_floor",
+           "record_noise_floors", "verdict", "worse_tolerance"]
 
 LOWER_BY = 0.01  # training and held-out: at least 1 % lower
 WORSE_BY = 0.01  # other records: at most 1 % higher
@@ -123,6 +123,25 @@ def worse_tolerance(rec: Record) -> float:
     Three standard errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %.
     """
     return max(WORSE_BY, 3.0 / np.sqrt(2.0 * rec.scored.shape[-1]))
+
+
+def information_criterion(figures: Sequence[ErrorFigures], n_params: int,
+                          records: Sequence[Record]) -> float:
+    """Whitened information criterion of a model over every record (lower is better).
+
+    The Bayesian information criterion ``N ln(s^2) + p ln N`` of a Gaussian residual of
+    unknown scale, in the whitened figure ``s`` the verdict uses (:attr:`.noise.ErrorFigures.
+    score`: each channel in units of its noise, RMS over the channels) with ``N`` the scored
+    samples of a channel, divided by ``2 N`` and averaged over the records::
+
+        IC = mean_r ln s_r + p ln N / (2 N)
+
+    The training record, the held-out one and every other level weigh alike; ``n_params``
+    is the number of fitted parameters of the model's effects.
+    """
+    n = float(np.mean([r.scored.shape[-1] for r in records]))
+    logs = [np.log(max(f.score, 1e-300)) for f in figures]
+    return float(np.mean(logs) + n_params * np.log(n) / (2.0 * n))
 
 
 def verdict(before: Sequence[ErrorFigures], after: Sequence[ErrorFigures],
