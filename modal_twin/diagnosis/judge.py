@@ -129,19 +129,22 @@ def information_criterion(figures: Sequence[ErrorFigures], n_params: int,
                           records: Sequence[Record]) -> float:
     """Whitened information criterion of a model over every record (lower is better).
 
-    The Bayesian information criterion ``N ln(s^2) + p ln N`` of a Gaussian residual of
-    unknown scale, in the whitened figure ``s`` the verdict uses (:attr:`.noise.ErrorFigures.
-    score`: each channel in units of its noise, RMS over the channels) with ``N`` the scored
-    samples of a channel, divided by ``2 N`` and averaged over the records::
+    The Bayesian information criterion of Gaussian residuals of unknown scale on every
+    record together, in the whitened figure ``s_r`` the verdict uses
+    (:attr:`.noise.ErrorFigures.score`: each channel in units of its noise, RMS over the
+    channels), ``sum_r N_r ln(s_r^2) + p ln(sum_r N_r)`` with ``N_r`` the scored samples of
+    a channel of record ``r``, divided by ``2 N`` (``N`` their mean)::
 
-        IC = mean_r ln s_r + p ln N / (2 N)
+        IC = sum_r (N_r / N) ln s_r + p ln(sum_r N_r) / (2 N)
 
-    The training record, the held-out one and every other level weigh alike; ``n_params``
-    is the number of fitted parameters of the model's effects.
+    so that a change of ``ln(1 + tol)`` is an RMS ``tol`` higher on one record. The
+    training record, the held-out one and every other level count alike; ``n_params`` is
+    the number of fitted parameters of the model's effects.
     """
-    n = float(np.mean([r.scored.shape[-1] for r in records]))
-    logs = [np.log(max(f.score, 1e-300)) for f in figures]
-    return float(np.mean(logs) + n_params * np.log(n) / (2.0 * n))
+    n_r = np.array([r.scored.shape[-1] for r in records], float)
+    n = float(np.mean(n_r))
+    logs = np.log(np.maximum([f.score for f in figures], 1e-300))
+    return float(np.sum(n_r / n * logs) + n_params * np.log(np.sum(n_r)) / (2.0 * n))
 
 
 def verdict(before: Sequence[ErrorFigures], after: Sequence[ErrorFigures],

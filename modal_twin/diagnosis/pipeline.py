@@ -262,8 +262,9 @@ def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Seq
     whitened information criterion over every record compared
     (:func:`.judge.information_criterion`: training, held-out and other levels alike, a
     penalty per parameter). The effect whose removal worsens it least is dropped when that
-    is no more than the sampling tolerance of an RMS (``ln(1 + tol)``, ``tol`` the mean over
-    the records of :func:`.judge.worse_tolerance`: three standard errors, at least 1 %);
+    is no more than the sampling tolerance of an RMS (``ln(1 + tol)``: one record's figure
+    ``tol`` higher, ``tol`` the mean over the records of :func:`.judge.worse_tolerance`,
+    three standard errors, at least 1 %);
     the search repeats on the rest. An effect found early can stand in for one found later
     (a column line for the storey it belongs to), and a small change that helped the
     training record only can ride along with the real ones: after the joint refit either is

@@ -145,14 +145,17 @@ def test_information_criterion_closed_form() -> None:
     from modal_twin.diagnosis.noise import ErrorFigures
 
     # whitened RMS 2 and 0.5 on two records of N = 400 samples (sigma = 1 % with no model
-    # form tolerance): mean ln s = 0, and p ln N / (2 N) per parameter
+    # form tolerance): sum of ln s = 0, and ln(2 N) / (2 N) per parameter
     one = np.ones(2)
     figs = [ErrorFigures("a", ("u", "v"), 0.02 * one, 0.01 * one, one, tolerance=0.0),
             ErrorFigures("b", ("u", "v"), 0.005 * one, 0.01 * one, one, tolerance=0.0)]
     rec = Record(FS, INPUTS_6DOF, np.zeros((6, 400)), ("u", "v"), np.zeros((2, 400)), "r")
     assert information_criterion(figs, 0, [rec, rec]) == pytest.approx(0.0, abs=1e-12)
     assert information_criterion(figs, 3, [rec, rec]) == pytest.approx(
-        3 * np.log(400.0) / 800.0)
+        3 * np.log(800.0) / 800.0)
+    # a record three times longer counts three times: ln 2 * 3/2 + ln 0.5 * 1/2
+    long = Record(FS, INPUTS_6DOF, np.zeros((6, 1200)), ("u", "v"), np.zeros((2, 1200)), "l")
+    assert information_criterion(figs, 0, [long, rec]) == pytest.approx(np.log(2.0))
 
 
 def test_backward_elimination_drops_a_forced_extra_effect(factory: BuildingFactory) -> None:
