@@ -216,3 +216,31 @@ def test_a_mass_on_the_edge_of_a_floor_is_placed_on_that_floor(factory: Building
     assert p["madd_F3"] == pytest.approx(6000.0, rel=0.03)
     assert p["madd_F3_x"] == pytest.approx(0.0, abs=1e-6)  # on the edge
     assert p["madd_F3_y"] == pytest.approx(6.0, abs=0.2)
+
+
+@pytest.mark.parametrize(("truth", "named"), [({"kcol_3B": 0.5}, "kcol_3B"),
+                                              ({"kst_2": 0.6}, "kst_2")])
+def test_a_stiffness_change_is_named_at_its_level(factory: BuildingFactory,
+                                                  truth: dict[str, float], named: str) -> None:
+    # issue 20, item 6 (a stiffer column line attributed elsewhere): a column line and a
+    # storey compete with each other, with the line on the opposite side and with the
+    # material of every element on the same whitened judgement; each truth is named at its
+    # own level and value
+    from modal_twin.diagnosis.judge import figures_on, judge, rank, record_noise_floor
+    from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter
+
+    recs = [noisy(record_of(factory, truth, seed=s), 1.0, s) for s in (41, 42)]
+    nominal = factory.plant()
+    noises = [record_noise_floor(nominal, r) for r in recs]
+    before = figures_on(nominal, recs, noises)
+    values = factory.parameters()
+    fits = []
+    for name in ("kcol_3B", "kcol_1A", "kst_2", "kst_1", "E_Fc27"):
+        cand = ParameterCandidate(name, "stiffness", values[name], 0.8 * values[name], 0.0)
+        f = fit_parameter(factory, cand, recs[0], recs[1])
+        fits.append(judge(f, factory.with_theta(f.effect.params).plant(), before, recs,
+                          noises, facts=Facts(values)))
+    best = rank(fits)[0]
+    assert best.effect.component == named
+    assert not best.flags and not best.rejected
+    assert best.effect.params[named] == pytest.approx(truth[named], rel=0.02)
