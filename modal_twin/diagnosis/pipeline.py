@@ -358,7 +358,7 @@ def diagnose(
                f"{100 * a.median_nrmse:.2f} % median over channels (x{a.median_over_noise:.2f} "
                f"the noise floor; Eq. (8) of [004] median {100 * float(np.nanmedian(b.eq8)):.2f}"
                f" % -> {100 * float(np.nanmedian(a.eq8)):.2f} %)")
-    if d.significant and d.best is None and len(found) < max_effects:
+    if d.significant and d.best is None and len(found) + len(dropped) < max_effects:
         summary += f"; still above the noise after that: {d.summary}"
     if dropped:
         summary += "; dropped after the joint refit: " + ", ".join(
