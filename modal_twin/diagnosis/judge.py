@@ -41,8 +41,8 @@ from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.plant import Plant
 
-__all__ = ["figures_on", "judge", "rank", "record_noise_floor", "record_noise_floors",
-           "verdict", "worse_tolerance"]
+__all__ = ["figures_on", "information_criterion", "judge", "rank", "record_noise_floor",
+           "record_noise_floors", "verdict", "worse_tolerance"]
 
 LOWER_BY = 0.01  # training and held-out: at least 1 % lower
 WORSE_BY = 0.01  # other records: at most 1 % higher
@@ -123,6 +123,28 @@ def worse_tolerance(rec: Record) -> float:
     Three standard errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %.
     """
     return max(WORSE_BY, 3.0 / np.sqrt(2.0 * rec.scored.shape[-1]))
+
+
+def information_criterion(figures: Sequence[ErrorFigures], n_params: int,
+                          records: Sequence[Record]) -> float:
+    """Whitened information criterion of a model over every record (lower is better).
+
+    The Bayesian information criterion of Gaussian residuals of unknown scale on every
+    record together, in the whitened figure ``s_r`` the verdict uses
+    (:attr:`.noise.ErrorFigures.score`: each channel in units of its noise, RMS over the
+    channels), ``sum_r N_r ln(s_r^2) + p ln(sum_r N_r)`` with ``N_r`` the scored samples of
+    a channel of record ``r``, divided by ``2 N`` (``N`` their mean)::
+
+        IC = sum_r (N_r / N) ln s_r + p ln(sum_r N_r) / (2 N)
+
+    so that a change of ``ln(1 + tol)`` is an RMS ``tol`` higher on one record. The
+    training record, the held-out one and every other level count alike; ``n_params`` is
+    the number of fitted parameters of the model's effects.
+    """
+    n_r = np.array([r.scored.shape[-1] for r in records], float)
+    n = float(np.mean(n_r))
+    logs = np.log(np.maximum([f.score for f in figures], 1e-300))
+    return float(np.sum(n_r / n * logs) + n_params * np.log(np.sum(n_r)) / (2.0 * n))
 
 
 def verdict(before: Sequence[ErrorFigures], after: Sequence[ErrorFigures],

@@ -15,7 +15,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
@@ -212,9 +212,27 @@ def fit_parameter(factory: ModelFactory, cand: ParameterCandidate, train: Record
     sol = least_squares(objective, x0_a, bounds=(lo_a, hi_a), x_scale=scale, diff_step=1e-3,
                         max_nfev=max_nfev)
     effect = EffectSpec(cand.name, cand.kind, to_params(sol.x))
-    return judge_fit(effect, factory.with_theta(effect.params).plant(), factory.plant(), sol,
-                     len(names), train, test, objective, t0,
-                     _parameter_std(sol, to_params, names))
+    fitted = judge_fit(effect, factory.with_theta(effect.params).plant(), factory.plant(), sol,
+                       len(names), train, test, objective, t0,
+                       _parameter_std(sol, to_params, names))
+    edge = _on_plan_edge(factory, fitted.at_bound)
+    return replace(fitted, at_bound=tuple(n for n in fitted.at_bound if n not in edge))
+
+
+def _on_plan_edge(factory: ModelFactory, names: Sequence[str]) -> set[str]:
+    """Return the position parameters of an added mass among ``names``.
+
+    Their bounds are the floor's plan extent: a mass on the floor's edge (equipment on an
+    edge beam, at a column line) is a place on the floor, not a fit stopped short by its
+    bounds, so it is not flagged as one (its eccentricity is what the torsional coupling
+    measures).
+    """
+    out = set()
+    for n in names:
+        with contextlib.suppress(ModalTwinError):
+            if factory.parameter_info(n).family in ("added_mass_x", "added_mass_y"):
+                out.add(n)
+    return out
 
 
 def _place_in_name(name: str) -> str:

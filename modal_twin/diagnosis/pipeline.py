@@ -21,7 +21,8 @@ One round (:func:`diagnose_round`) on a model (any version: its effects stay in 
    BIC together).
 
 :func:`diagnose` repeats rounds while the model still fails and a candidate is accepted
-(several effects at once), then refits all effects found jointly.
+(several effects at once), then refits all effects found jointly and drops, by backward
+elimination on the whitened information criterion, those the data do not demand.
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
 from modal_twin.diagnosis.judge import (
     figures_on,
+    information_criterion,
     judge,
     rank,
     record_noise_floors,
@@ -77,6 +79,8 @@ class Diagnosis:
     after: tuple[ErrorFigures, ...] = ()  # with every effect found, every record
     found: tuple[FittedEffect, ...] = ()  # effects accepted, in the order found (refitted)
     rounds: int = 1
+    # effects found but dropped by the backward elimination after the joint refit, with why
+    dropped: tuple[str, ...] = ()
 
     @property
     def evidence(self) -> tuple[DeviceEvidence, ...]:
@@ -119,6 +123,10 @@ class Diagnosis:
                        f"BIC {f.bic:10.1f}  {state}\n      {f.parameter_text()}")
         for s in self.skipped:
             out.append(f"  skipped: {s}")
+        if self.dropped:
+            out += ["", "DROPPED AFTER THE JOINT REFIT (backward elimination on the whitened "
+                    "information criterion over every record)"]
+            out += [f"  {w}" for w in self.dropped]
         out += ["", f"DECISION: {self.summary}"]
         return "\n".join(out)
 
@@ -247,25 +255,47 @@ def _apply_all(factory: ModelFactory, found: Sequence[FittedEffect]) -> ModelFac
 
 def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
                   noises: Sequence[np.ndarray], say: Callable[[str], None]
-                  ) -> list[FittedEffect]:
-    """Drop effects the others made idle (backward elimination after the joint refit).
+                  ) -> tuple[list[FittedEffect], list[str]]:
+    """Backward elimination after the joint refit: (effects kept, why each other was dropped).
 
-    An effect found early can stand in for one found later (a column line for the storey
-    it belongs to); after the joint refit it may do nothing. It is dropped when the model
-    without it is not worse on any record (within the sampling tolerance of an RMS).
+    Each effect in turn is set back to its nominal (the others keep their joint fit) and the
+    whitened information criterion over every record compared
+    (:func:`.judge.information_criterion`: training, held-out and other levels alike, a
+    penalty per parameter). The effect whose removal worsens it least is dropped when that
+    is no more than the sampling tolerance of an RMS (``ln(1 + tol)``: one record's figure
+    ``tol`` higher, ``tol`` the mean over the records of :func:`.judge.worse_tolerance`,
+    three standard errors, at least 1 %);
+    the search repeats on the rest. An effect found early can stand in for one found later
+    (a column line for the storey it belongs to), and a small change that helped the
+    training record only can ride along with the real ones: after the joint refit either is
+    dropped, and the reason said.
     """
     keep = list(found)
-    for f in list(found):
-        if len(keep) < 2:
+    dropped: list[str] = []
+    tol = float(np.log1p(np.mean([worse_tolerance(r) for r in records])))
+
+    def criterion(effects: Sequence[FittedEffect]) -> tuple[float, tuple[ErrorFigures, ...]]:
+        figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
+        return information_criterion(figs, sum(f.n_params for f in effects), records), figs
+
+    while len(keep) > 1:
+        ic_all, figs_all = criterion(keep)
+        trials = []
+        for f in keep:
+            ic_rest, figs_rest = criterion([g for g in keep if g is not f])
+            trials.append((ic_rest - ic_all, f, figs_rest))
+        delta, f, figs_rest = min(trials, key=lambda t: t[0])
+        if delta > tol:
             break
-        rest = [g for g in keep if g is not f]
-        with_all = figures_on(_apply_all(factory, keep).plant(), records, noises)
-        without = figures_on(_apply_all(factory, rest).plant(), records, noises)
-        if all(b.score <= a.score * (1.0 + worse_tolerance(r))
-               for a, b, r in zip(with_all, without, records, strict=True)):
-            say(f"dropped {f.family} at {f.place}: the other effects do its work")
-            keep = rest
-    return keep
+        rms = ", ".join(f"{a.record or 'record'} x{a.score:.2f} -> x{b.score:.2f}"
+                        for a, b in zip(figs_all, figs_rest, strict=True))
+        why = (f"{f.family} at {f.place} ({f.effect.law}): without it the information "
+               f"criterion changes by {delta:+.4f} (drop at <= {tol:.4f}; whitened RMS "
+               f"{rms})")
+        say(f"dropped {why}")
+        dropped.append(why)
+        keep = [g for g in keep if g is not f]
+    return keep, dropped
 
 
 def diagnose(
@@ -318,8 +348,9 @@ def diagnose(
         found = refit_jointly(factory, found, (records[0], *records[2:]))
     rec_c, _ = _common_channels(factory, records)
     noises = [f.noise for f in first.before]  # the floors of the model as given
+    dropped: list[str] = []
     if len(found) > 1:
-        found = _without_idle(factory, found, rec_c, noises, say)
+        found, dropped = _without_idle(factory, found, rec_c, noises, say)
     after = figures_on(_apply_all(factory, found).plant(), rec_c, noises)
     names = ", ".join(f"{f.family} at {f.place} ({f.effect.law})" for f in found)
     b, a = first.before[1], after[1]
@@ -327,7 +358,10 @@ def diagnose(
                f"{100 * a.median_nrmse:.2f} % median over channels (x{a.median_over_noise:.2f} "
                f"the noise floor; Eq. (8) of [004] median {100 * float(np.nanmedian(b.eq8)):.2f}"
                f" % -> {100 * float(np.nanmedian(a.eq8)):.2f} %)")
-    if d.significant and d.best is None and len(found) < max_effects:
+    if d.significant and d.best is None and len(found) + len(dropped) < max_effects:
         summary += f"; still above the noise after that: {d.summary}"
+    if dropped:
+        summary += "; dropped after the joint refit: " + ", ".join(
+            w.split(":", 1)[0] for w in dropped)
     return replace(first, summary=summary, found=tuple(found), after=after,
-                   rounds=len(found) + 1)
+                   rounds=len(found) + len(dropped) + 1, dropped=tuple(dropped))

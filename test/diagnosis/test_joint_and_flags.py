@@ -130,9 +130,117 @@ def test_an_effect_the_others_made_idle_is_dropped(factory: BuildingFactory) -> 
     # a mass found first at F1, refitted back to its nominal value: it does nothing
     idle = found("m_F1", nominal["m_F1"])
     real = found("m_F3", truth["m_F3"])
-    assert _without_idle(factory, [idle, real], recs, noises, print) == [real]
+    keep, dropped = _without_idle(factory, [idle, real], recs, noises, print)
+    assert keep == [real]
+    assert len(dropped) == 1 and dropped[0].startswith(" at ")  # found(): no family, place
     # two effects that both act are both kept
     truth2 = {**truth, "m_F1": 1.3 * nominal["m_F1"]}
     recs2 = [record_of(factory, truth2, seed=s) for s in (5, 6)]
     both = [found("m_F1", truth2["m_F1"]), real]
-    assert _without_idle(factory, both, recs2, noises, print) == both
+    assert _without_idle(factory, both, recs2, noises, print) == (both, [])
+
+
+def test_information_criterion_closed_form() -> None:
+    from modal_twin.diagnosis.judge import information_criterion
+    from modal_twin.diagnosis.noise import ErrorFigures
+
+    # whitened RMS 2 and 0.5 on two records of N = 400 samples (sigma = 1 % with no model
+    # form tolerance): sum of ln s = 0, and ln(2 N) / (2 N) per parameter
+    one = np.ones(2)
+    figs = [ErrorFigures("a", ("u", "v"), 0.02 * one, 0.01 * one, one, tolerance=0.0),
+            ErrorFigures("b", ("u", "v"), 0.005 * one, 0.01 * one, one, tolerance=0.0)]
+    rec = Record(FS, INPUTS_6DOF, np.zeros((6, 400)), ("u", "v"), np.zeros((2, 400)), "r")
+    assert information_criterion(figs, 0, [rec, rec]) == pytest.approx(0.0, abs=1e-12)
+    assert information_criterion(figs, 3, [rec, rec]) == pytest.approx(
+        3 * np.log(800.0) / 800.0)
+    # a record three times longer counts three times: ln 2 * 3/2 + ln 0.5 * 1/2
+    long = Record(FS, INPUTS_6DOF, np.zeros((6, 1200)), ("u", "v"), np.zeros((2, 1200)), "l")
+    assert information_criterion(figs, 0, [long, rec]) == pytest.approx(np.log(2.0))
+
+
+def test_backward_elimination_drops_a_forced_extra_effect(factory: BuildingFactory) -> None:
+    # issue 20, item 3: a truth with one effect (F3 25 % heavier), a second effect forced
+    # beside it (storey 2 columns at 0.8); after the joint refit the extra one does nothing
+    # the noise can tell and is dropped, the real one kept at its true value
+    from modal_twin.diagnosis.judge import record_noise_floor
+    from modal_twin.diagnosis.pipeline import _without_idle
+
+    nominal = factory.parameters()
+    truth = {"m_F3": 1.25 * nominal["m_F3"]}
+    recs = [noisy(record_of(factory, truth, seed=s), 1.0, s) for s in (31, 32)]
+    noises = [record_noise_floor(factory.plant(), r) for r in recs]
+    forced = [found("m_F3", 1.1 * nominal["m_F3"]),
+              FittedEffect(EffectSpec("kst_2", "stiffness", {"kst_2": 0.8}), 1, 1.0, 1.0, 1.0,
+                           0.0, 1, 0.0, family="stiffness", place="storey 2")]
+    joint = refit_jointly(factory, forced, recs[0])
+    keep, dropped = _without_idle(factory, joint, recs, noises, print)
+    assert [f.effect.component for f in keep] == ["m_F3"]
+    assert keep[0].effect.params["m_F3"] == pytest.approx(truth["m_F3"], rel=0.01)
+    assert len(dropped) == 1 and dropped[0].startswith("stiffness at storey 2 (stiffness)")
+
+
+def noisy(rec: Record, pct: float, seed: int) -> Record:
+    """``rec`` with white noise of ``pct`` % of each channel's RMS."""
+    rng = np.random.default_rng(seed)
+    rms = np.sqrt(np.mean(rec.data**2, axis=1, keepdims=True))
+    return Record(rec.fs_hz, rec.input_names, rec.inputs, rec.channel_names,
+                  rec.data + 0.01 * pct * rms * rng.standard_normal(rec.data.shape),
+                  rec.source)
+
+
+def test_a_mass_on_the_edge_of_a_floor_is_placed_on_that_floor(factory: BuildingFactory
+                                                                ) -> None:
+    # issue 20, item 6: a mass on the west edge of F3 (x = 0 m, the plan's bound) was
+    # fitted there but flagged "at its bound", so a mass on another floor was named; the
+    # floor's edge is a place on the floor, not a fit stopped short. Truth: 6 t hung 0.25 m
+    # off the west edge beam (a facade panel) at y = 6 m: the best place on the floor is
+    # its edge, where every fit of it must end
+    from modal_twin.diagnosis.judge import figures_on, judge, rank, record_noise_floor
+    from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter
+
+    truth = {"madd_F3": 6000.0, "madd_F3_x": -0.25, "madd_F3_y": 6.0}
+    recs = [noisy(record_of(factory, truth, seed=s), 1.0, s) for s in (21, 22)]
+    nominal = factory.plant()
+    noises = [record_noise_floor(nominal, r) for r in recs]
+    before = figures_on(nominal, recs, noises)
+    fits = []
+    for floor in ("F1", "F3"):
+        cand = ParameterCandidate(f"madd_{floor}", "added_mass", 0.0, 3000.0, 0.0)
+        f = fit_parameter(factory, cand, recs[0], recs[1])
+        fits.append(judge(f, factory.with_theta(f.effect.params).plant(), before, recs,
+                          noises, facts=Facts(factory.parameters())))
+    best = rank(fits)[0]
+    assert best.effect.component == "madd_F3"
+    assert not best.flags and not best.rejected
+    p = best.effect.params
+    assert p["madd_F3"] == pytest.approx(6000.0, rel=0.03)
+    assert p["madd_F3_x"] == pytest.approx(0.0, abs=1e-6)  # on the edge
+    assert p["madd_F3_y"] == pytest.approx(6.0, abs=0.2)
+
+
+@pytest.mark.parametrize(("truth", "named"), [({"kcol_3B": 0.5}, "kcol_3B"),
+                                              ({"kst_2": 0.6}, "kst_2")])
+def test_a_stiffness_change_is_named_at_its_level(factory: BuildingFactory,
+                                                  truth: dict[str, float], named: str) -> None:
+    # issue 20, item 6 (a stiffer column line attributed elsewhere): a column line and a
+    # storey compete with each other, with the line on the opposite side and with the
+    # material of every element on the same whitened judgement; each truth is named at its
+    # own level and value
+    from modal_twin.diagnosis.judge import figures_on, judge, rank, record_noise_floor
+    from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter
+
+    recs = [noisy(record_of(factory, truth, seed=s), 1.0, s) for s in (41, 42)]
+    nominal = factory.plant()
+    noises = [record_noise_floor(nominal, r) for r in recs]
+    before = figures_on(nominal, recs, noises)
+    values = factory.parameters()
+    fits = []
+    for name in ("kcol_3B", "kcol_1A", "kst_2", "kst_1", "E_Fc27"):
+        cand = ParameterCandidate(name, "stiffness", values[name], 0.8 * values[name], 0.0)
+        f = fit_parameter(factory, cand, recs[0], recs[1])
+        fits.append(judge(f, factory.with_theta(f.effect.params).plant(), before, recs,
+                          noises, facts=Facts(values)))
+    best = rank(fits)[0]
+    assert best.effect.component == named
+    assert not best.flags and not best.rejected
+    assert best.effect.params[named] == pytest.approx(truth[named], rel=0.02)
