@@ -327,3 +327,21 @@ def test_cli_prints_the_clustering_and_keeps_the_old_rule_on_request(  # type: i
         assert "f [Hz] zeta [%] poles  orders  reason" in out
     assert main(["identify", str(bag), "--method", "n4sid", "--selection", "stability"]) == 0
     assert "modes by clustering" not in capsys.readouterr().out
+
+
+def test_coherence_of_unrelated_inputs_is_debiased_to_zero() -> None:
+    """Six inputs unrelated to the outputs over a short record (24 averages): the raw
+    multiple coherence is about 6 / 24 = 0.25 (measured on Hayward with noise inputs:
+    0.26); less that bias it is near 0, and outputs made from the inputs stay near 1."""
+    from modal_twin.acquisition.frf import frf
+    from modal_twin.identification.record import _coherence, welch_segment
+
+    rng = np.random.default_rng(5)
+    u = rng.standard_normal((6, 6500))
+    y = rng.standard_normal((4, 6500))
+    est = frf(u, y, 100.0, nperseg=welch_segment(6500, 6))
+    assert est.n_averages == 24
+    assert 0.2 < float(est.coherence[:, 1:].mean()) < 0.3
+    assert _coherence(u, y, 100.0, (1.0, 40.0)) < 0.05
+    driven = sig.lfilter([1.0], [1.0, -1.2, 0.5], rng.standard_normal((4, 6)) @ u, axis=1)
+    assert _coherence(u, driven + 0.01 * y, 100.0, (1.0, 40.0)) > 0.95
