@@ -303,9 +303,12 @@ def test_hayward_bridge_both_events_from_the_command_line(shared_dir: Path,
                  for b in (bag, tmp_path / f"{event}-own")]
         assert roles[0] == roles[1]
         assert sum(r == "input" for _, r in roles[1]) == 6
-        f1.append(_first_modes(tmp_path / f"{event}-own", tmp_path / f"id{event}")[0])
-    # measured: 3.274 and 3.333 Hz (test/identification/test_real_records.py: 3.252, 3.317)
-    np.testing.assert_allclose(f1, [3.25, 3.32], rtol=0.015)
+        f1.append(_first_modes(tmp_path / f"{event}-own", tmp_path / f"id{event}"))
+    # the default (SSI-cov: the ground channels explain 64-65 % of the response) reports,
+    # within 0.5 %, modes an FDD and a plain SSI-cov agree on (bench_real_modes.py): the
+    # three first of 2021-04-26 and two of 2021-11-17 (the 3.3 Hz mode is 3.35 / 3.19 Hz)
+    for f, agreed in zip(f1, ([1.756, 2.493, 3.343], [15.265, 21.807]), strict=True):
+        assert all(np.min(np.abs(f / fa - 1)) < 0.005 for fa in agreed), f
 
 
 def _v2_file(loc: str, chan: int) -> str:

@@ -3,7 +3,7 @@
 Each earthquake record is imported with ``modal-twin import`` (Hayward with and without the
 shipped map) and identified by ``modal-twin identify`` as a user would (default method,
 then ``--method n4sid | ssi-cov | polymax``). The references
-(``_truth/modal_reference.py``, independent of the library; pyOMA2 does not install here)
+(``_truth/modal_reference.py``, independent of the library; pyOMA2, see there)
 run on the same output channels over the band ``identify`` chose: FDD peaks of the first
 singular value of the output PSD matrix and the stable columns of a textbook SSI-cov. A
 mode both references see within 1 % ("agreed") must be reported within 0.5 % of their mean

@@ -1,6 +1,9 @@
 """Reference modal estimates of a record, independent of ``modal_twin.identification``.
 
-pyOMA2 does not install here; these two classical estimators stand in for it, written
+pyOMA2 (``pyoma-2`` 1.4.3) installs with pip beside the venv's numpy / scipy, but its
+automatic clustering (``Clustering(quick="Magalhaes")`` on SSI-cov, 60 orders) returns
+about 100 clusters in 0.5-14.5 Hz on the Berkeley record, no usable reference without
+tuning; these two classical estimators stand in for it, written
 from the textbook forms with numpy / scipy only (no code shared with the library):
 
 - **FDD** (Brincker et al. 2001): the output cross-spectral matrix G(f) from
