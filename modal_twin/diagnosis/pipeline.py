@@ -153,11 +153,49 @@ class Diagnosis:
         return next((f for f in fits[i] if not f.rejected and not f.flags), None)
 
 
+    def to_dict(self) -> dict[str, Any]:
+        """Return the decision, the effects found and the table of every round, as JSON data.
+
+        The same rows and decisions as :meth:`table` (``decision``: ADDED, accepted, FLAGGED
+        or REJECTED; ``reason``: the flags or the record and figure it failed on).
+        """
+        fits = self.round_fits or (self.fitted,)
+        summaries = self.round_summaries or (self.summary,)
+        return {
+            "significant": self.significant, "summary": self.summary,
+            "found": [_fit_row(f) for f in self.found],
+            "rounds": [{"decision": summary, "candidates": [
+                _fit_row(f, _decision(f, f is self.added_in_round(i))) for f in ranked]}
+                for i, (ranked, summary) in enumerate(zip(fits, summaries, strict=True))],
+            "skipped": list(self.skipped)}
+
+
+def _decision(f: FittedEffect, added: bool) -> tuple[str, str]:
+    """Return a candidate's decision (ADDED, accepted, FLAGGED, REJECTED) and its reason."""
+    if f.rejected:
+        return "REJECTED", f.rejected
+    if f.flags:
+        return "FLAGGED", "; ".join(f.flags)
+    return ("ADDED" if added else "accepted"), ""
+
+
+def _fit_row(f: FittedEffect, decision: tuple[str, str] | None = None) -> dict[str, Any]:
+    """One candidate (or effect found) as JSON data: what :func:`_fit_line` prints."""
+    row: dict[str, Any] = {
+        "place": f.place, "family": f.family, "behaviour": f.behaviour, "law": f.effect.law,
+        "component": f.effect.component, "params": dict(f.effect.params), "bic": f.bic,
+        "records": [{"record": r[0], "nrmse_before": r[1], "nrmse_after": r[2],
+                     "after_over_noise": r[3]} for r in f.records]}
+    if decision is not None:
+        row["decision"], row["reason"] = decision
+    return row
+
+
 def _fit_line(f: FittedEffect, added: bool) -> str:
     """One candidate of :meth:`Diagnosis.table`: figures, decision and reason, its words."""
     recs = "; ".join(f"{100 * b:.2f}->{100 * a:.2f} %" for _, b, a, *_ in f.records[:2])
-    state = ("REJECTED: " + f.rejected) if f.rejected else (
-        "FLAGGED: " + "; ".join(f.flags) if f.flags else ("ADDED" if added else "accepted"))
+    decision, reason = _decision(f, added)
+    state = f"{decision}: {reason}" if reason else decision
     line = (f"  {f.place:<10} {f.family:<12} {f.effect.law:<20} {recs:<28} "
             f"BIC {f.bic:10.1f}  {state}\n      {f.parameter_text()}")
     return line + (f"\n      {f.family_text()}" if f.behaviour else "")

@@ -8,6 +8,7 @@ with a 20 % stiffer storey must not.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -190,3 +191,16 @@ def test_effects_add_auto_prints_the_table_of_every_round_from_one_diagnosis(
     assert lines[-1].startswith(f"wrote {tmp_path / 'versions' / 'v0001.yaml'}: added s")
     v1 = yaml.safe_load((tmp_path / "versions" / "v0001.yaml").read_text())
     assert v1["theta"] == {"s2": pytest.approx(0.25, abs=1e-3)}
+    # diagnose prints the same table, and --json holds the same rows and decisions
+    table = "\n".join(lines[:next(i for i, ln in enumerate(lines) if ln.startswith("wrote"))])
+    assert main(["-q", "diagnose", str(model), "--train", str(tmp_path / "train"), "--test",
+                 str(tmp_path / "test"), "--level", str(tmp_path / "high"), "--jobs", "1",
+                 "--json", str(tmp_path / "d.json")]) == 0
+    assert table in capsys.readouterr().out
+    doc = json.loads((tmp_path / "d.json").read_text())
+    assert [r["decision"].split(":")[0] for r in doc["rounds"]] == [
+        "missing", "nothing significant is missing"]
+    rows = {r["component"]: r for r in doc["rounds"][0]["candidates"]}
+    assert rows["s2"]["decision"] == "ADDED" and rows["s2"]["family"] == "stiffness"
+    assert rows["s1"]["decision"] == "REJECTED" and "high worse" in rows["s1"]["reason"]
+    assert [(f["family"], f["component"]) for f in doc["found"]] == [("stiffness", "s2")]
