@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from modal_twin.diagnosis.behaviour import classify_behaviour, turning_points
+from modal_twin.diagnosis.behaviour import LINEAR_R2, classify_behaviour, turning_points
 from modal_twin.diagnosis.device_kind import behaviour_on, family_of
 from modal_twin.diagnosis.effect_kind import Facts
 from modal_twin.diagnosis.fitting import FittedEffect
@@ -126,6 +126,18 @@ def test_a_yielding_bilinear_law_reports_hysteresis() -> None:
     assert f.family == "hysteresis", f.behaviour
     assert "behaves as a yielding loop (R2 linear" in f.behaviour
     assert "the behaviour wins" not in f.behaviour
+
+
+def test_a_small_loop_beside_a_large_stiffness_change_is_still_a_loop() -> None:
+    """Yield at 5 mm of a 5 cm RMS drift, 35 % post-yield stiffness: a spring-dashpot
+    explains 99.7 % of the residual force (it is mostly the lost stiffness) and leaves 0.7 %
+    of the law's force, yet the loop encloses area: a loop (friction, as the law's elastic
+    range is under 5 % of the drift), not a stiffness change."""
+    f = _labelled(EffectSpec("RB2", "bilinear_hysteretic", {"ub": 0.005, "ratio": 0.35}))
+    assert f.family == "friction", f.behaviour
+    assert "behaves as a loop that dissipates energy" in f.behaviour
+    r2 = float(f.behaviour.split("R2 linear ")[1].split(",")[0])
+    assert r2 > LINEAR_R2
 
 
 def test_within_one_kind_the_law_names_the_family() -> None:
