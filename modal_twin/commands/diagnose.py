@@ -1,8 +1,13 @@
-"""``modal-twin diagnose MODEL --train BAG --test BAG``: which effect the model misses."""
+"""``modal-twin diagnose MODEL --train BAG --test BAG``: which effect the model misses.
+
+``--json FILE`` also writes the decision, the effects found (family, the law fitted and
+what it does) and every round's ranked candidates with their decision and reason.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -25,6 +30,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="fits in parallel: N processes, 1 = serial, dask://HOST:PORT for a "
                     "cluster (default: the free cores)")
     dg.add_argument("--plots", type=Path, default=None, help="folder for force-state maps")
+    dg.add_argument("--json", type=Path, default=None,
+                    help="also write the decision, the effects found and every round's "
+                    "ranked candidates as JSON")
+    dg.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     dg.set_defaults(func=run)
 
 
@@ -34,7 +43,10 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.executors import make_executor
     from modal_twin.io.records import record_from_bag
     from modal_twin.models.loading import load_model
+    from modal_twin.paths import atomic_file, check_new
 
+    if a.json is not None:
+        check_new(a.json, a.force)  # before the work
     plant = load_model(a.model).plant()  # names an imported record's channels by role
     train, test = (record_from_bag(a.train, plant=plant), record_from_bag(a.test, plant=plant))
     levels = [record_from_bag(b, plant=plant) for b in a.level or []]
@@ -44,6 +56,10 @@ def run(a: argparse.Namespace) -> int:
                            progress=lambda s: print(f"  {s}", file=sys.stderr))
     print(d.format())
     print(f"diagnosis wall time {time.perf_counter() - t0:.1f} s")
+    if a.json is not None:
+        with atomic_file(a.json, force=a.force) as tmp:
+            tmp.write_text(json.dumps(d.to_dict(), indent=1), encoding="utf-8")
+        print(f"diagnose: wrote {a.json}")
     if a.plots:
         from modal_twin.viz.force_state import force_state_plots
 

@@ -64,8 +64,11 @@ def run(a: argparse.Namespace) -> int:
     if a.auto:
         from modal_twin.executors import make_executor
 
-        with make_executor(a.jobs) as ex:
+        with make_executor(a.jobs) as ex:  # one diagnosis: its table, then what it found
             d = diagnose_model(a.model, train, test, levels=levels, mapper=ex.map)
+        print("\n".join(d.table()))
+        for why in d.dropped:  # backward elimination after the joint refit
+            print(f"dropped after the joint refit: {why}")
         mv = add_diagnosed(a.model, d, test, a.out)
         if mv is None:
             print(f"nothing to add: {d.summary}")

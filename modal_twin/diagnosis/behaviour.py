@@ -8,16 +8,24 @@ produces along the record's own drift history, relative to the nominal linear la
 (:math:`r = f - k u - c \dot u`, the residual restoring force of Eq. (20) of [003]):
 
 1. **Linear** when a least-squares fit :math:`r \approx a u + b \dot u` explains 90 % of
-   it: *damping* when the velocity term carries more force (:math:`|b|\,\mathrm{RMS}(\dot u)
-   > |a|\,\mathrm{RMS}(u)`), *stiffness* otherwise.
+   it and leaves less than 0.1 % of the law's own force (squared): *damping* when the
+   velocity term carries more force (:math:`|b|\,\mathrm{RMS}(\dot u) >
+   |a|\,\mathrm{RMS}(u)`), *stiffness* otherwise. (A law that replaces most of the nominal
+   spring by a yielding element has a large linear :math:`r`, yet a loop of its own: a
+   yield drift of a fifth of the drift leaves about 1 % of the law's force unexplained by
+   any spring-dashpot, a Bouc-Wen that never yields 0.01 %.)
 2. Otherwise the **cycles** of the drift (between turning points; reversals under 2 % of
    its range are ignored) give per cycle its amplitude :math:`A`, the energy the law
-   dissipates beyond the nominal one, :math:`E = \oint r\,du`, and the half range
-   :math:`F` of :math:`r`. The loss share :math:`\lambda = \sum E / \sum 4 A F` is 1 for a
-   rigid-plastic loop (a rectangle), :math:`\pi/4` for an ellipse and 0 for an elastic law.
+   dissipates, :math:`E = \oint \ell\,du`, and the half range :math:`F` of the loop
+   :math:`\ell = r_s - a_s u`: :math:`r_s` is :math:`r`, or the law's force at zero
+   velocity less the nominal spring (its rate-independent part: a yielding damper fitted
+   with less dashpot than the nominal one still encloses its loop), whichever encloses
+   more; :math:`a_s u` its stiffness change (least squares). The loss share
+   :math:`\lambda = \sum E / \sum 4 A F` is 1 for a rigid-plastic loop (a rectangle),
+   :math:`\pi/4` for an ellipse and 0 for an elastic law.
 3. **Dissipative** (:math:`\lambda > 0.15`): *friction* when the force turns over within
    5 % of the amplitude after a reversal (a slider that sticks stiffly, then slips; the
-   median over half cycles of the drift at which :math:`r` has covered half its change,
+   median over half cycles of the drift at which :math:`r_s` has covered half its change,
    over the amplitude), *hysteresis* when it turns over gradually (yielding, microslip).
 4. **Elastic**: the secant stiffness of :math:`r` per cycle against amplitude: growing is
    *hardening* (a *gap* when the smallest cycles see less than a tenth of the largest
@@ -30,6 +38,7 @@ place speak one vocabulary; the law's own name is reported beside the family.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,9 +46,11 @@ import numpy as np
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.evidence import turning_points as evidence_turning_points
 
-__all__ = ["Behaviour", "classify_behaviour", "turning_points"]
+__all__ = ["BEHAVES_AS", "KIND_OF_FAMILY", "Behaviour", "behaviour_label", "classify_behaviour",
+           "reported_family", "turning_points"]
 
 LINEAR_R2 = 0.90
+LINEAR_OWN = 0.001
 DISSIPATIVE = 0.15
 STICK_RATIO = 0.05
 GAP_RATIO = 0.10
@@ -73,6 +84,10 @@ class Behaviour:
 
     def text(self) -> str:
         """One line: the family and the figures that named it."""
+        return f"{self.family} ({self.figures()})"
+
+    def figures(self) -> str:
+        """Return the figures that named the family, comma-separated."""
         parts = [f"R2 linear {self.linear_r2:.2f}"]
         if np.isfinite(self.loss_share):
             parts.append(f"loss share {self.loss_share:.2f}")
@@ -80,7 +95,70 @@ class Behaviour:
             parts.append(f"turn-over {100 * self.turnover:.1f} % of the amplitude")
         if np.isfinite(self.stiffness_slope):
             parts.append(f"secant slope {self.stiffness_slope:+.2f}")
-        return f"{self.family} ({', '.join(parts)})"
+        return ", ".join(parts)
+
+
+KIND_OF_FAMILY: dict[str, str] = {
+    "stiffness": "linear", "damping": "linear", "friction": "dissipative",
+    "hysteresis": "dissipative", "hardening": "elastic", "softening": "elastic",
+    "gap": "elastic",
+}
+"""Family -> its kind of behaviour: linear, dissipative (a loop) or elastic (no loop)."""
+
+KIND_WORDS: dict[str, str] = {
+    "linear": "a linear spring-dashpot", "dissipative": "a loop that dissipates energy",
+    "elastic": "a nonlinear spring",
+}
+
+BEHAVES_AS: dict[str, str] = {
+    "stiffness": "a spring", "damping": "a dashpot",
+    "friction": "a slider that sticks, then slips", "hysteresis": "a yielding loop",
+    "hardening": "a hardening spring", "softening": "a softening spring",
+    "gap": "a stop beyond a clearance", "nothing": "the nominal law",
+}
+"""Family -> what a law of that behaviour acts as, in words."""
+
+
+def reported_family(behaviour: Behaviour | None, own: str) -> str:
+    """Return the family reported for a law of family ``own`` that behaves as ``behaviour``.
+
+    The behaviour decides the kind (linear, dissipative, elastic: :data:`KIND_OF_FAMILY`)
+    where it disagrees with the law's own family; within one kind the law's parameters
+    name the family (the sign of a cubic term, a post-yield ratio, a slider's elastic range
+    against the drift, the evidence at its place), except for a linear law, whose force says
+    whether it is the spring or the dashpot that changed.
+    """
+    if behaviour is None or behaviour.family not in KIND_OF_FAMILY:
+        return own
+    kind = KIND_OF_FAMILY[behaviour.family]
+    if KIND_OF_FAMILY.get(own) == kind and kind != "linear":
+        return own
+    return behaviour.family
+
+
+def behaviour_label(law: str, params: Mapping[str, float], behaviour: Behaviour | None,
+                    own: str) -> str:
+    """Return the words beside a family: the law fitted, what it does, any disagreement.
+
+    E.g. ``fitted law bouc_wen, alpha 0.999, ...: behaves as a dashpot (R2 linear 0.99);
+    its law's own family is hysteresis, the behaviour wins``. ``own`` is the family the
+    law's name (and parameters) would give; "" without a behaviour.
+    """
+    if behaviour is None:
+        return ""
+    values = ", ".join(f"{k} {v:.3g}" for k, v in params.items())
+    text = f"fitted law {law}" + (f", {values}" if values else "")
+    family = reported_family(behaviour, own)
+    if behaviour.family == "nothing":
+        return (f"{text}: does what the nominal law does ({behaviour.figures()}); "
+                "reported as its law's own family")
+    if family != behaviour.family:  # same kind: the law's parameters name the family
+        return (f"{text}: behaves as {KIND_WORDS[KIND_OF_FAMILY[family]]} "
+                f"({behaviour.figures()}); {family} by the law's parameters")
+    text += f": behaves as {BEHAVES_AS[family]} ({behaviour.figures()})"
+    if own and own != family:
+        text += f"; its law's own family is {own}, the behaviour wins"
+    return text
 
 
 def turning_points(u: FloatArray, *, min_move: float = 0.02) -> np.ndarray:
@@ -127,8 +205,16 @@ def _turnover(u: FloatArray, r: FloatArray, tp: np.ndarray) -> float:
     return float(np.median(ratios)) if ratios else float("nan")
 
 
-def classify_behaviour(u: FloatArray, v: FloatArray, f: FloatArray, *, k: float, c: float
-                       ) -> Behaviour:
+def _loss_share(u: FloatArray, rs: FloatArray, tp: np.ndarray) -> float:
+    """Loss share of the loop ``rs - a u`` (its stiffness change removed), module docstring."""
+    loop = rs - float(np.dot(rs, u) / max(float(np.dot(u, u)), 1e-300)) * u
+    amp, energy, half, _ = _cycles(u, loop, tp)
+    return float(np.sum(energy) / max(float(np.sum(4 * amp * np.maximum(half, 1e-300))),
+                                      1e-300))
+
+
+def classify_behaviour(u: FloatArray, v: FloatArray, f: FloatArray, *, k: float, c: float,
+                       f_static: FloatArray | None = None) -> Behaviour:
     """Family of a law's force ``f`` along drift ``u`` / velocity ``v`` (module docstring).
 
     Parameters
@@ -137,6 +223,10 @@ def classify_behaviour(u: FloatArray, v: FloatArray, f: FloatArray, *, k: float,
         Drift, its velocity and the law's force along them (one direction).
     k, c : float
         The nominal linear law's stiffness and damping the behaviour is relative to.
+    f_static : (nt,) array, optional
+        The law's force along the same drift at zero velocity (its rate-independent part):
+        the loop is then read without the law's own dashpot (a yielding damper fitted with
+        less viscous damping than the nominal one still encloses its loop).
     """
     u = np.asarray(u, float).ravel()
     v = np.asarray(v, float).ravel()
@@ -146,17 +236,21 @@ def classify_behaviour(u: FloatArray, v: FloatArray, f: FloatArray, *, k: float,
         return Behaviour("nothing", 1.0)
     basis = np.column_stack([u, v])
     coef, *_ = np.linalg.lstsq(basis, r, rcond=None)
-    r2 = 1.0 - float(np.sum((r - basis @ coef) ** 2)) / float(np.sum(r**2))
-    if r2 >= LINEAR_R2:
+    sse = float(np.sum((r - basis @ coef) ** 2))
+    r2 = 1.0 - sse / float(np.sum(r**2))
+    if r2 >= LINEAR_R2 and sse <= LINEAR_OWN * float(np.sum(f**2)):
         velocity = abs(coef[1]) * float(np.std(v)) > abs(coef[0]) * float(np.std(u))
         return Behaviour("damping" if velocity else "stiffness", r2)
     tp = turning_points(u)
-    amp, energy, half, secant = _cycles(u, r, tp)
+    amp, _, _, secant = _cycles(u, r, tp)
     if amp.size < 3:
         return Behaviour("nothing", r2)
-    loss = float(np.sum(energy) / np.sum(4 * amp * np.maximum(half, 1e-300)))
+    # the loop beside the change of stiffness, with the law's dashpot and without it
+    tries = [r] if f_static is None else [r, np.asarray(f_static, float).ravel() - k * u]
+    shares = [_loss_share(u, x, tp) for x in tries]
+    loss, rs = max(shares), tries[int(np.argmax(shares))]
     if loss > DISSIPATIVE:
-        turn = _turnover(u, r, tp)
+        turn = _turnover(u, rs, tp)
         fam = "friction" if turn < STICK_RATIO else "hysteresis"
         return Behaviour(fam, r2, loss, turn)
     order = np.argsort(amp)

@@ -19,18 +19,25 @@ from typing import Any
 import numpy as np
 
 from modal_twin.channels import ChannelSpec, device_channels
+from modal_twin.diagnosis.behaviour import Behaviour, classify_behaviour, reported_family
 from modal_twin.diagnosis.effect_kind import Facts, Job, Piece, PlacedEffect, Round
-from modal_twin.diagnosis.evidence import DeviceEvidence, device_evidence
+from modal_twin.diagnosis.evidence import DeviceEvidence, device_evidence, velocity_cutoff
 from modal_twin.diagnosis.fitting import FittedEffect, _transform, fit_effect
 from modal_twin.diagnosis.record import Record
-from modal_twin.diagnosis.screening import ScreenedCandidate, parameter_grid, screen_components
+from modal_twin.diagnosis.screening import (
+    ScreenedCandidate,
+    _respond,
+    drift_velocity,
+    parameter_grid,
+    screen_components,
+)
 from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.models.devices.registry import ALIASES, FAMILIES, LAWS, law_entry
-from modal_twin.models.effects import EffectSpec
+from modal_twin.models.effects import EffectSpec, effect_device
 from modal_twin.models.loading import ModelFactory
 
-__all__ = ["DEVICE", "FAMILY_LAWS", "DeviceCandidate", "DeviceKind", "family_of",
-           "measured_device"]
+__all__ = ["DEVICE", "FAMILY_LAWS", "DeviceCandidate", "DeviceKind", "behaviour_on",
+           "family_of", "measured_device"]
 
 # device laws that can express each family at a component, best first (a law may express
 # a family beside its own: stick-slip also makes a loop, a gap also hardens)
@@ -113,6 +120,35 @@ def family_of(effect: EffectSpec, facts: Facts | None = None) -> str:
     return law_entry(effect.law).families[0]
 
 
+def behaviour_on(factory: ModelFactory, channels: Iterable[ChannelSpec], rec: Record,
+                 effect: EffectSpec) -> Behaviour | None:
+    """Return what a fitted device law does along its site's measured drift (:mod:`.behaviour`).
+
+    The law's force along the record's drift and its velocity (as the screening drives a
+    law, :func:`.screening.screen_components`) and at zero velocity (its rate-independent
+    part), read in the direction of the largest drift against the site's nominal k and c.
+    None where the site's drift is not measured or the law cannot be driven.
+    """
+    spec = factory.sites.get(effect.component)
+    cols = measured_device(channels, rec, effect.component)
+    if spec is None or cols is None:
+        return None
+    u = rec.channels(cols[0])
+    v = drift_velocity(u, rec.fs_hz, velocity_cutoff(u, rec.fs_hz))
+    try:
+        dev = effect_device(spec, effect.law, dict(effect.params),
+                            weight=factory.weight(effect.component))
+        f = _respond(dev, u, v)
+        f_static = _respond(dev, u, np.zeros_like(v))  # its rate-independent part
+    except (ModalTwinError, ValueError):
+        return None
+    d = int(np.argmax(np.std(u, axis=1)))
+    k = np.atleast_1d(np.asarray(spec.k, float))
+    c = np.atleast_1d(np.asarray(spec.c, float))
+    return classify_behaviour(u[d], v[d], f[d], k=float(k[min(d, k.size - 1)]),
+                              c=float(c[min(d, c.size - 1)]), f_static=f_static[d])
+
+
 class DeviceKind(PlacedEffect):
     """Return the ``device`` effect kind (module docstring)."""
 
@@ -173,7 +209,10 @@ class DeviceKind(PlacedEffect):
         return []
 
     def facts(self, rnd: Round, effect: EffectSpec) -> Facts:
-        """Return the site's nominal k and c, its measured drift scale, the evidence there."""
+        """Return the site's nominal k and c, its measured drift scale, the evidence there.
+
+        And what the fitted law does along the training record (:func:`behaviour_on`).
+        """
         spec = rnd.factory.sites.get(effect.component)
         cols = measured_device(rnd.nominal.channels, rnd.train, effect.component)
         drift = (float(np.quantile(np.abs(rnd.train.channels(cols[0])), 0.99))
@@ -181,11 +220,18 @@ class DeviceKind(PlacedEffect):
         return Facts(rnd.factory.parameters(),
                      float(np.mean(spec.k)) if spec is not None else None,
                      float(np.mean(spec.c)) if spec is not None else None, drift,
-                     rnd.evidence_family.get(effect.component, ""))
+                     rnd.evidence_family.get(effect.component, ""),
+                     behaviour_on(rnd.factory, rnd.nominal.channels, rnd.train, effect))
 
     def family(self, effect: EffectSpec, facts: Facts) -> str:
-        """:func:`family_of`."""
-        return family_of(effect, facts)
+        """Return the family of what the fitted law does on the record, else :func:`family_of`.
+
+        Where its behaviour (``facts.behaviour``) and the law's own family disagree in kind
+        (linear, dissipative, elastic), the behaviour wins: a Bouc-Wen fit that is a plain
+        dashpot reports damping, a bilinear spring whose fit encloses loops hysteresis
+        (:func:`.behaviour.reported_family`).
+        """
+        return reported_family(facts.behaviour, family_of(effect, facts))
 
     def start(self, factory: ModelFactory, component: str, law: str, train: Record
               ) -> dict[str, float]:

@@ -28,6 +28,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.behaviour import Behaviour
 from modal_twin.diagnosis.fitting import FittedEffect
 from modal_twin.diagnosis.record import Record
 from modal_twin.models.effects import EffectSpec
@@ -97,6 +98,9 @@ class Facts:
         99th percentile of the measured drift at that site (training record).
     evidence_family : str
         The family the evidence named at that place ("" when none).
+    behaviour : Behaviour, optional
+        What the fitted effect does along the training record (:mod:`.behaviour`); a kind
+        that knows it reports its family (None: the law's own family).
     """
 
     values: Mapping[str, float] = field(default_factory=dict)
@@ -104,6 +108,7 @@ class Facts:
     nominal_c: float | None = None
     drift_scale: float | None = None
     evidence_family: str = ""
+    behaviour: Behaviour | None = None
 
 
 class EffectKind(Protocol):

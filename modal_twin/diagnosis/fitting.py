@@ -57,6 +57,7 @@ class FittedEffect:
     records: tuple[tuple[str, float, float, float, float, float], ...] = ()  # (record,
     # NRMSE before, after, after / noise floor median, whitened RMS before, after), NRMSE as
     # the RMS over channels, the whitened RMS as in noise.ErrorFigures.score
+    behaviour: str = ""  # beside the family: the law fitted and what it does (behaviour.py)
 
     def parameter_text(self) -> str:
         """Format ``name=value ±std`` per parameter.
@@ -74,6 +75,10 @@ class FittedEffect:
             else:
                 out.append(f"{k}={v:.4g} (not determined)")
         return ", ".join(out)
+
+    def family_text(self) -> str:
+        """Return the family reported, with the law fitted (and what it does) beside it."""
+        return f"{self.family} ({self.behaviour or self.effect.law})"
 
     @property
     def error_ratio(self) -> float:

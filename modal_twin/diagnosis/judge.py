@@ -27,6 +27,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from modal_twin.diagnosis.behaviour import behaviour_label
 from modal_twin.diagnosis.effect_kind import Facts
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.kinds import kind_of
@@ -41,8 +42,8 @@ from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.plant import Plant
 
-__all__ = ["figures_on", "information_criterion", "judge", "rank", "record_noise_floor",
-           "record_noise_floors", "verdict", "worse_tolerance"]
+__all__ = ["figures_on", "information_criterion", "judge", "labelled", "rank",
+           "record_noise_floor", "record_noise_floors", "verdict", "worse_tolerance"]
 
 LOWER_BY = 0.01  # training and held-out: at least 1 % lower
 WORSE_BY = 0.01  # other records: at most 1 % higher
@@ -193,9 +194,22 @@ def judge(f: FittedEffect, plant: Plant, before: Sequence[ErrorFigures],
                  for b, a in zip(before, after, strict=True))
     rejected = verdict(before, after, [worse_tolerance(r) for r in records], lower_by)
     kind, facts = kind_of(f.effect.law), facts or Facts()
-    return replace(f, family=kind.family(f.effect, facts),
-                   place=place or kind.place(f.effect), records=rows, rejected=rejected,
-                   flags=_flags(f, facts))
+    return replace(labelled(f, facts), place=place or kind.place(f.effect), records=rows,
+                   rejected=rejected, flags=_flags(f, facts))
+
+
+def labelled(f: FittedEffect, facts: Facts) -> FittedEffect:
+    """``f`` with its family and the words beside it (:func:`.behaviour.behaviour_label`).
+
+    The family is what its kind reports from ``facts`` (for a device law: what the fit does
+    on the training record, ``facts.behaviour``); beside it the law fitted, what it does and,
+    where the law's own family differs, that the behaviour won.
+    """
+    kind = kind_of(f.effect.law)
+    family = kind.family(f.effect, facts)
+    own = kind.family(f.effect, replace(facts, behaviour=None))
+    return replace(f, family=family, behaviour=behaviour_label(
+        f.effect.law, f.effect.params, facts.behaviour, own))
 
 
 def held_out(f: FittedEffect) -> float:

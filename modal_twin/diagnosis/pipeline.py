@@ -18,7 +18,8 @@ One round (:func:`diagnose_round`) on a model (any version: its effects stay in 
 4. **Fit laws of the named families** by simulation on the training record, then judge
    each on every record (:mod:`.judge`: lower on training and held-out, never worse on
    another level; flags for bounds and implausible values; ranked by held-out error and
-   BIC together).
+   BIC together). A device law reports the family of what its fit does on the training
+   record (:mod:`.behaviour`), its name beside it.
 
 :func:`diagnose` repeats rounds while the model still fails and a candidate is accepted
 (several effects at once), then refits all effects found jointly and drops, by backward
@@ -34,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from modal_twin.diagnosis.device_kind import DeviceCandidate
+from modal_twin.diagnosis.device_kind import DeviceCandidate, _top_family
 from modal_twin.diagnosis.effect_kind import Job, Round
 from modal_twin.diagnosis.evidence import DeviceEvidence
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
@@ -43,6 +44,7 @@ from modal_twin.diagnosis.judge import (
     figures_on,
     information_criterion,
     judge,
+    labelled,
     rank,
     record_noise_floors,
     worse_tolerance,
@@ -81,6 +83,9 @@ class Diagnosis:
     rounds: int = 1
     # effects found but dropped by the backward elimination after the joint refit, with why
     dropped: tuple[str, ...] = ()
+    # every round's ranked fits and its decision (empty: one round, ``fitted`` / ``summary``)
+    round_fits: tuple[tuple[FittedEffect, ...], ...] = ()
+    round_summaries: tuple[str, ...] = ()
 
     @property
     def evidence(self) -> tuple[DeviceEvidence, ...]:
@@ -113,14 +118,7 @@ class Diagnosis:
         out.append("OTHER CANDIDATES (screened on the training record)")
         for name, kind in KINDS.items():
             out += kind.report(self.candidates.get(name, ()))
-        out += ["", "FITTED BY SIMULATION (NRMSE as RMS over channels: train / held-out, before "
-                "-> after; ranked)"]
-        for f in self.fitted:
-            recs = "; ".join(f"{100 * b:.2f}->{100 * a:.2f} %" for _, b, a, *_ in f.records[:2])
-            state = ("REJECTED: " + f.rejected) if f.rejected else (
-                "FLAGGED: " + "; ".join(f.flags) if f.flags else "accepted")
-            out.append(f"  {f.place:<10} {f.family:<12} {f.effect.law:<20} {recs:<28} "
-                       f"BIC {f.bic:10.1f}  {state}\n      {f.parameter_text()}")
+        out += ["", *self.table()]
         for s in self.skipped:
             out.append(f"  skipped: {s}")
         if self.dropped:
@@ -129,6 +127,86 @@ class Diagnosis:
             out += [f"  {w}" for w in self.dropped]
         out += ["", f"DECISION: {self.summary}"]
         return "\n".join(out)
+
+    def table(self) -> list[str]:
+        """Return the ranked fits of every round, each with its figures, decision and reason.
+
+        One table for ``diagnose`` and ``effects add --auto``: per candidate its place,
+        family (with the law fitted and what it does), NRMSE before -> after on the
+        training and held-out records, BIC, and ADDED / accepted / FLAGGED (why) /
+        REJECTED (the record and the figure it failed on); per round its decision; last,
+        the effects found (after the joint refit).
+        """
+        fits = self.round_fits or (self.fitted,)
+        summaries = self.round_summaries or (self.summary,)
+        out = ["FITTED BY SIMULATION (NRMSE as RMS over channels: train / held-out, before "
+               "-> after; ranked, every round)"]
+        for i, (ranked, summary) in enumerate(zip(fits, summaries, strict=True)):
+            added = self.added_in_round(i)
+            with_ = ", ".join(f"{f.family} at {f.place}" for f in self.found[:i])
+            out.append(f" round {i + 1}: the model as given" + (f" with {with_}" if with_ else ""))
+            out += [_fit_line(f, f is added) for f in ranked] or ["  no candidate fitted"]
+            out.append(f"  decision: {summary}")
+        if self.found:
+            out.append(" effects found (refitted jointly where several)")
+            out += [f"  {f.place:<10} {f.family_text()}\n      {f.parameter_text()}"
+                    for f in self.found]
+        return out
+
+    def added_in_round(self, i: int) -> FittedEffect | None:
+        """Return the fit round ``i`` added (its best usable one), None when it added none."""
+        fits = self.round_fits or (self.fitted,)
+        if i >= len(self.found) or i >= len(fits):
+            return None
+        return next((f for f in fits[i] if not f.rejected and not f.flags), None)
+
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the decision, the effects found and the table of every round, as JSON data.
+
+        The same rows and decisions as :meth:`table` (``decision``: ADDED, accepted, FLAGGED
+        or REJECTED; ``reason``: the flags or the record and figure it failed on).
+        """
+        fits = self.round_fits or (self.fitted,)
+        summaries = self.round_summaries or (self.summary,)
+        return {
+            "significant": self.significant, "summary": self.summary,
+            "found": [_fit_row(f) for f in self.found],
+            "rounds": [{"decision": summary, "candidates": [
+                _fit_row(f, _decision(f, f is self.added_in_round(i))) for f in ranked]}
+                for i, (ranked, summary) in enumerate(zip(fits, summaries, strict=True))],
+            "dropped": list(self.dropped), "skipped": list(self.skipped)}
+
+
+def _decision(f: FittedEffect, added: bool) -> tuple[str, str]:
+    """Return a candidate's decision (ADDED, accepted, FLAGGED, REJECTED) and its reason."""
+    if f.rejected:
+        return "REJECTED", f.rejected
+    if f.flags:
+        return "FLAGGED", "; ".join(f.flags)
+    return ("ADDED" if added else "accepted"), ""
+
+
+def _fit_row(f: FittedEffect, decision: tuple[str, str] | None = None) -> dict[str, Any]:
+    """One candidate (or effect found) as JSON data: what :func:`_fit_line` prints."""
+    row: dict[str, Any] = {
+        "place": f.place, "family": f.family, "behaviour": f.behaviour, "law": f.effect.law,
+        "component": f.effect.component, "params": dict(f.effect.params), "bic": f.bic,
+        "records": [{"record": r[0], "nrmse_before": r[1], "nrmse_after": r[2],
+                     "after_over_noise": r[3]} for r in f.records]}
+    if decision is not None:
+        row["decision"], row["reason"] = decision
+    return row
+
+
+def _fit_line(f: FittedEffect, added: bool) -> str:
+    """One candidate of :meth:`Diagnosis.table`: figures, decision and reason, its words."""
+    recs = "; ".join(f"{100 * b:.2f}->{100 * a:.2f} %" for _, b, a, *_ in f.records[:2])
+    decision, reason = _decision(f, added)
+    state = f"{decision}: {reason}" if reason else decision
+    line = (f"  {f.place:<10} {f.family:<12} {f.effect.law:<20} {recs:<28} "
+            f"BIC {f.bic:10.1f}  {state}\n      {f.parameter_text()}")
+    return line + (f"\n      {f.family_text()}" if f.behaviour else "")
 
 
 def _common_channels(factory: ModelFactory, records: Sequence[Record]
@@ -210,7 +288,7 @@ def _round_summary(ranked: Sequence[FittedEffect], sig: Sequence[str]) -> str:
         return (f"the model fails ({len(sig)} channels above {SIGNIFICANT_RATIO}x their "
                 "noise floor) but no candidate lowers the error on every record")
     b = usable[0]
-    return (f"missing: {b.family} at {b.place} ({b.effect.law}) -- held-out NRMSE "
+    return (f"missing: {b.family_text()} at {b.place} -- held-out NRMSE "
             f"{100 * b.records[1][1]:.2f} % -> {100 * b.records[1][2]:.2f} % "
             f"(x{b.records[1][3]:.2f} the noise floor)")
 
@@ -334,6 +412,7 @@ def diagnose(
                            progress=progress, mapper=mapper)
     found: list[FittedEffect] = []
     current, d = factory, first
+    rounds = [first]
     while d.significant and d.best is not None and len(found) < max_effects:
         found.append(d.best)
         current = _apply(current, d.best)
@@ -341,18 +420,20 @@ def diagnose(
         exclude = {(f.effect.component, f.effect.law) for f in found}
         d = diagnose_round(current, records, n_fit=n_fit, gain_threshold=gain_threshold,
                            progress=progress, mapper=mapper, exclude=exclude)
+        rounds.append(d)
     if not found:
         return first
-    if joint and len(found) > 1:
-        say("refitting all effects found jointly")
-        found = refit_jointly(factory, found, (records[0], *records[2:]))
     rec_c, _ = _common_channels(factory, records)
     noises = [f.noise for f in first.before]  # the floors of the model as given
+    if joint and len(found) > 1:
+        say("refitting all effects found jointly")
+        found = _relabelled(factory, first, rec_c, noises,
+                            refit_jointly(factory, found, (records[0], *records[2:])))
     dropped: list[str] = []
     if len(found) > 1:
         found, dropped = _without_idle(factory, found, rec_c, noises, say)
     after = figures_on(_apply_all(factory, found).plant(), rec_c, noises)
-    names = ", ".join(f"{f.family} at {f.place} ({f.effect.law})" for f in found)
+    names = ", ".join(f"{f.family_text()} at {f.place}" for f in found)
     b, a = first.before[1], after[1]
     summary = (f"missing: {names} -- held-out NRMSE {100 * b.median_nrmse:.2f} % -> "
                f"{100 * a.median_nrmse:.2f} % median over channels (x{a.median_over_noise:.2f} "
@@ -364,4 +445,22 @@ def diagnose(
         summary += "; dropped after the joint refit: " + ", ".join(
             w.split(":", 1)[0] for w in dropped)
     return replace(first, summary=summary, found=tuple(found), after=after,
-                   rounds=len(found) + len(dropped) + 1, dropped=tuple(dropped))
+                   rounds=len(rounds), dropped=tuple(dropped),
+                   round_fits=tuple(r.fitted for r in rounds),
+                   round_summaries=tuple(r.summary for r in rounds))
+
+
+def _relabelled(factory: ModelFactory, first: Diagnosis, records: Sequence[Record],
+                noises: Sequence[np.ndarray], found: Sequence[FittedEffect]
+                ) -> list[FittedEffect]:
+    """``found`` after the joint refit, each labelled by what its refitted law does.
+
+    An effect with words from its behaviour (a device law) is read again along the training
+    record (:func:`.judge.labelled`); the others keep their family.
+    """
+    if not any(f.behaviour for f in found):
+        return list(found)
+    rnd = Round(factory, records, factory.plant(), noises, (), [], lambda s: None,
+                evidence_family={e.component: _top_family(e) for e in first.evidence})
+    return [labelled(f, kind_of(f.effect.law).facts(rnd, f.effect)) if f.behaviour else f
+            for f in found]

@@ -39,7 +39,7 @@ def diagnosis_to_msg(d: Any, model_version: str, msg_cls: Any, place_cls: Any,
         c.information_criterion = float(f.bic)
         c.parameter_names = list(f.effect.params)
         c.parameter_values = to_float_array(list(f.effect.params.values()))
-        c.evidence = (f"held-out NMSE {f.test_nmse_nominal_pct:.3f} % -> "
+        c.evidence = (f"{f.family_text()}: held-out NMSE {f.test_nmse_nominal_pct:.3f} % -> "
                       f"{f.test_nmse_pct:.3f} % (train {f.train_nmse_pct:.3f} %)")
         msg.candidates.append(c)
     return msg

@@ -96,7 +96,7 @@ MODEL_FILES = {"building": ROOT / "config" / "structures" / "building.yaml",
 # The adapter: the only code that knows the diagnosis API. It must return
 #   {"family": str (one of FAMILIES; "nothing" when nothing is named),
 #    "place": str ("" when nothing),
-#    "effects": [{"family": str, "place": str, "law": str, "params": dict}, ...],
+#    "effects": [{"family": str, "place": str, "law": str, "params": dict, "label": str}, ...],
 #    "model_after": a modal_twin Plant (judged with simulate_record) or a callable
 #                   Record -> (n_channels_of_record, nt) array, or None (= nominal)}
 # ---------------------------------------------------------------------------------------
@@ -134,7 +134,7 @@ def run_diagnosis(model_file: Path, train: Record, test: Record, low: Record) ->
                if f.effect.law not in ("added_mass", "stiffness", "damping")]
     after = (factory.with_theta(theta) if theta else factory).plant(effects)
     claims = [{"family": f.family, "place": _claim_place(f), "law": f.effect.law,
-               "params": dict(f.effect.params)} for f in d.found]
+               "params": dict(f.effect.params), "label": f.behaviour} for f in d.found]
     return {"family": claims[0]["family"], "place": claims[0]["place"], "effects": claims,
             "model_after": after}
 
@@ -307,6 +307,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"{'':18}{100 * e['eq8_before']:6.2f} {100 * e['eq8_after']:5.2f}")
         print(f"{'':30} (truth {r['truth_s']:.1f} s, diagnosis {r['diagnosis_s']:.1f} s)",
               flush=True)
+        for e in r["named"]["effects"]:  # the family named beside what the fitted law does
+            if e.get("label"):
+                print(f"{'':30} {e['family']}@{e['place']}: {e['label']}", flush=True)
         if case.new:
             print(_new_line(case, r), flush=True)
     n = len(rows)

@@ -1,15 +1,24 @@
 """Labels from behaviour (issue 20, item 4): closed-form force laws written here, not the
-library's, each read off its force along a random drift history."""
+library's, each read off its force along a random drift history; then the library's laws
+with known parameters, reported in the family of what they do (the judge's words)."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy import signal
 
-from modal_twin.diagnosis.behaviour import classify_behaviour, turning_points
+from modal_twin.diagnosis.behaviour import LINEAR_R2, classify_behaviour, turning_points
+from modal_twin.diagnosis.device_kind import behaviour_on, family_of
+from modal_twin.diagnosis.effect_kind import Facts
+from modal_twin.diagnosis.fitting import FittedEffect
+from modal_twin.diagnosis.judge import labelled
+from modal_twin.diagnosis.record import Record
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import ModelFactory, load_model
 
 FS = 100.0
 K, C = 1.0e6, 2.0e4  # nominal linear law, N/m and N s/m
@@ -70,3 +79,93 @@ def test_turning_points_ignore_small_wiggles() -> None:
     tp = turning_points(u)
     assert tp.size == 20  # two per period over 20 s, the 20 Hz ripple ignored
     np.testing.assert_allclose(np.abs(u[tp]), 1.0, atol=0.01)
+
+
+# --- wired: the family a fitted library law reports is what it does on the record ------
+
+BUILDING = Path(__file__).resolve().parents[2] / "config" / "structures" / "building.yaml"
+
+
+def _site_record(factory: ModelFactory, site: str) -> Record:
+    """A record of drift (and a placeholder force) at ``site``: only the drift is read."""
+    ux, _ = drift(seed=2)
+    uy, _ = drift(seed=3)
+    u = np.vstack([ux, 0.3 * uy])
+    chans = (f"{site}_dx", f"{site}_dy", f"{site}_fx", f"{site}_fy")
+    data = np.vstack([u, np.zeros_like(u)])
+    inputs = np.zeros((6, u.shape[1]))
+    return Record(FS, factory.plant().input_names, inputs, chans, data, "drift")
+
+
+def _labelled(effect: EffectSpec, evidence_family: str = "") -> FittedEffect:
+    factory = load_model(BUILDING)
+    rec = _site_record(factory, effect.component)
+    b = behaviour_on(factory, factory.plant().channels, rec, effect)
+    assert b is not None
+    u99 = float(np.quantile(np.abs(rec.channels([f"{effect.component}_dx"])), 0.99))
+    facts = Facts(drift_scale=u99, evidence_family=evidence_family, behaviour=b)
+    return labelled(FittedEffect(effect, 3, 0.0, 0.0, 0.0, 0.0, 0, 0.0), facts)
+
+
+def test_a_bouc_wen_fit_that_is_a_dashpot_reports_damping() -> None:
+    """alpha 0.999: the law is k u + 0.3 c u' beside a loop of 1e-3 k (uy 2 cm): a dashpot
+    with 70 % less damping; its own family (hysteresis) loses, and the output says so."""
+    f = _labelled(EffectSpec("SDP2", "bouc_wen", {"alpha": 0.999, "uy": 0.02,
+                                                  "c_factor": 0.3}))
+    assert f.family == "damping", f.behaviour
+    assert f.behaviour.startswith("fitted law bouc_wen, alpha 0.999")
+    assert "behaves as a dashpot" in f.behaviour
+    assert "its law's own family is hysteresis, the behaviour wins" in f.behaviour
+    assert f.family_text() == f"damping ({f.behaviour})"
+
+
+def test_a_yielding_bilinear_law_reports_hysteresis() -> None:
+    """Yield at 4 cm of a 5 cm RMS drift, 10 % post-yield stiffness: a loop (loss share
+    well above 0.15) that turns over gradually: hysteresis, as the law's own family."""
+    f = _labelled(EffectSpec("SDP1", "bilinear_hysteretic", {"ub": 0.04, "ratio": 0.1}))
+    assert f.family == "hysteresis", f.behaviour
+    assert "behaves as a yielding loop (R2 linear" in f.behaviour
+    assert "the behaviour wins" not in f.behaviour
+
+
+def test_a_small_loop_beside_a_large_stiffness_change_is_still_a_loop() -> None:
+    """Yield at 5 mm of a 5 cm RMS drift, 35 % post-yield stiffness: a spring-dashpot
+    explains 99.7 % of the residual force (it is mostly the lost stiffness) and leaves 0.7 %
+    of the law's force, yet the loop encloses area: a loop (friction, as the law's elastic
+    range is under 5 % of the drift), not a stiffness change."""
+    f = _labelled(EffectSpec("RB2", "bilinear_hysteretic", {"ub": 0.005, "ratio": 0.35}))
+    assert f.family == "friction", f.behaviour
+    assert "behaves as a loop that dissipates energy" in f.behaviour
+    r2 = float(f.behaviour.split("R2 linear ")[1].split(",")[0])
+    assert r2 > LINEAR_R2
+
+
+def test_within_one_kind_the_law_names_the_family() -> None:
+    """The same loop where the evidence named friction: a dissipative law stays in the
+    family its parameters and the evidence give (the turn-over is not trusted to split
+    friction from hysteresis); the words say it is a loop and why friction."""
+    eff = EffectSpec("SDP1", "bilinear_hysteretic", {"ub": 0.04, "ratio": 0.1})
+    assert family_of(eff, Facts(evidence_family="friction")) == "friction"
+    f = _labelled(eff, evidence_family="friction")
+    assert f.family == "friction", f.behaviour
+    assert "behaves as a loop that dissipates energy" in f.behaviour
+    assert f.behaviour.endswith("; friction by the law's parameters")
+
+
+def test_a_cubic_softening_spring_reports_softening_and_agrees_with_its_law() -> None:
+    """k u + k3 u^3 with k3 = -0.3 k / (13 cm)^2: elastic, secant falling with amplitude."""
+    k = float(np.mean(load_model(BUILDING).sites["RB2"].k))
+    f = _labelled(EffectSpec("RB2", "cubic", {"k3": -0.3 * k / 0.13**2}))
+    assert f.family == "softening", f.behaviour
+    assert "behaves as a softening spring" in f.behaviour
+    assert "the behaviour wins" not in f.behaviour  # the law's own family agrees
+
+
+def test_without_a_measured_drift_the_law_reports_its_own_family() -> None:
+    factory = load_model(BUILDING)
+    rec = _site_record(factory, "SDP2")
+    eff = EffectSpec("RB1", "bouc_wen", {"alpha": 0.999})  # RB1's drift is not in rec
+    assert behaviour_on(factory, factory.plant().channels, rec, eff) is None
+    f = labelled(FittedEffect(eff, 3, 0.0, 0.0, 0.0, 0.0, 0, 0.0), Facts())
+    assert f.family == "hysteresis" and f.behaviour == ""
+    assert f.family_text() == "hysteresis (bouc_wen)"
