@@ -8,8 +8,8 @@ the accepted hits of each point and returns the FRF matrix
 (:func:`~modal_twin.acquisition.impact.roving_hammer_frf`, [000] section 2). Writing it
 (UFF 58) is the io edge's job (:mod:`modal_twin.io.impact_files`).
 
-Forces are the channels whose role is ``input`` (or whose quantity is ``force``), responses
-those whose role is ``output``.
+Forces and responses are told apart by :func:`hammer_channels`; tests of other hit points
+(one record each) join by :func:`merge_points`.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError, SignalError
 from modal_twin.signal_block import SignalBlock
 
-__all__ = ["HammerResult", "HammerTest", "hammer_channels"]
+__all__ = ["MOTION", "HammerResult", "HammerTest", "hammer_channels", "merge_points"]
 
 _MAX_SAMPLES = 50_000_000
 """Samples kept at most (channels x time, ~400 MB): a longer test is refused, not grown."""
@@ -64,24 +64,62 @@ class HammerResult:
         """Hits rejected (double hit or overload), over all points."""
         return sum(len(p.hits) - p.n_averages for p in self.per_point)
 
-    def lines(self) -> list[str]:
-        """Return the counts, then per point the hits kept and each rejection's reason."""
+    def lines(self, most: int = 5) -> list[str]:
+        """Return the counts, then per point the hits kept and (``most``) rejections' reasons."""
         out = [f"impact: {self.n_accepted} hits averaged, {self.n_rejected} rejected "
                f"({self.estimator}, {self.block_s:g} s blocks, "
                f"{len(self.inputs)} points x {len(self.outputs)} responses)"]
         for c, p in zip(self.inputs, self.per_point, strict=True):
             out.append(f"  point {c.name}: {p.n_averages} of {len(p.hits)} hits averaged")
-            out.extend(f"    rejected {r}" for r in p.rejected())
+            why = p.rejected()
+            out.extend(f"    rejected {r}" for r in why[:most])
+            if len(why) > most:
+                out.append(f"    ... and {len(why) - most} more rejected")
         return out
+
+
+MOTION = ("acceleration", "velocity", "displacement")
+"""Response quantities of a hammer test."""
 
 
 def hammer_channels(channels: Iterable[ChannelSpec]
                     ) -> tuple[list[ChannelSpec], list[ChannelSpec]]:
-    """Force (hit point) and response channels of a map, in order."""
+    """Force (hit point) and response channels of a map, in order.
+
+    The forces are the channels of quantity ``force`` (a record whose inputs are ground
+    accelerations is no hammer test); the responses the other channels of role ``output``
+    or of a motion quantity (a driving-point accelerometer that a UFF file's reference node
+    marked ``input`` is a response here).
+    """
     chans = list(channels)
-    forces = [c for c in chans if c.effective_role == "input" or c.quantity == "force"]
-    resp = [c for c in chans if c.effective_role == "output" and c not in forces]
+    forces = [c for c in chans if c.quantity == "force"]
+    resp = [c for c in chans if c not in forces
+            and (c.effective_role == "output" or c.quantity in MOTION)]
     return forces, resp
+
+
+def merge_points(results: Sequence[HammerResult]) -> HammerResult:
+    """One FRF matrix from tests of the same responses at other hit points (columns joined).
+
+    Raises
+    ------
+    SignalError
+        The tests differ in responses, frequency lines or estimator.
+    """
+    first = results[0]
+    for r in results[1:]:
+        if [c.name for c in r.outputs] != [c.name for c in first.outputs]:
+            msg = (f"impact: tests differ in responses ({[c.name for c in first.outputs]} "
+                   f"and {[c.name for c in r.outputs]})")
+            raise SignalError(msg)
+        if r.f_hz.shape != first.f_hz.shape or not np.allclose(r.f_hz, first.f_hz):
+            msg = "impact: tests differ in frequency lines (sample rate or block length)"
+            raise SignalError(msg)
+    return HammerResult(first.f_hz, np.concatenate([r.H for r in results], axis=1),
+                        np.concatenate([r.coherence for r in results], axis=1),
+                        tuple(c for r in results for c in r.inputs), first.outputs,
+                        tuple(p for r in results for p in r.per_point), first.estimator,
+                        first.block_s)
 
 
 class HammerTest:
@@ -104,8 +142,9 @@ class HammerTest:
                  estimator: Estimator = "H1", **checks: float | None) -> None:
         forces, resp = hammer_channels(channels)
         if not forces or not resp:
-            msg = (f"impact: expected force (input) and response (output) channels, got "
-                   f"{len(forces)} force and {len(resp)} response channels")
+            msg = (f"impact: expected force channels (quantity force) and responses, got "
+                   f"{len(forces)} force and {len(resp)} response channels (quantities "
+                   f"{sorted({c.quantity for c in channels})})")
             raise OptionError(msg)
         if not block_s > 0:
             msg = f"impact_block_s: expected > 0, got {block_s}"

@@ -105,3 +105,80 @@ def test_a_map_without_force_or_a_point_without_good_hits_is_said() -> None:
         HammerTest(CHANNELS[2:], block_s=6.0)
     with pytest.raises(SignalError, match="no frame"):
         HammerTest(CHANNELS, block_s=6.0).finish()
+
+
+def _impact_cli(tmp_path, bags: list, *extra: str):
+    from modal_twin.cli import main
+
+    out = tmp_path / "frf"
+    assert main(["impact", *map(str, bags), "--block-s", "6", "--out", str(out), *extra]) == 0
+    return out
+
+
+def _check_matrix(frf_file, points: int) -> None:
+    import pyuff
+
+    sets = pyuff.UFF(str(frf_file)).read_sets()
+    assert len(sets) == 2 * points
+    f = np.asarray(sets[0]["x"])
+    band = (f > 2.0) & (f < 40.0)
+    ref = accelerance(f[band])
+    for s in sets:
+        o, i = int(s["rsp_node"]) - 1, int(s["ref_node"]) - 1
+        h = np.asarray(s["data"])[band]
+        assert float(np.max(np.abs(h - ref[o, i]) / np.abs(ref[o, i]))) < 0.01
+
+
+def test_uff_time_records_written_by_the_project_import_as_hits(tmp_path, capsys) -> None:
+    from modal_twin.cli import main
+    from modal_twin.io.uff import read_uff, write_uff58_time
+
+    path = write_uff58_time(tmp_path / "hammer.uff", CHANNELS, FS, simulate(bounce_hit=1))
+    back = read_uff(path)  # name, node, direction, quantity and role come back
+    assert [(c.name, c.node, c.direction, c.quantity, c.role) for c, *_ in back.time] == [
+        (c.name, c.node, c.direction, c.quantity, c.role) for c in CHANNELS]
+    assert main(["import", str(path), "--out", str(tmp_path / "bag")]) == 0
+    out = _impact_cli(tmp_path, [tmp_path / "bag"])
+    text = capsys.readouterr().out
+    assert "impact: 5 hits averaged, 1 rejected" in text and "double hit" in text
+    _check_matrix(out / "frf.uff", points=2)
+
+
+def test_a_hand_built_uff_per_hit_point_imports_as_hits(tmp_path, capsys) -> None:
+    """As a test system exports it: one file per hit point, accelerations in g, the
+    responses naming the hammer's node as their reference (the driving point's accelerometer
+    then reads as ``input`` on import; the impact processing takes it as a response)."""
+    import pyuff
+
+    from modal_twin.cli import main
+
+    x = simulate(bounce_hit=None)
+    half = x.shape[1] // 2
+    bags = []
+    for point in (1, 2):
+        part = x[:, (point - 1) * half:point * half]
+        rows = [("hammer", 13, "N", point, part[point - 1], 0)]
+        rows += [(f"acc{n}", 12, "g", n, part[1 + n] / 9.80665, point) for n in (1, 2)]
+        sets = [pyuff.prepare_58(
+            binary=0, id1=name, id2="NONE", id3="NONE", id4="NONE", id5="NONE", func_type=1,
+            ver_num=0, load_case_id=0, rsp_ent_name=name, rsp_node=node, rsp_dir=3,
+            ref_ent_name="NONE", ref_node=ref, ref_dir=3 if ref else 0, ord_data_type=4,
+            num_pts=data.size, abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1 / FS,
+            z_axis_value=0.0, abscissa_spec_data_type=17, abscissa_len_unit_exp=0,
+            abscissa_force_unit_exp=0, abscissa_temp_unit_exp=0, abscissa_axis_units_lab="s",
+            ordinate_spec_data_type=dtype, ordinate_len_unit_exp=0, ordinate_force_unit_exp=0,
+            ordinate_temp_unit_exp=0, ordinate_axis_units_lab=unit, orddenom_spec_data_type=0,
+            orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
+            orddenom_axis_units_lab="NONE", z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
+            z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE",
+            data=data, x=np.arange(data.size) / FS, return_full_dict=True)
+            for name, dtype, unit, node, data, ref in rows]
+        f = tmp_path / f"point{point}.uff"
+        pyuff.UFF(str(f)).write_sets(sets, mode="overwrite")
+        bags.append(tmp_path / f"bag{point}")
+        assert main(["import", str(f), "--out", str(bags[-1])]) == 0
+    out = _impact_cli(tmp_path, bags)
+    text = capsys.readouterr().out
+    assert "forces ['hammer'], responses ['acc1', 'acc2']" in text
+    assert "impact: 6 hits averaged, 0 rejected" in text
+    _check_matrix(out / "frf.uff", points=2)
