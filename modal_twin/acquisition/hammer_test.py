@@ -86,13 +86,15 @@ def hammer_channels(channels: Iterable[ChannelSpec]
                     ) -> tuple[list[ChannelSpec], list[ChannelSpec]]:
     """Force (hit point) and response channels of a map, in order.
 
-    The forces are the channels of quantity ``force`` (a record whose inputs are ground
+    The forces are the channels of quantity ``force`` and role ``input`` or ``output``
+    (not a device's load cell, ``device_force``; a record whose inputs are ground
     accelerations is no hammer test); the responses the other channels of role ``output``
     or of a motion quantity (a driving-point accelerometer that a UFF file's reference node
     marked ``input`` is a response here).
     """
     chans = list(channels)
-    forces = [c for c in chans if c.quantity == "force"]
+    forces = [c for c in chans if c.quantity == "force"
+              and c.effective_role in ("input", "output")]  # not a device's load cell
     resp = [c for c in chans if c not in forces
             and (c.effective_role == "output" or c.quantity in MOTION)]
     return forces, resp

@@ -182,3 +182,12 @@ def test_a_hand_built_uff_per_hit_point_imports_as_hits(tmp_path, capsys) -> Non
     assert "forces ['hammer'], responses ['acc1', 'acc2']" in text
     assert "impact: 6 hits averaged, 0 rejected" in text
     _check_matrix(out / "frf.uff", points=2)
+
+
+def test_a_device_load_cell_is_no_hammer() -> None:
+    from modal_twin.acquisition.hammer_test import hammer_channels
+
+    cell = ChannelSpec("RB1_fx", "force", role="device_force")
+    forces, resp = hammer_channels([*CHANNELS, cell])
+    assert [c.name for c in forces] == ["F1", "F2"]
+    assert [c.name for c in resp] == ["a1", "a2"]
