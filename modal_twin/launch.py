@@ -169,6 +169,7 @@ class Launcher:
         env = dict(os.environ)
         env["ROS_DOMAIN_ID"] = str(self.domain_id)
         env["PYTHONUNBUFFERED"] = "1"
+        env["MODAL_TWIN_RUN_DIR"] = str(self.run_dir.resolve())  # where a node writes results
         env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
         env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
         shm = self.sc.extra.get("shared_memory", True) is not False

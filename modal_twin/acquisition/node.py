@@ -1,8 +1,17 @@
-"""Acquisition node: /rig/raw -> calibrated, checked /measurement/frames (+ channel map)."""
+"""Acquisition node: /rig/raw -> calibrated, checked /measurement/frames (+ channel map).
+
+With ``mode: impact`` it also keeps the frames of a hammer test and, when it stops, writes
+the FRF matrix (``impact/frf.uff``, UFF 58) and every hit's verdict (``impact/hits.yaml``)
+into the run folder (``MODAL_TWIN_RUN_DIR``, set by the launcher; else the working
+directory), logging the hits averaged and each one rejected
+(:mod:`modal_twin.acquisition.hammer_test`).
+"""
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from modal_twin_msgs.msg import ChannelInfo, ChannelMap
 from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
@@ -10,7 +19,10 @@ from rclpy.node import Node
 
 from modal_twin.acquisition.continuity import StreamMonitor, Verdict
 from modal_twin.acquisition.frames import frame_from_raw
+from modal_twin.acquisition.hammer_test import HammerTest
+from modal_twin.errors import OptionError
 from modal_twin.io.convert import block_from_msg, block_to_msg, channel_map_to_msg
+from modal_twin.io.impact_files import write_hammer_result
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import guarded, qos_for, report, run_node
 from modal_twin.models.rig_file import load_rig
@@ -26,6 +38,23 @@ class AcquisitionConfig:
 
     rig_file: str = field(default="config/rigs/building_rig.yaml",
                           metadata={"doc": "rig file giving the channel map and sensitivities"})
+    mode: str = field(default="stream", metadata={
+        "doc": "stream (frames only) or impact (also the FRFs of a hammer test, at the end)"})
+    impact_block_s: float = field(default=4.0, metadata={
+        "doc": "one hit's block (s): frequency resolution 1 / block (mode=impact)"})
+    impact_estimator: str = field(default="H1", metadata={"doc": "H1, H2 or Hv (mode=impact)"})
+    impact_tau_s: float = field(default=0.0, metadata={
+        "doc": "exponential window on the responses, 0 = none (mode=impact)"})
+    impact_force_range_n: float = field(default=0.0, metadata={
+        "doc": "force channel range: a hit at it is an overload, 0 = by flat top (mode=impact)"})
+
+    def __post_init__(self) -> None:
+        if self.mode not in ("stream", "impact"):
+            msg = f"mode: expected stream or impact, got {self.mode!r}"
+            raise OptionError(msg)
+        if self.impact_estimator not in ("H1", "H2", "Hv"):
+            msg = f"impact_estimator: expected H1, H2 or Hv, got {self.impact_estimator!r}"
+            raise OptionError(msg)
 
 
 class AcquisitionNode(Node):
@@ -46,6 +75,16 @@ class AcquisitionNode(Node):
         self.create_subscription(SignalBlockMsg, "/rig/raw",
                                  guarded(self, "raw block", self._on_raw), qos_for("/rig/raw"))
         self.get_logger().info(f"channel map: {len(channels)} channels")
+        self.hammer: HammerTest | None = None
+        self.exit_code = 0
+        if self.cfg.mode == "impact":
+            c = self.cfg
+            self.hammer = HammerTest(
+                channels, block_s=c.impact_block_s, estimator=c.impact_estimator,  # type: ignore[arg-type]
+                tau_s=c.impact_tau_s or None, force_range=c.impact_force_range_n or None)
+            self.get_logger().info(
+                f"impact mode: {len(self.hammer.inputs)} hit points, "
+                f"{len(self.hammer.outputs)} responses, {c.impact_block_s:g} s blocks")
 
     def _on_raw(self, msg: SignalBlockMsg) -> None:
         v = self.monitor.check(block_from_msg(msg))
@@ -60,6 +99,25 @@ class AcquisitionNode(Node):
                 throttle_duration_sec=5.0)
         if frame is not None:
             self.pub.publish(block_to_msg(frame, SignalBlockMsg))
+            if self.hammer is not None:
+                self.hammer.add(frame)
+
+    def close(self) -> None:
+        """At the end of an impact test: the FRF matrix and the hits' verdicts written."""
+        if self.hammer is None:
+            return
+        log = self.get_logger()
+        try:
+            res = self.hammer.finish()
+            folder = Path(os.environ.get("MODAL_TWIN_RUN_DIR", ".")) / "impact"
+            frf, hits = write_hammer_result(folder, res)
+        except Exception as err:  # said, never a traceback at shutdown
+            log.error(f"impact: no FRFs written: {err}")
+            self.exit_code = 1
+            return
+        for line in res.lines():
+            (log.warning if line.lstrip().startswith("rejected") else log.info)(line)
+        log.info(f"impact: FRF matrix {frf}, hits {hits}")
 
 
 def main() -> int:

@@ -6,6 +6,7 @@ import argparse
 import csv
 import json
 import sys
+from datetime import UTC, datetime
 from pathlib import Path
 
 from modal_twin.errors import OptionError
@@ -83,8 +84,14 @@ def _write(result, out: Path, force: bool) -> list[Path]:
 
     to_csv, to_json, to_png = (out / n for n in OUTPUTS)
     rows = result.rows()
-    fields = ["source", "window", "t_start_s", "duration_s", "track", "f_hz", "zeta",
-              "mac_to_track"]
+    from modal_twin.viz.campaign import REAL_TIME_S
+
+    for r in rows:  # the date of a window with a real start (the records' headers)
+        t = float(r["t_start_s"])
+        r["t_start_utc"] = (datetime.fromtimestamp(t, tz=UTC).isoformat()
+                            if t >= REAL_TIME_S else "")
+    fields = ["source", "window", "t_start_s", "t_start_utc", "duration_s", "track", "f_hz",
+              "zeta", "mac_to_track"]
     with atomic_file(to_csv, force=force) as tmp, tmp.open("w", newline="",
                                                              encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=fields)
@@ -103,6 +110,7 @@ def run(a: argparse.Namespace) -> int:
     """Run the campaign and write campaign.csv / .json / .png into ``--out``."""
     from modal_twin.executors import make_executor
     from modal_twin.identification.campaign import WindowIdentifier, run_campaign
+    from modal_twin.viz.campaign import REAL_TIME_S
 
     if a.executor and a.jobs:
         msg = "give --executor or --jobs, not both"
@@ -123,6 +131,11 @@ def run(a: argparse.Namespace) -> int:
     print(f"{len(res.windows)} windows ({n_failed} failed), {res.n_tracks} mode tracks")
     for k in range(res.n_tracks):
         t, f, z = res.track_series(k)
-        print(f"  track {k}: {t.size} windows, f {f.min():.4g}-{f.max():.4g} Hz, "
+        when = ""
+        if t.size and float(t.min()) >= REAL_TIME_S:  # real start times from the headers
+            d0, d1 = (datetime.fromtimestamp(float(v), tz=UTC).strftime(
+                "%Y-%m-%d %H:%M") for v in (t.min(), t.max()))
+            when = f", {d0} to {d1} UTC"
+        print(f"  track {k}: {t.size} windows{when}, f {f.min():.4g}-{f.max():.4g} Hz, "
               f"zeta {100 * z.min():.2f}-{100 * z.max():.2f} %")
     return ExitCode.OK

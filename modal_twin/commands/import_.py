@@ -250,6 +250,20 @@ def _print_roles(chans: list[ChannelSpec], given: Path | None) -> None:
         print(f"  {name:<{width}}  {role:<9}  {why}")
 
 
+def record_start(chans: list[ChannelSpec]) -> int:
+    """Return the UTC start (ns since 1970) from the channels' header start lines, or 0.
+
+    Strong-motion headers state the start (``start_utc`` in a channel's meta,
+    :func:`modal_twin.io.strong_motion.start_ns`); the earliest is the record's, so events
+    of a campaign sit at their real times. Files without a start line begin at 0.
+    """
+    from modal_twin.io.strong_motion import start_ns
+
+    starts = [start_ns(str(dict(c.meta).get("start_utc", ""))) for c in chans]
+    known = [t for t in starts if t is not None]
+    return min(known) if known else 0
+
+
 def run(a: argparse.Namespace) -> int:
     """Import the files (module docstring)."""
     from modal_twin.io.channel_map import apply_map, map_keys, read_channel_map
@@ -288,7 +302,13 @@ def run(a: argparse.Namespace) -> int:
     if bad:
         msg = f"{a.files[0]}: channels {bad} hold NaN or Inf samples"
         raise SignalError(msg)
-    block = SignalBlock(tuple(c.name for c in chans), fs, 0, X, source=a.files[0].name)
+    t0 = record_start(chans)
+    if t0:
+        from datetime import UTC, datetime
+
+        meta["start_utc"] = datetime.fromtimestamp(t0 / 1e9, tz=UTC).isoformat()
+    block = SignalBlock(tuple(c.name for c in chans), fs, 0, X, stamp_ns=t0,
+                        source=a.files[0].name)
     large = X.nbytes / 1e6 >= LARGE_MB
     out = write_imported(a.out, block, chans, extra_files=extra, record_meta=meta,
                          progress=(lambda q: _progress(f"writing {a.out}: {100 * q:.0f} %"))
@@ -298,7 +318,8 @@ def run(a: argparse.Namespace) -> int:
     for c in chans:
         roles[c.effective_role] = roles.get(c.effective_role, 0) + 1
     print(f"import: {out}: {len(chans)} channels x {block.n_samples} samples at "
-          f"{fs:g} Hz ({block.n_samples / fs:.1f} s); roles {roles}; "
+          f"{fs:g} Hz ({block.n_samples / fs:.1f} s"
+          + (f" from {meta['start_utc']}" if t0 else "") + f"); roles {roles}; "
           f"channel map {out / 'channel_map.json'}"
           + (f"; also {sorted(extra)}" if extra else ""))
     return ExitCode.OK

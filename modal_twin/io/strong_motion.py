@@ -39,6 +39,7 @@ __all__ = [
     "read_v2",
     "read_v3",
     "read_zip",
+    "start_ns",
     "to_structure_frame",
 ]
 
@@ -89,6 +90,38 @@ class StrongMotionChannel:
     volume: str = "V2"
     structure: str = ""
     """Station description as written (``"Hayward - Hwy 580/238 Interchange Bridge"``)."""
+
+
+_V2_START = re.compile(r"^(\d{1,2})/(\d{1,2})/(\d{2,4}),?\s+(\d{1,2}):(\d{2}):(\d{2}(?:\.\d*)?)")
+_ISO_START = re.compile(r"^(\d{4})-(\d{2})-(\d{2})[ T](\d{2}):(\d{2}):(\d{2}(?:\.\d*)?)")
+
+
+def start_ns(start_utc: str) -> int | None:
+    """UTC start of a record as nanoseconds since 1970-01-01, from its header's start line.
+
+    Reads a CSMIP V2 start (``4/26/21, 17:09:54.0 UTC (GPS)``: month / day / two-digit year,
+    20xx) and the SMC start :func:`read_smc` writes (``2018-01-04 10:39:00.164``).
+    Returns None when the line is empty or in another form (the record then starts at 0).
+    """
+    from datetime import UTC, datetime
+
+    text = start_utc.strip()
+    m = _V2_START.match(text)
+    if m is not None:
+        mo, d, y, hh, mi, sec = m.groups()
+        year = int(y) + (2000 if len(y) == 2 else 0)
+        ymd = (year, int(mo), int(d))
+    else:
+        m = _ISO_START.match(text)
+        if m is None:
+            return None
+        y, mo, d, hh, mi, sec = m.groups()
+        ymd = (int(y), int(mo), int(d))
+    try:
+        t = datetime(*ymd, int(hh), int(mi), tzinfo=UTC)
+    except ValueError:
+        return None
+    return int(t.timestamp()) * 1_000_000_000 + round(float(sec) * 1e9)
 
 
 def _fixed(lines: list[str], n: int, width: int, what: str) -> FloatArray:

@@ -14,8 +14,10 @@ node / direction that a 58 record of the file names (an FRF's or a time record's
 ``ref_node`` / ``ref_dir``), is ``input``; a response (displacement, velocity, acceleration,
 reaction force, stress, strain, sound pressure) is ``output``; a temperature is
 ``reference``; an unknown type cannot be told (no role: the import asks for ``--map``).
-Written: dataset 55 (modes, with the geometry as 15 / 82 and the channel names in the id
-lines; :func:`read_uff55` reads them back) and 58 (FRFs).
+Written: dataset 58 time records (:func:`write_uff58_time`: a hammer test's force and
+responses with their nodes and directions), dataset 55 (modes, with the geometry as
+15 / 82 and the channel names in the id lines; :func:`read_uff55` reads them back) and
+58 (FRFs).
 The 58 direction code ``rsp_dir`` (1..3 = +x..+z, -1..-3 = -x..-z, 4..6 = rotations) gives
 the channel direction.
 """
@@ -37,8 +39,7 @@ from modal_twin.errors import ConfigError, SignalError
 from modal_twin.models.array_files import check_text_file
 
 __all__ = ["AXIS_CODES", "CHANNELS_TAG", "UffContents", "read_uff", "read_uff55", "uff_role",
-           "write_uff55",
-           "write_uff58_frf"]
+           "write_uff55", "write_uff58_frf", "write_uff58_time"]
 
 log = logging.getLogger(__name__)
 
@@ -470,4 +471,48 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
                 data=np.asarray(H[o, i], dtype=complex), x=np.asarray(f_hz, dtype=float),
                 return_full_dict=True))
     u.write_sets(sets, mode="overwrite")
+    return p
+
+
+_TIME_TYPES = {"force": (13, "N"), "acceleration": (12, "m/s2"), "velocity": (11, "m/s"),
+               "displacement": (8, "m")}
+"""Quantity -> UFF 58 ordinate data type and unit label of a written time record."""
+
+
+def write_uff58_time(path: str | Path, channels: Sequence[ChannelSpec], fs_hz: float,
+                     data: FloatArray) -> Path:
+    """Write time records (UFF 58 ASCII, function type 1), one per channel, in SI.
+
+    Each record's response node is the channel's ``node`` (its index + 1 when not a number),
+    its direction the channel's (``+x`` when not given), its data type the quantity's
+    (13 force, 12 acceleration, 11 velocity, 8 displacement; 0 otherwise), so that
+    :func:`read_uff` gives back name, node, direction, quantity and role.
+    """
+    import pyuff
+
+    x = np.atleast_2d(np.asarray(data, dtype=float))
+    if x.shape[0] != len(channels):
+        msg = f"write_uff58_time: {len(channels)} channels, data of shape {x.shape}"
+        raise SignalError(msg)
+    sets = []
+    for k, c in enumerate(channels):
+        node = int(c.node) if c.node.isdigit() and int(c.node) > 0 else k + 1
+        dtype, unit = _TIME_TYPES.get(c.quantity, (0, "SI"))
+        sets.append(pyuff.prepare_58(
+            binary=0, id1=c.name, id2=c.quantity, id3="NONE", id4="NONE", id5="NONE",
+            func_type=1, ver_num=0, load_case_id=0, rsp_ent_name=c.name, rsp_node=node,
+            rsp_dir=AXIS_CODES.get(c.direction, 1), ref_ent_name="NONE", ref_node=0,
+            ref_dir=0, ord_data_type=4, num_pts=x.shape[1], abscissa_spacing=1,
+            abscissa_min=0.0, abscissa_inc=1.0 / fs_hz, z_axis_value=0.0,
+            abscissa_spec_data_type=17, abscissa_len_unit_exp=0, abscissa_force_unit_exp=0,
+            abscissa_temp_unit_exp=0, abscissa_axis_units_lab="s",
+            ordinate_spec_data_type=dtype, ordinate_len_unit_exp=0,
+            ordinate_force_unit_exp=0, ordinate_temp_unit_exp=0,
+            ordinate_axis_units_lab=unit, orddenom_spec_data_type=0, orddenom_len_unit_exp=0,
+            orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
+            orddenom_axis_units_lab="NONE", z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
+            z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE",
+            data=x[k], x=np.arange(x.shape[1]) / fs_hz, return_full_dict=True))
+    p = Path(path)
+    pyuff.UFF(str(p)).write_sets(sets, mode="overwrite")
     return p

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from modal_twin.io.bag import BagWriter
 from modal_twin.io.convert import block_to_rosbags
@@ -107,3 +108,34 @@ def test_campaign_windows_stay_within_the_runs_of_a_damaged_bag(tmp_path: Path) 
     with (tmp_path / "out" / "campaign.csv").open() as fh:
         starts = sorted({float(r["t_start_s"]) for r in csv.DictReader(fh)})
     assert starts == [1000.0, 1090.0, 1210.0, 1300.0]
+
+
+def test_campaign_puts_imported_events_at_their_real_times(shared_dir: Path,
+                                                           tmp_path: Path) -> None:
+    """Two Hayward events seven months apart: each at its header's UTC start, not at 0."""
+    from datetime import UTC, datetime
+
+    bags = []
+    for event in ("2021-04-26", "2021-11-17"):
+        z = shared_dir / "realdata" / "earthquakes" / f"csmip58658_hayward_bridge_{event}.zip"
+        if not z.is_file():
+            pytest.skip(f"{z} absent")
+        bags.append(tmp_path / event)
+        imp = subprocess.run([sys.executable, "-m", "modal_twin.cli", "import", str(z),
+                              "--out", str(bags[-1])], capture_output=True, text=True,
+                             timeout=300, cwd=ROOT)
+        assert imp.returncode == 0, imp.stderr
+    out = _cli(*map(str, reversed(bags)), "--window", "60", "--jobs", "1", "--out",
+               str(tmp_path / "out"))
+    assert out.returncode == 0, out.stderr
+    # the V2 start lines: 4/26/21, 17:09:54.0 and 11/17/21, 19:43:20.0 UTC (GPS)
+    starts = [datetime(2021, 4, 26, 17, 9, 54, tzinfo=UTC),
+              datetime(2021, 11, 17, 19, 43, 20, tzinfo=UTC)]
+    with (tmp_path / "out" / "campaign.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert sorted({float(r["t_start_s"]) for r in rows}) == [t.timestamp() for t in starts]
+    assert sorted({r["t_start_utc"] for r in rows}) == [t.isoformat() for t in starts]
+    doc = json.loads((tmp_path / "out" / "campaign.json").read_text())
+    assert doc["n_windows"] == 2 and not doc["failed_windows"]
+    assert "2021-04-26 17:09 to 2021-04-26 17:09 UTC" in out.stdout
+    assert "2021-11-17 19:43 to 2021-11-17 19:43 UTC" in out.stdout

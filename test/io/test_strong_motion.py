@@ -172,3 +172,17 @@ def test_v1_v3_and_filter_corners(tmp_path: Path) -> None:
         z.writestr("readme.txt", "x")
     with pytest.raises(SignalError, match=r"expected V1 / V2 or _a\.smc"):
         read_record(q)
+
+
+def test_start_lines_give_the_utc_start() -> None:
+    from datetime import UTC, datetime
+
+    from modal_twin.io.strong_motion import start_ns
+
+    v2 = read_v2(_v2())
+    want = datetime(2021, 4, 26, 17, 9, 54, tzinfo=UTC).timestamp()
+    assert start_ns(v2.start_utc) == round(want * 1e9)
+    smc = read_smc(_smc())  # integer header 2018 1 4 10 39 0 164
+    want = datetime(2018, 1, 4, 10, 39, 0, 164_000, tzinfo=UTC).timestamp()
+    assert start_ns(smc.start_utc) == round(want * 1e9)
+    assert start_ns("") is None and start_ns("13/45/21, 10:00:00") is None

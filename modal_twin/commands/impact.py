@@ -1,0 +1,66 @@
+"""``modal-twin impact BAG... --block-s S --out DIR``: a hammer test's records to FRFs.
+
+Each bag (a record of ``modal-twin import``: UFF 58 time records of force and responses,
+a CSV, ...; or a run's bag) holds the force of one or more hit points and the responses.
+Its hits are found, double hits and overloads rejected (counted and said), the accepted
+hits averaged per point (:class:`modal_twin.acquisition.hammer_test.HammerTest`, as the
+acquisition node's impact mode); several bags (one per hit point, the same responses) join
+into one FRF matrix. Written: ``DIR/frf.uff`` (UFF 58 FRFs at the channels' nodes and
+directions, for ``identify`` / PolyMAX) and ``DIR/hits.yaml`` (every hit's verdict).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from modal_twin.errors import OptionError
+from modal_twin.exit_codes import ExitCode
+
+__all__ = ["register", "run"]
+
+HELP = "hammer test records to an FRF matrix (hits checked, double hits / overloads rejected)"
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``impact`` parser."""
+    p = sub.add_parser("impact", help=HELP, description=HELP)
+    p.add_argument("bags", type=Path, nargs="+", help="records (bags), one or more hit points")
+    p.add_argument("--block-s", type=float, required=True,
+                   help="one hit's block, s (frequency resolution 1 / block)")
+    p.add_argument("--estimator", choices=("H1", "H2", "Hv"), default="H1")
+    p.add_argument("--tau-s", type=float, default=None,
+                   help="exponential window on the responses, s (damping to correct)")
+    p.add_argument("--force-range", type=float, default=None,
+                   help="force channel range, N (a hit at it is an overload)")
+    p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    p.set_defaults(func=run)
+
+
+def run(a: argparse.Namespace) -> int:
+    """Process the records and write ``frf.uff`` and ``hits.yaml`` (module docstring)."""
+    from modal_twin.acquisition.hammer_test import HammerTest, merge_points
+    from modal_twin.io.impact_files import FRF_FILE, SUMMARY_FILE, write_hammer_result
+    from modal_twin.io.imported import read_imported
+    from modal_twin.paths import check_new_in
+
+    if not a.block_s > 0 or (a.tau_s is not None and not a.tau_s > 0):
+        msg = f"--block-s and --tau-s: expected > 0, got {a.block_s} and {a.tau_s}"
+        raise OptionError(msg)
+    check_new_in(a.out, (FRF_FILE, SUMMARY_FILE), a.force)
+    results = []
+    for bag in a.bags:
+        block, channels = read_imported(bag)
+        test = HammerTest(channels, block_s=a.block_s, estimator=a.estimator,
+                          tau_s=a.tau_s, force_range=a.force_range)
+        print(f"impact: {bag}: forces {[c.name for c in test.inputs]}, responses "
+              f"{[c.name for c in test.outputs]}")
+        test.add(block)
+        results.append(test.finish())
+    res = merge_points(results)
+    frf, hits = write_hammer_result(a.out, res)
+    for line in res.lines():
+        print(line)
+    print(f"wrote {frf}\nwrote {hits} (every hit's verdict)")
+    return ExitCode.OK
