@@ -25,9 +25,11 @@ Reynders, Houbrechts & De Roeck (2012), on the poles of every model order of a
    cluster while the MAC term keeps close modes of distinct shapes apart.
 4. **Outliers** (Magalhaes et al. 2009): in each cluster, poles damped outside
    (``zeta_min``, ``zeta_max``) are removed (a harmonic's column is damped at about
-   zero), then at most one pole per model order is kept (the
-   nearest to the cluster's median pole), then poles whose damping lies more than
-   three scaled median absolute deviations from the median.
+   zero; where the record is at hand, a column damped below ``zeta_min`` is removed only
+   when the response band-passed at its frequency is a sine by its kurtosis, as
+   :func:`is_harmonic`: a lightly damped structural mode is kept), then at most one pole
+   per model order is kept (the nearest to the cluster's median pole), then poles whose
+   damping lies more than three scaled median absolute deviations from the median.
 5. **Physical modes**: a cluster is reported when it keeps at least ``n_min`` poles
    (``frac_orders`` of the model orders, at least 3, and ``rel_size`` of the largest
    cluster: physical modes form the large clusters, spurious poles the small ones, as
@@ -45,6 +47,7 @@ Every cluster of at least 3 poles that is not reported comes back as a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,8 +60,8 @@ from modal_twin.identification.metrics import mpc
 from modal_twin.identification.modal_model import ModalModel, StabilizationDiagram
 from modal_twin.identification.stabilization import DroppedColumn, _unit_shapes
 
-__all__ = ["CUT_MAX", "CUT_MIN", "ZETA_MIN", "ClusteredModes", "cluster_modes",
-           "pole_distances"]
+__all__ = ["CUT_MAX", "CUT_MIN", "HARMONIC_KURTOSIS", "ZETA_MIN", "ClusteredModes",
+           "cluster_modes", "is_harmonic", "pole_distances"]
 
 CUT_MIN = 0.015
 """Smallest cut-off distance (1.5 % in frequency with equal shapes): the poles of a
@@ -70,6 +73,35 @@ MIN_COLUMN = 3
 ZETA_MIN = 0.001
 """Least damping of a physical pole (0.1 %): a harmonic in the response or a noise pole
 near the unit circle shows as a column damped at about zero."""
+HARMONIC_KURTOSIS = 2.2
+"""Largest kurtosis of a band-passed response read as a harmonic: a sine's is 1.5, the
+narrow-band response of a randomly excited mode is Gaussian, 3 (Brincker, Andersen &
+Moller 2000, "An indicator for separation of structural and harmonic modes in
+output-only modal testing")."""
+
+
+def is_harmonic(y: FloatArray, fs_hz: float, f_hz: float, rel_band: float = 0.01,
+                kurtosis_max: float = HARMONIC_KURTOSIS) -> bool:
+    """Whether the response ``y`` (n_ch, nt) holds a harmonic at ``f_hz``.
+
+    Each channel is band-passed to ``f_hz * (1 -+ rel_band)`` (a 4th-order Butterworth,
+    forward and backward); the channel with the most power there decides: its kurtosis
+    (fourth moment over the squared variance) at most ``kurtosis_max`` is a sine's
+    bimodal amplitude distribution, above it a random response's Gaussian one.
+    """
+    from scipy.signal import butter, sosfiltfilt
+    from scipy.stats import kurtosis
+
+    y = np.atleast_2d(np.asarray(y, float))
+    lo, hi = f_hz * (1.0 - rel_band), f_hz * (1.0 + rel_band)
+    if not (0.0 < lo < hi < 0.5 * fs_hz) or y.shape[1] < 64:
+        return True  # cannot tell: the damping rule stands
+    sos = butter(4, [lo, hi], btype="bandpass", fs=fs_hz, output="sos")
+    yb = sosfiltfilt(sos, y, axis=1)
+    skip = min(y.shape[1] // 10, int(10 * fs_hz / max(hi - lo, 1e-12)))  # filter transients
+    yb = yb[:, skip: y.shape[1] - skip]
+    best = int(np.argmax(np.var(yb, axis=1)))
+    return bool(kurtosis(yb[best], fisher=False) <= kurtosis_max)
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,6 +180,7 @@ def _empty(n_ch: int, method: str) -> ModalModel:
 def cluster_modes(diagram: StabilizationDiagram, *, zeta_max: float = 0.2,
                   zeta_min: float = ZETA_MIN,
                   f_range_hz: tuple[float, float] | None = None,
+                  harmonic: Callable[[float], bool] | None = None,
                   frac_orders: float = 0.2, rel_size: float = 0.35, mpc_min: float = 0.0,
                   zeta_cv_max: float = 1.0,
                   rel_tol_dup: float = 0.02, mac_dup: float = 0.8) -> ClusteredModes:
@@ -163,6 +196,11 @@ def cluster_modes(diagram: StabilizationDiagram, *, zeta_max: float = 0.2,
     f_range_hz : (float, float), optional
         Report modes in this band only (a column outside it that would be a mode is
         listed as dropped).
+    harmonic : callable, optional
+        ``harmonic(f_hz)``: whether the record holds a harmonic at ``f_hz``
+        (:func:`is_harmonic` on the response). A cluster damped below ``zeta_min`` at its
+        median is then kept down to zero damping unless it is one; without it every
+        pole damped below ``zeta_min`` is removed.
     frac_orders : float
         A mode's cluster keeps poles at this fraction of the model orders (at least 3).
     rel_size : float
@@ -209,7 +247,11 @@ def cluster_modes(diagram: StabilizationDiagram, *, zeta_max: float = 0.2,
     for c in np.unique(lab):
         idx = rep[lab == c]
         if idx.size >= MIN_COLUMN:  # fewer: scattered poles, not a column
-            ok = idx[(t.z[idx] > zeta_min) & (t.z[idx] < zeta_max)]
+            z_lo = zeta_min
+            if (harmonic is not None and np.median(t.z[idx]) <= zeta_min
+                    and not harmonic(float(np.median(t.f[idx])))):
+                z_lo = 0.0  # a lightly damped mode of a randomly driven response
+            ok = idx[(t.z[idx] > z_lo) & (t.z[idx] < zeta_max)]
             groups.append((idx, ok, _damping_inliers(_one_per_order(ok, t), t.z)))
     inside = [bool(lo <= np.median(t.f[g[0]]) <= hi) for g in groups]
     n_min = max(n_min, int(np.ceil(rel_size * max(

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -48,7 +48,7 @@ from modal_twin.acquisition.decimation import decimate
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError, SignalError
 from modal_twin.identification.auto import AutoSettings, choose_settings, rms_spread
-from modal_twin.identification.clustering import ZETA_MIN, cluster_modes
+from modal_twin.identification.clustering import ZETA_MIN, cluster_modes, is_harmonic
 from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
 from modal_twin.identification.polymax import polymax
@@ -443,12 +443,13 @@ def _coherence(u: FloatArray, y: FloatArray, fs_hz: float, band: tuple[float, fl
 
 
 def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float],
-            notes: list[str]) -> tuple[StabilizationDiagram, ModalModel, bool,
-                                       list[DroppedColumn]]:
+            notes: list[str], harmonic: Callable[[float], bool] | None = None
+            ) -> tuple[StabilizationDiagram, ModalModel, bool, list[DroppedColumn]]:
     rule = opts.selection or ("stability" if sweep.method == "polymax" else "clusters")
     if rule == "clusters":
         diag = stabilization_diagram(sweep, **opts.thresholds)
-        cm = cluster_modes(diag, zeta_max=opts.zeta_max, f_range_hz=band, mpc_min=MPC_MIN)
+        cm = cluster_modes(diag, zeta_max=opts.zeta_max, f_range_hz=band, mpc_min=MPC_MIN,
+                           harmonic=harmonic)
         notes.append(f"modes by clustering the poles of {len(sweep.orders)} orders: cut-off "
                      f"distance {cm.cutoff:.3f} from the data, a mode needs {cm.n_min} poles "
                      f"with damping in ({100 * ZETA_MIN:g}, {100 * opts.zeta_max:g} %) and MPC >= "
@@ -552,7 +553,9 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
         yq, uq = y, u
     spectra: list[_Spectra] = []
     sweep = _sweep(method, uq, yq, s, opts.n_blocks_std, notes, spectra)
-    diag, mm, relaxed, drop = _select(sweep, opts, s.band_hz, notes)
+    diag, mm, relaxed, drop = _select(
+        sweep, opts, s.band_hz, notes,
+        harmonic=lambda f: is_harmonic(yq, s.fs_hz, f))  # a column damped at about zero
     if spectra:
         mm = _lsfd_shapes(mm, spectra[0], s.band_hz)
     return RecordModes(method, tuple(ins), tuple(outs), s, sweep, diag, mm, relaxed,

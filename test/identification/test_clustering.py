@@ -195,3 +195,23 @@ def test_the_building_isolation_modes_complex_and_0_9_percent_apart() -> None:
     f_true = f_true[f_true < 20.0]
     assert rec.modes.f_hz.size == f_true.size == 11
     np.testing.assert_allclose(rec.modes.f_hz, f_true, rtol=0.005)
+
+
+def test_a_harmonic_is_told_from_a_lightly_damped_mode_by_its_kurtosis() -> None:
+    """Brincker et al. (2000): a sine band-passed keeps kurtosis 1.5, a randomly driven
+    mode's narrow-band response is Gaussian (3), however lightly damped."""
+    import scipy.signal as sig
+
+    from modal_twin.identification.clustering import is_harmonic
+
+    fs, n = 400.0, 80_000
+    rng = np.random.default_rng(5)
+    t = np.arange(n) / fs
+    sine = np.sin(2 * np.pi * 37.0 * t) + 0.3 * rng.standard_normal(n)
+    assert is_harmonic(sine[None, :], fs, 37.0)
+    # an SDOF at 37 Hz, 0.05 % damped, driven by white noise (exact discretisation)
+    w, z = 2 * np.pi * 37.0, 0.0005
+    sysd = sig.cont2discrete(([1.0], [1.0, 2 * z * w, w * w]), 1 / fs, method="zoh")
+    mode = sig.lfilter(np.ravel(sysd[0]), sysd[1], rng.standard_normal(n))
+    noisy = mode + 0.05 * np.std(mode) * rng.standard_normal(n)
+    assert not is_harmonic(np.vstack([0.01 * noisy, noisy]), fs, 37.0)
