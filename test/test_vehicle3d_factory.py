@@ -135,3 +135,22 @@ def test_a_worn_yaw_damper_law_moves_the_lateral_floor(factory: Vehicle3DFactory
     assert np.std(y1[i] - y0[i]) > 1e-3 * np.std(y0[i])
     j = names.index("yaw_damper_1L_fx")  # along x (longitudinal anti-yaw damper)
     assert p1.sources[j][0] == "force"  # the device's force is the channel
+
+
+def test_the_shell_car_plant_is_the_shell_cars_model(factory: Vehicle3DFactory) -> None:
+    # the carbody by option: the Craig-Bampton shell in the same second-order form
+    from modal_twin.models.vehicle3d import default_carbody
+    from modal_twin.models.vehicle3d_factory import build_vehicle3d_plant
+
+    spec = factory.spec.with_carbody("shell")
+    cb = default_carbody(spec)
+    assert cb.n > 6
+    p = build_vehicle3d_plant(spec, carbody=cb)
+    v = build_vehicle3d(spec, cb)
+    A, B = v.state_space(spec.speed)
+    Cy, Dy, _ = v.floor_outputs(A, B)
+    for f_hz in (1.0, 9.0):
+        w = 2 * np.pi * f_hz
+        Hv = Cy @ np.linalg.solve(1j * w * np.eye(A.shape[0]) - A, B) + Dy
+        H = _frf(p.system, w)[:6]
+        assert np.abs(H - Hv).max() <= 1e-9 * np.abs(Hv).max()
