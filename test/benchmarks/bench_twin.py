@@ -87,6 +87,7 @@ from modal_twin.models.devices import (
 )
 from modal_twin.models.devices._dispatch import evaluate_law
 from modal_twin.models.devices.linear import LinearDevice
+from modal_twin.models.plant import Plant
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
 from modal_twin.twin.kernels import BlockRows, gemv_dot4, gemv_t, project_inputs, run_block
 from modal_twin.twin.simulator import Simulator
@@ -332,6 +333,19 @@ def loop_seconds(sim: Simulator, ag: np.ndarray, repeat: int) -> tuple[float, fl
     return t_in, t_loop - t_in
 
 
+def plant_rtf(plant: Plant, u: np.ndarray, fs_hz: float, repeat: int) -> float:
+    """CPU real-time factor of a plant's twin on the inputs ``u`` (best of ``repeat``)."""
+    sim = Simulator(plant.system, 1.0 / fs_hz, modal_histories=False)
+    sim.step_block(u[:, :50])
+    best = np.inf
+    for _ in range(repeat):
+        sim.reset()
+        c0 = time.process_time()
+        plant.measure(sim.step_block(u))
+        best = min(best, time.process_time() - c0)
+    return u.shape[1] / fs_hz / best
+
+
 def vehicle_rtf(repeat: int, fs_hz: float, secondary_devices: bool) -> float:
     """CPU real-time factor of the trailer-car twin (S2) on 60 s of track at 300 km/h."""
     from modal_twin.models.track import random_profile, wheelset_inputs
@@ -342,15 +356,7 @@ def vehicle_rtf(repeat: int, fs_hz: float, secondary_devices: bool) -> float:
     u = wheelset_inputs(random_profile(spec.speed * T + 40.0, rng=1), spec.axle_x,
                         spec.speed, fs_hz, T)
     plant = build_vehicle(spec, secondary_devices=secondary_devices)
-    sim = Simulator(plant.system, 1.0 / fs_hz, modal_histories=False)
-    sim.step_block(u[:, :50])
-    best = np.inf
-    for _ in range(repeat):
-        sim.reset()
-        c0 = time.process_time()
-        plant.measure(sim.step_block(u))
-        best = min(best, time.process_time() - c0)
-    return T / best
+    return plant_rtf(plant, u, fs_hz, repeat)
 
 
 def vehicle3d_rtf(repeat: int, fs_hz: float, carbody: str = "rigid") -> float:
@@ -368,15 +374,7 @@ def vehicle3d_rtf(repeat: int, fs_hz: float, carbody: str = "rigid") -> float:
                         start_m=30.0)
     sites = tuple(Vehicle3DFactory(DEFAULT_VEHICLE3D_YAML).sites)  # the same for both
     plant = build_vehicle3d_plant(spec, device_channels=sites)
-    sim = Simulator(plant.system, 1.0 / fs_hz, modal_histories=False)
-    sim.step_block(u[:, :50])
-    best = np.inf
-    for _ in range(repeat):
-        sim.reset()
-        c0 = time.process_time()
-        plant.measure(sim.step_block(u))
-        best = min(best, time.process_time() - c0)
-    return T / best
+    return plant_rtf(plant, u, fs_hz, repeat)
 
 
 def opensees_peer(ag6: np.ndarray, dt: float, seconds: float) -> dict[str, float] | None:
