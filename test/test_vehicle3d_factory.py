@@ -122,11 +122,12 @@ def test_force_channels_are_the_elements_laws(factory: Vehicle3DFactory) -> None
 
 
 def test_a_worn_yaw_damper_law_moves_the_lateral_floor(factory: Vehicle3DFactory) -> None:
-    # a linear law at a Maxwell site is the dashpot alone; at 30 % of c the lateral floor
-    # response changes, the vertical hardly
+    # a linear law at a Maxwell site is its joint and dashpot in parallel; with 30 % of c
+    # the lateral floor response changes
     w = _track(1600)
     p0 = factory.plant()
     c = factory.sites["yaw_damper_1L"].c[0]
+    assert factory.sites["yaw_damper_1L"].k[0] == factory.spec.v("yaw_damper", "k_series")
     p1 = factory.plant([EffectSpec("yaw_damper_1L", "linear", {"c": 0.3 * c})])
     y0 = p0.measure(simulate(p0.system, w, 1.0 / FS))
     y1 = p1.measure(simulate(p1.system, w, 1.0 / FS))

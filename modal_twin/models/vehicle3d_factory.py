@@ -23,11 +23,12 @@ Device sites: every suspension element whose elongation holds no track input (``
 the anti-roll bars and the primary springs in x and y; the primary vertical springs and
 dashpots are not sites (their stroke holds the track's vertical profile and cross level,
 which a device's drift ``B x`` cannot). A device law placed at a site replaces the whole
-element; the registry's ``linear`` law at a spring or dashpot site is the element itself
-(its :class:`~modal_twin.models.structure_yaml.DeviceSpec` carries the element's ``k``
-and ``c``); at a Maxwell site the spec carries the dashpot ``c`` and no stiffness (a
-``linear`` law there is the dashpot without its series joint, the Maxwell element below
-its corner ``k / (2 pi c)``). Parameters ``k_<element>`` and ``c_<element>`` (a Maxwell
+element; the registry's ``linear`` law at a spring site is the element itself (its
+:class:`~modal_twin.models.structure_yaml.DeviceSpec` carries the element's ``k`` and
+``c``); at a Maxwell site the spec carries the series joint's ``k`` and the dashpot's ``c``
+(the scale of the registry's relative laws), so a ``linear`` law there is the two in
+parallel, not the Maxwell element (the model itself keeps the Maxwell element until a law
+replaces it). Parameters ``k_<element>`` and ``c_<element>`` (a Maxwell
 element's ``k`` is its series stiffness) change one element's values.
 
 Channels: the floor accelerations ``floor_<label>_z`` / ``_y`` (m/s^2, absolute), then of
@@ -290,7 +291,7 @@ class Vehicle3DFactory:
         """Device sites (module docstring) with their ``k`` and ``c`` now."""
         out = {}
         for j, el in enumerate(e for e in self.elements() if _is_site(e)):
-            k = 0.0 if el.kind in ("maxwell", "damper") else el.k
+            k = 0.0 if el.kind == "damper" else el.k
             c = 0.0 if el.kind == "spring" else el.c
             out[el.name] = DeviceSpec(el.name, j, np.array([k, k]), np.array([c, c]), 0.0,
                                       "linear")

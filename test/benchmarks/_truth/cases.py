@@ -375,6 +375,14 @@ NEW_CASES: tuple[Case, ...] = (
          (Hidden("damping", "yaw_damper_1L", aliases=("c_yaw_damper_1L", "yaw damper 1L")),),
          lambda: Vehicle3DTruth(damper_wear=("yaw_damper_1L", 0.3)), 2.0, seed=71,
          new=True),
+    # ... and the same with the strokes and forces of the four yaw and two lateral dampers
+    # recorded (0.05 % noise there)
+    Case("new_veh3d_worn_yaw_damper_1L_strokes", "vehicle3d",
+         (Hidden("damping", "yaw_damper_1L", aliases=("c_yaw_damper_1L", "yaw damper 1L")),),
+         lambda: Vehicle3DTruth(damper_wear=("yaw_damper_1L", 0.3), device_channels=(
+             "yaw_damper_1L", "yaw_damper_1R", "yaw_damper_2L", "yaw_damper_2R",
+             "lateral_damper_1", "lateral_damper_2")), 2.0, seed=72, new=True,
+         quiet_pct=0.05),
 )
 
 

@@ -6,7 +6,9 @@ damper's coefficient changed in the truth's own copy and the truth's own RK4 int
 its integrator.
 
 Channels: the floor accelerations ``floor_<label>_z`` / ``_y`` (absolute, the car's output
-rows), in the library plant's order.
+rows), in the library plant's order; with ``device_channels`` also the stroke ``d = g' q``
+and force ``k (d - e)`` of the Maxwell dampers named there (``<damper>_d<axis>``,
+``<damper>_f<axis>``: x of a yaw damper, y of a lateral one, z of a vertical one).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ class Vehicle3DTruth:
     """
 
     damper_wear: tuple[str, float] | None = None
+    device_channels: tuple[str, ...] = ()
     vehicle_file: Path = VEHICLE3D_YAML
 
     def __post_init__(self) -> None:
@@ -51,13 +54,14 @@ class Vehicle3DTruth:
 
     def channel_names(self) -> tuple[str, ...]:
         """Floor accelerations, vertical then lateral per point (the library's order)."""
-        return tuple(f"floor_{p.label}_{a}" for p in self.spec.floor_points for a in "zy")
+        floor = tuple(f"floor_{p.label}_{a}" for p in self.spec.floor_points for a in "zy")
+        return floor + tuple(f"{d}_{q}{_axis(d)}" for q in "df" for d in self.device_channels)
 
     def simulate(self, w: FloatArray, fs_hz: float) -> FloatArray:
         """Clean channels (n_ch, nt) for the track inputs ``w`` (24, nt), RK4."""
         A, B = self.vm.state_space(self.spec.speed)
         Cy, Dy, names = self.vm.floor_outputs(A, B)
-        assert tuple(names) == self.channel_names()
+        assert tuple(names) == self.channel_names()[: len(names)]
         lam_max = float(np.abs(np.linalg.eigvals(A)).max())
         n_sub = max(2, int(np.ceil(lam_max / (0.6 * fs_hz))))  # |lambda| h <= 0.6
         h = 1.0 / (fs_hz * n_sub)
@@ -78,7 +82,16 @@ class Vehicle3DTruth:
                 k4 = A @ (s + h * k3) + fb
                 s = s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
             S[:, k + 1] = s
-        return Cy @ S + Dy @ w
+        out = [Cy @ S + Dy @ w]
+        n, vm = self.vm.n_dof, self.vm
+        j = [vm.maxwell_names.index(d) for d in self.device_channels]
+        stroke = vm.Gm[:, j].T @ S[:n]
+        out += [stroke, vm.km[j, None] * (stroke - S[2 * n:][j])]
+        return np.vstack(out)
+
+
+def _axis(damper: str) -> str:
+    return {"yaw": "x", "lateral": "y", "vertical": "z"}[damper.split("_")[0]]
 
 
 def track_inputs_3d(axle_x: tuple[float, ...], speed_kmh: float, seconds: float,
