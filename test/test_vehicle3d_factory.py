@@ -155,3 +155,16 @@ def test_the_shell_car_plant_is_the_shell_cars_model(factory: Vehicle3DFactory) 
         Hv = Cy @ np.linalg.solve(1j * w * np.eye(A.shape[0]) - A, B) + Dy
         H = _frf(p.system, w)[:6]
         assert np.abs(H - Hv).max() <= 1e-9 * np.abs(Hv).max()
+
+
+def test_a_file_without_yaw_dampers_has_no_yaw_damper_sites(factory: Vehicle3DFactory) -> None:
+    from modal_twin.models.vehicle3d_factory import build_vehicle3d_plant
+
+    spec = factory.spec.with_values(yaw_damper={"c": 0.0})
+    p = build_vehicle3d_plant(spec, device_channels=("lateral_damper_1",))
+    assert "lateral_damper_1_fy" in p.channel_names
+    with pytest.raises(OptionError):
+        build_vehicle3d_plant(spec, device_channels=("yaw_damper_1L",))
+    w = 2 * np.pi * 1.2
+    Hv = _car_frf(spec, w)
+    assert np.abs(_frf(p.system, w)[:6] - Hv).max() <= 1e-10 * np.abs(Hv).max()

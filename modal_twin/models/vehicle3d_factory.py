@@ -82,7 +82,9 @@ _BOUNDS: dict[str, tuple[Kind, str, float, float]] = {
 
 
 def _is_site(el: SuspensionElement) -> bool:
-    return not np.any(el.h) and (el.k > 0.0 or el.c > 0.0)
+    # a Maxwell damper switched off (c = 0) is no element of the car (vehicle3d)
+    acts = el.c > 0.0 if el.kind == "maxwell" else (el.k > 0.0 or el.c > 0.0)
+    return acts and not np.any(el.h)
 
 
 def _units(el: SuspensionElement) -> tuple[str, str]:
