@@ -114,6 +114,12 @@ def _factory_of(structure: str | Path, theta: Mapping[str, float] | None,
         from modal_twin.models.matrix_factory import MatrixFactory
 
         return MatrixFactory(structure, theta=theta, n_modes=n_modes)
+    from modal_twin.models.vehicle3d_spec import is_vehicle3d_file
+
+    if is_vehicle3d_file(structure):
+        from modal_twin.models.vehicle3d_factory import Vehicle3DFactory
+
+        return Vehicle3DFactory(structure, theta=theta)
     if is_vehicle_file(structure):
         from modal_twin.models.vehicle_factory import VehicleFactory
 

@@ -58,9 +58,14 @@ from modal_twin.models.wheel_rail import WheelRailContact, contact_matrices
 
 __all__ = [
     "SimulationResult",
+    "SuspensionElement",
     "Vehicle3D",
     "build_vehicle3d",
+    "carbody_full",
+    "default_carbody",
+    "mass_matrix",
     "propagate",
+    "suspension_elements",
     "zoh",
 ]
 
@@ -82,13 +87,35 @@ class _Anchor:
 
 
 @dataclass(frozen=True, slots=True)
-class _Element:
+class SuspensionElement:
+    """One suspension element: its elongation ``d = g' q + h' u`` and its law.
+
+    Attributes
+    ----------
+    name : str
+        ``primary_1L_y``, ``air_spring_2R_z``, ``yaw_damper_1L``, ``anti_roll_bar_2`` ...
+    kind : {"spring", "damper", "maxwell"}
+        Spring ``k d``, dashpot ``c d'``, or Maxwell (dashpot ``c`` behind ``k``; module
+        docstring).
+    g : (n,) float array
+        Elongation per coordinate ``q``.
+    h : (12,) float array
+        Elongation per track input ``u``.
+    k, c : float
+    axis : {"x", "y", "z"}
+        Direction the element acts along (the anti-roll bar: ``x``, a roll, rad).
+    """
+
     name: str
     kind: str  # spring | damper | maxwell
     g: FloatArray
     h: FloatArray
     k: float = 0.0
     c: float = 0.0
+    axis: str = "z"
+
+
+_Element = SuspensionElement
 
 
 @dataclass(frozen=True, slots=True)
@@ -383,7 +410,8 @@ def _element(name: str, kind: str, A: tuple[FloatArray, FloatArray],
              Bp: tuple[FloatArray, FloatArray], e: FloatArray, k: float = 0.0,
              c: float = 0.0) -> _Element:
     """Element along ``e`` from a point of body A to the same point of body B."""
-    return _Element(name, kind, e @ (Bp[0] - A[0]), e @ (Bp[1] - A[1]), k, c)
+    return _Element(name, kind, e @ (Bp[0] - A[0]), e @ (Bp[1] - A[1]), k, c,
+                    "xyz"[int(np.argmax(np.abs(e)))])
 
 
 def _primary(spec: Vehicle3DSpec, n: int, b: int, bog: _Anchor,
@@ -433,7 +461,7 @@ def _secondary(spec: Vehicle3DSpec, carbody: ReducedCarbody, n: int, b: int,
     out.append(_element(f"traction_rod_{b + 1}", "spring", bog.at(pc), car_c, ex,
                         k=v("traction_rod", "kx")))
     out.append(_Element(f"anti_roll_bar_{b + 1}", "spring", (seat_dz[0] - seat_dz[1]) / (2.0 * ds),
-                        np.zeros(N_U), k=v("anti_roll_bar", "k_roll")))
+                        np.zeros(N_U), k=v("anti_roll_bar", "k_roll"), axis="x"))
     return out
 
 
@@ -451,7 +479,10 @@ def _mass(spec: Vehicle3DSpec, carbody: ReducedCarbody, n: int) -> FloatArray:
     return M
 
 
-def _default_carbody(spec: Vehicle3DSpec) -> ReducedCarbody:
+def default_carbody(spec: Vehicle3DSpec) -> ReducedCarbody:
+    """Return the spec's carbody: rigid (its mass and inertia) or the shell (``carbody_model``)."""
+    if spec.carbody_model == "shell":
+        return vehicle_shell_carbody(spec)
     v = spec.v
     ds, hs = v("secondary", "half_spacing"), v("secondary", "seat_height")
     seats = {f"seat_{i + 1}{side}": (x, sgn * ds, hs) for i, x in enumerate(spec.pivot_x)
@@ -474,12 +505,7 @@ def build_vehicle3d(spec: Vehicle3DSpec, carbody: ReducedCarbody | None = None) 
         vehicle_shell_carbody`; some seconds to build and reduce, kept in memory).
     """
     v = spec.v
-    if carbody is not None:
-        cb = carbody
-    elif spec.carbody_model == "shell":
-        cb = vehicle_shell_carbody(spec)
-    else:
-        cb = _default_carbody(spec)
+    cb = carbody if carbody is not None else default_carbody(spec)
     nc = cb.n
     n = nc + 2 * 6 + 2 * N_AXLES
     names = [f"car_{k}" for k in cb.coordinate_names]
@@ -488,11 +514,7 @@ def build_vehicle3d(spec: Vehicle3DSpec, carbody: ReducedCarbody | None = None) 
     for a in range(1, N_AXLES + 1):
         names += [f"ws{a}_y", f"ws{a}_yaw"]
     ws = [(nc + 12 + 2 * a, nc + 13 + 2 * a) for a in range(N_AXLES)]
-    els: list[_Element] = []
-    for b in range(2):
-        bog = _body_anchor(n, nc + 6 * b, np.array([spec.pivot_x[b], 0.0,
-                                                    v("bogie", "cg_height")]))
-        els += _primary(spec, n, b, bog, ws) + _secondary(spec, cb, n, b, bog)
+    els = suspension_elements(spec, cb)
     K, C = carbody_full(cb, n)
     Bu, Bdu = np.zeros((n, N_U)), np.zeros((n, N_U))
     mx = [el for el in els if el.kind == "maxwell" and el.c > 0.0]
@@ -513,6 +535,29 @@ def build_vehicle3d(spec: Vehicle3DSpec, carbody: ReducedCarbody | None = None) 
         km=np.array([el.k for el in mx]), cm=np.array([el.c for el in mx]),
         Bu=Bu, Bdu=Bdu, contact=contact, maxwell_names=tuple(el.name for el in mx),
         _wheelset_dofs=tuple(ws))
+
+
+def suspension_elements(spec: Vehicle3DSpec, carbody: ReducedCarbody
+                        ) -> list[SuspensionElement]:
+    """Every suspension element of the car on the coordinates of :func:`build_vehicle3d`.
+
+    Bogie 1's primary (axle boxes of wheelsets 1, 2) and secondary elements, then bogie
+    2's (module docstring); ``g`` has ``carbody.n + 20`` entries.
+    """
+    nc = carbody.n
+    n = nc + 2 * 6 + 2 * N_AXLES
+    ws = [(nc + 12 + 2 * a, nc + 13 + 2 * a) for a in range(N_AXLES)]
+    els: list[SuspensionElement] = []
+    for b in range(2):
+        bog = _body_anchor(n, nc + 6 * b, np.array([spec.pivot_x[b], 0.0,
+                                                    spec.v("bogie", "cg_height")]))
+        els += _primary(spec, n, b, bog, ws) + _secondary(spec, carbody, n, b, bog)
+    return els
+
+
+def mass_matrix(spec: Vehicle3DSpec, carbody: ReducedCarbody) -> FloatArray:
+    """Mass matrix of the car's coordinates ``q`` (carbody, bogies, wheelsets)."""
+    return _mass(spec, carbody, carbody.n + 2 * 6 + 2 * N_AXLES)
 
 
 def carbody_full(carbody: ReducedCarbody, n: int) -> tuple[FloatArray, FloatArray]:

@@ -72,6 +72,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import time
 from dataclasses import replace
@@ -90,7 +91,8 @@ from modal_twin.models.loading import load_model
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL_FILES = {"building": ROOT / "config" / "structures" / "building.yaml",
-               "vehicle": ROOT / "config" / "vehicles" / "trailer_car.yaml"}
+               "vehicle": ROOT / "config" / "vehicles" / "trailer_car.yaml",
+               "vehicle3d": ROOT / "config" / "vehicles" / "trailer_car_3d.yaml"}
 
 # ---------------------------------------------------------------------------------------
 # The adapter: the only code that knows the diagnosis API. It must return
@@ -113,6 +115,8 @@ def _claim_place(f: Any) -> str:
     if f.effect.law == "stiffness" and f.effect.component.startswith("kst_"):
         return f"columns:storey_{f.effect.component[4:]}"
     if f.effect.law in ("stiffness", "damping") and f.effect.component[:2] in ("k_", "c_"):
+        if re.search(r"_\d[LR]$", comp):  # the 3D car's element of a bogie and side
+            return comp[2:]  # c_yaw_damper_1L -> yaw_damper_1L
         return f.effect.component[2:].rsplit("_", 1)[0]  # k_RB2_x -> RB2
     return place
 

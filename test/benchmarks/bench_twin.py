@@ -37,6 +37,10 @@ The vehicle twin (``rtf_vehicle``): the S2 trailer car (config/vehicles/trailer_
 at 400 Hz on 60 s of track at 300 km/h, CPU time; ``rtf_vehicle_devices`` with the
 secondary suspension as devices.
 
+The 3D car's twin (``rtf_vehicle3d_cpu``, ``rtf_vehicle3d_shell_cpu``): the plant of
+config/vehicles/trailer_car_3d.yaml (rigid or shell carbody; floor accelerations and every
+device site's stroke and force) at 400 Hz on 60 s of track at 300 km/h, CPU time.
+
 The OpenSees peer (peer_opensees.py; skipped with a line saying so when openseespy is not
 importable, ``pip install -r requirements/bench.txt``): a shear-building equivalent of the
 same size (36 DOF, six bidirectional isolators at the same plan positions) simulated in
@@ -83,6 +87,7 @@ from modal_twin.models.devices import (
 )
 from modal_twin.models.devices._dispatch import evaluate_law
 from modal_twin.models.devices.linear import LinearDevice
+from modal_twin.models.plant import Plant
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
 from modal_twin.twin.kernels import BlockRows, gemv_dot4, gemv_t, project_inputs, run_block
 from modal_twin.twin.simulator import Simulator
@@ -328,6 +333,19 @@ def loop_seconds(sim: Simulator, ag: np.ndarray, repeat: int) -> tuple[float, fl
     return t_in, t_loop - t_in
 
 
+def plant_rtf(plant: Plant, u: np.ndarray, fs_hz: float, repeat: int) -> float:
+    """CPU real-time factor of a plant's twin on the inputs ``u`` (best of ``repeat``)."""
+    sim = Simulator(plant.system, 1.0 / fs_hz, modal_histories=False)
+    sim.step_block(u[:, :50])
+    best = np.inf
+    for _ in range(repeat):
+        sim.reset()
+        c0 = time.process_time()
+        plant.measure(sim.step_block(u))
+        best = min(best, time.process_time() - c0)
+    return u.shape[1] / fs_hz / best
+
+
 def vehicle_rtf(repeat: int, fs_hz: float, secondary_devices: bool) -> float:
     """CPU real-time factor of the trailer-car twin (S2) on 60 s of track at 300 km/h."""
     from modal_twin.models.track import random_profile, wheelset_inputs
@@ -338,15 +356,25 @@ def vehicle_rtf(repeat: int, fs_hz: float, secondary_devices: bool) -> float:
     u = wheelset_inputs(random_profile(spec.speed * T + 40.0, rng=1), spec.axle_x,
                         spec.speed, fs_hz, T)
     plant = build_vehicle(spec, secondary_devices=secondary_devices)
-    sim = Simulator(plant.system, 1.0 / fs_hz, modal_histories=False)
-    sim.step_block(u[:, :50])
-    best = np.inf
-    for _ in range(repeat):
-        sim.reset()
-        c0 = time.process_time()
-        plant.measure(sim.step_block(u))
-        best = min(best, time.process_time() - c0)
-    return T / best
+    return plant_rtf(plant, u, fs_hz, repeat)
+
+
+def vehicle3d_rtf(repeat: int, fs_hz: float, carbody: str = "rigid") -> float:
+    """CPU real-time factor of the 3D car's twin (the factory's plant of
+    config/vehicles/trailer_car_3d.yaml with ``carbody``, its floor accelerations and every
+    site's stroke and force) on 60 s of low-interference track at the file's speed."""
+    from modal_twin.models.track3d import random_track_3d, track_inputs_3d
+    from modal_twin.models.vehicle3d_factory import Vehicle3DFactory, build_vehicle3d_plant
+    from modal_twin.models.vehicle3d_spec import DEFAULT_VEHICLE3D_YAML, load_vehicle3d
+
+    T = 60.0
+    spec = load_vehicle3d().with_carbody(carbody)
+    v = spec.speed
+    u = track_inputs_3d(random_track_3d(v * T + 60.0, rng=1), spec.axle_x, v, fs_hz, T,
+                        start_m=30.0)
+    sites = tuple(Vehicle3DFactory(DEFAULT_VEHICLE3D_YAML).sites)  # the same for both
+    plant = build_vehicle3d_plant(spec, device_channels=sites)
+    return plant_rtf(plant, u, fs_hz, repeat)
 
 
 def opensees_peer(ag6: np.ndarray, dt: float, seconds: float) -> dict[str, float] | None:
@@ -464,6 +492,7 @@ def main() -> None:
     limit = machine_chain_gflops(sim, args.repeat)
     rtf_veh = vehicle_rtf(args.repeat, 400.0, secondary_devices=False)
     rtf_veh_dev = vehicle_rtf(args.repeat, 400.0, secondary_devices=True)
+    rtf_veh3d = {m: vehicle3d_rtf(args.repeat, 400.0, m) for m in ("rigid", "shell")}
     peer = opensees_peer(ag, dt, args.peer_seconds)
     cache = "cold (empty cache dir)" if args.cold else "warm (numba cache loaded if present)"
     print(f"compile, {cache}: {t_compile:.2f} s (cond V = {sim.cond_V:.2e})")
@@ -490,6 +519,9 @@ def main() -> None:
           f"({flops / limit:.0f} ns per step); ratio {gflops / limit:.2f}")
     print(f"vehicle twin (S2 trailer car, 400 Hz, 60 s of track): CPU RTF {rtf_veh:.0f}; with "
           f"the secondary suspension as devices {rtf_veh_dev:.0f}")
+    print(f"3D car twin (trailer_car_3d.yaml, 400 Hz, 60 s, floor and every site's stroke "
+          f"and force): CPU RTF rigid carbody {rtf_veh3d['rigid']:.0f}, shell carbody "
+          f"{rtf_veh3d['shell']:.0f}")
     ratio = nrmse = None
     if peer is not None:
         nrmse = peer["linear_nrmse_base_pct"]
@@ -501,6 +533,8 @@ def main() -> None:
         "rtf_building": round(rtf, 1),
         "rtf_vehicle": round(rtf_veh, 1),
         "rtf_vehicle_devices": round(rtf_veh_dev, 1),
+        "rtf_vehicle3d_cpu": round(rtf_veh3d["rigid"], 1),
+        "rtf_vehicle3d_shell_cpu": round(rtf_veh3d["shell"], 1),
         "us_per_step": round(us, 3),
         "us_per_step_loop": round(us_loop, 3),
         "us_per_step_inputs": round(us_in, 3),
