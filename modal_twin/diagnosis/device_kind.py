@@ -12,7 +12,7 @@ entry lists several reports the one its fitted parameters show (:func:`family_of
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
@@ -254,9 +254,12 @@ def _site_evidence(rnd: Round, comp: str
         u, f = rec.channels(cols[0]), rec.channels(cols[1])
         fv = [(noise[n] * float(np.std(f[j]))) ** 2 for j, n in enumerate(cols[1])]
         ev = device_evidence(comp, u, f, spec.k, spec.c, rec.fs_hz, noise_var=fv)
-        first = first or (ev, u, f, rec.fs_hz)
         if _top_family(ev) != "nothing":
+            if first is not None:  # another level than the first one measured
+                ev = replace(ev, notes=(*ev.notes, f"from {rec.source or f'record {i}'}: "
+                                        "the training record names no family here"))
             return ev, u, f, rec.fs_hz
+        first = first or (ev, u, f, rec.fs_hz)
     return first
 
 

@@ -168,3 +168,4 @@ def test_a_slider_hidden_at_one_level_is_named_from_another() -> None:
     assert {"stick_slip", "regularised_friction"} <= set(both.laws)
     start = {s.law: s.params for s in both.screened}["regularised_friction"]
     assert 1.5e4 < start["Fk"] < 6.0e4
+    assert "from level 0.0025 m: the training record names no family" in both.evidence.format()
