@@ -373,11 +373,18 @@ def fit_effect(
     x0 = np.clip(to_x(start), lo + 1e-9, hi - 1e-9)
     objective = SimulationObjective(
         lambda x: factory.plant([EffectSpec(component, law, to_params(x))]), train, decimate)
-    x0 = threshold_start(objective, [names.index(n) for n in THRESHOLDS.get(law, ())
-                                     if n in names], x0, lo, hi)
-    x0 = _classical_first(objective, law, names, x0, lo, hi, max_nfev)
-    sol = least_squares(objective, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
-                        x_scale="jac")
+    # the screened start and, for a law with thresholds, the best of a grid over them: each
+    # refined, the lower end kept (never worse than the screened start alone)
+    starts = [x0]
+    grid = threshold_start(objective, [names.index(n) for n in THRESHOLDS.get(law, ())
+                                       if n in names], x0, lo, hi)
+    if not np.array_equal(grid, x0):
+        starts.append(grid)
+    ends = [least_squares(objective, _classical_first(objective, law, names, xs, lo, hi,
+                                                      max_nfev),
+                          bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev, x_scale="jac")
+            for xs in starts]
+    sol = min(ends, key=lambda e: float(e.cost))
     params = to_params(sol.x)
     effect = EffectSpec(component, law, {n: params[n] for n in names if n in params}
                         if law != "linear" else params)
@@ -395,6 +402,9 @@ def threshold_start(objective: Callable[[FloatArray], FloatArray], axes: Sequenc
     the best point so far), and the point of least ``sum(objective(x)^2)`` is kept; ``x0``
     (the screened start) stays unless a grid point is lower. One simulation per point
     (``n`` per threshold); nothing is evaluated when ``axes`` is empty.
+    :func:`fit_effect` refines from both ``x0`` and this point and keeps the lower end: a
+    lower cost at a grid point (the other parameters held at their start) need not lie in
+    the basin of the lowest minimum.
     """
     x0 = np.asarray(x0, float)
     if not len(axes):
