@@ -12,7 +12,7 @@ entry lists several reports the one its fitted parameters show (:func:`family_of
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
@@ -169,22 +169,19 @@ class DeviceKind(PlacedEffect):
         Sets ``rnd.evidence_family`` (site -> the family its evidence names first).
         """
         rnd.say("gathering evidence at the devices (force-state maps, cycles)")
-        factory, train = rnd.factory, rnd.train
+        factory = rnd.factory
         carried = {e.component for e in factory.base_effects}
-        tr_noise = dict(zip(train.channel_names, rnd.noise[0], strict=True))
         out: list[DeviceCandidate] = []
         for comp in (s for s in factory.sites if s not in carried):
-            cols = measured_device(rnd.nominal.channels, train, comp)
-            if cols is None:
+            found = _site_evidence(rnd, comp)
+            if found is None:
                 continue
-            u, f = train.channels(cols[0]), train.channels(cols[1])
-            fv = [(tr_noise[n] * float(np.std(f[i]))) ** 2 for i, n in enumerate(cols[1])]
+            ev, u, f, fs_hz = found
             spec = factory.sites[comp]
-            ev = device_evidence(comp, u, f, spec.k, spec.c, train.fs_hz, noise_var=fv)
             rnd.evidence_family[comp] = _top_family(ev)
             laws = _laws_named(ev, rnd.n_families)
             scr = screen_components({comp: u}, {comp: f}, {comp: spec},
-                                    {comp: factory.weight(comp)}, train.fs_hz,
+                                    {comp: factory.weight(comp)}, fs_hz,
                                     laws=tuple(x for x in laws if x != "linear")) if laws else []
             out.append(DeviceCandidate(ev, laws, tuple(scr)))
         if not out and factory.sites:
@@ -279,6 +276,37 @@ class DeviceKind(PlacedEffect):
             return {n: v for n, v in to_p(x).items() if keep_all or n in names}
 
         return len(names), params, x0, lo_x, hi_x
+
+
+def _site_evidence(rnd: Round, comp: str
+                   ) -> tuple[DeviceEvidence, np.ndarray, np.ndarray, float] | None:
+    """Return the evidence at ``comp`` and the drift, force and rate it comes from.
+
+    From the training record; when it names no family there, from the first other level
+    the fits use (``rnd.fit_on``) whose evidence names one: a law with a threshold (a
+    friction force, a clearance) can leave a small share of the force at one level (a
+    slider that slips beside a large viscous force) and most of it at another (the same
+    slider stuck at a low level). None when the site's drift and force are not measured.
+    """
+    spec = rnd.factory.sites[comp]
+    first: tuple[DeviceEvidence, np.ndarray, np.ndarray, float] | None = None
+    for i, rec in enumerate(rnd.records):
+        if i == 1:  # the held-out record never informs a candidate
+            continue
+        cols = measured_device(rnd.nominal.channels, rec, comp)
+        if cols is None:
+            continue
+        noise = dict(zip(rec.channel_names, rnd.noise[i], strict=True))
+        u, f = rec.channels(cols[0]), rec.channels(cols[1])
+        fv = [(noise[n] * float(np.std(f[j]))) ** 2 for j, n in enumerate(cols[1])]
+        ev = device_evidence(comp, u, f, spec.k, spec.c, rec.fs_hz, noise_var=fv)
+        if _top_family(ev) != "nothing":
+            if first is not None:  # another level than the first one measured
+                ev = replace(ev, notes=(*ev.notes, f"from {rec.source or f'record {i}'}: "
+                                        "the training record names no family here"))
+            return ev, u, f, rec.fs_hz
+        first = first or (ev, u, f, rec.fs_hz)
+    return first
 
 
 def _laws_named(ev: DeviceEvidence, n_families: int) -> tuple[str, ...]:

@@ -233,7 +233,8 @@ class DeviceEvidence:
                 f"dashpot's, ln E / ln A slope {self.energy_slope:.2f}, secant k / k slope "
                 f"{self.k_secant_slope:+.3f} over amplitude; dk/k {self.dk_ratio:+.3f}, dc/c "
                 f"{self.dc_ratio:+.3f}\n    explained share of the residual: {fam}\n"
-                f"    significant: {sig or 'none'}")
+                f"    significant: {sig or 'none'}"
+                + "".join(f"\n    note: {n}" for n in self.notes))
 
 
 def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[float],

@@ -29,7 +29,7 @@ from modal_twin.models.plant import Plant
 from modal_twin.twin.simulator import Simulator
 
 __all__ = ["FittedEffect", "SimulationObjective", "fit_effect", "judge_fit", "normalised_residual",
-           "record_nmse", "simulate_record"]
+           "record_nmse", "simulate_record", "threshold_start"]
 
 log = logging.getLogger(__name__)
 
@@ -183,6 +183,15 @@ SWITCHED_OFF: dict[str, dict[str, int]] = {
 # of those, the optional extensions of a law (fitted once its classical form is)
 EXTENSIONS: dict[str, tuple[str, ...]] = {"stick_slip": ("kp", "v_s"),
                                           "regularised_friction": ("kp",), "gap": ("n",)}
+# laws whose force has a threshold (a friction force, a yield drift, a clearance) and the
+# parameters that hold it (each the log of the threshold in the bounded space): where the
+# threshold lies beyond what the record reaches the law is linear and the residual flat in
+# it, so a local fit started there stays there (:func:`threshold_start`)
+THRESHOLDS: dict[str, tuple[str, ...]] = {
+    "stick_slip": ("Fk",), "regularised_friction": ("Fk",), "bilinear": ("ub",),
+    "bilinear_hysteretic": ("ub",), "bouc_wen": ("uy",), "gap": ("g", "g_neg"),
+}
+N_THRESHOLD_STARTS = 6  # grid points over each threshold's bounded range
 
 
 def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_params: int,
@@ -224,17 +233,17 @@ def _t_stick_slip(start: dict[str, float], k: float) -> Transform:
 
 
 def _t_regularised_friction(start: dict[str, float], k: float) -> Transform:
-    """Limit at rest and sliding, speeds, spring beside."""
+    """Limit at rest and sliding, speeds, spring and share of the dashpot beside."""
     lf = np.log(start["Fk"])
-    return (["Fk", "Fs", "kp", "v_s", "v_reg"],
+    return (["Fk", "Fs", "kp", "v_s", "v_reg", "c_factor"],
             lambda x: {"Fk": float(np.exp(x[0])), "Fs": float(np.exp(x[0]) * x[1]),
                        "kp": float(x[2]), "v_s": float(10.0 ** x[3]),
-                       "v_reg": float(10.0 ** x[4])},
+                       "v_reg": float(10.0 ** x[4]), "c_factor": float(x[5])},
             lambda p: np.array([np.log(p["Fk"]), p["Fs"] / p["Fk"], p.get("kp", 0.0),
                                 np.log10(p.get("v_s", 0.05)),
-                                np.log10(p.get("v_reg", 0.005))]),
-            np.array([lf - 3, 1.0, 0.0, -3.0, -4.0]),
-            np.array([lf + 3, 3.0, 1.5, 0.0, -1.0]))
+                                np.log10(p.get("v_reg", 0.005)), p.get("c_factor", 1.0)]),
+            np.array([lf - 3, 1.0, 0.0, -3.0, -4.0, 0.0]),
+            np.array([lf + 3, 3.0, 1.5, 0.0, -1.0, 3.0]))
 
 
 def _t_bilinear(start: dict[str, float], k: float) -> Transform:
@@ -369,14 +378,52 @@ def fit_effect(
     x0 = np.clip(to_x(start), lo + 1e-9, hi - 1e-9)
     objective = SimulationObjective(
         lambda x: factory.plant([EffectSpec(component, law, to_params(x))]), train, decimate)
-    x0 = _classical_first(objective, law, names, x0, lo, hi, max_nfev)
-    sol = least_squares(objective, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev,
-                        x_scale="jac")
+    # the screened start and, for a law with thresholds, the best of a grid over them: each
+    # refined, the lower end kept (never worse than the screened start alone)
+    starts = [x0]
+    grid = threshold_start(objective, [names.index(n) for n in THRESHOLDS.get(law, ())
+                                       if n in names], x0, lo, hi)
+    if not np.array_equal(grid, x0):
+        starts.append(grid)
+    ends = [least_squares(objective, _classical_first(objective, law, names, xs, lo, hi,
+                                                      max_nfev),
+                          bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev, x_scale="jac")
+            for xs in starts]
+    sol = min(ends, key=lambda e: float(e.cost))
     params = to_params(sol.x)
     effect = EffectSpec(component, law, {n: params[n] for n in names if n in params}
                         if law != "linear" else params)
     return judge_fit(effect, factory.plant([effect]), factory.plant(), sol, len(names), train,
                      test, objective, t0, _parameter_std(sol, to_params, names))
+
+
+def threshold_start(objective: Callable[[FloatArray], FloatArray], axes: Sequence[int],
+                    x0: FloatArray, lo: FloatArray, hi: FloatArray,
+                    n: int = N_THRESHOLD_STARTS) -> FloatArray:
+    """Return the best start of a law with thresholds: ``x0`` or a point of a grid over them.
+
+    A bounded global stage before the local refine: each threshold coordinate in ``axes``
+    in turn takes ``n`` values spread evenly over the inside of its bounds (the others at
+    the best point so far), and the point of least ``sum(objective(x)^2)`` is kept; ``x0``
+    (the screened start) stays unless a grid point is lower. One simulation per point
+    (``n`` per threshold); nothing is evaluated when ``axes`` is empty.
+    :func:`fit_effect` refines from both ``x0`` and this point and keeps the lower end: a
+    lower cost at a grid point (the other parameters held at their start) need not lie in
+    the basin of the lowest minimum.
+    """
+    x0 = np.asarray(x0, float)
+    if not len(axes):
+        return x0
+    best, best_cost = x0, float(np.sum(objective(x0) ** 2))
+    for i in axes:
+        span = hi[i] - lo[i]
+        for t in lo[i] + span * (np.arange(n) + 0.5) / n:
+            x = best.copy()
+            x[i] = t
+            cost = float(np.sum(objective(x) ** 2))
+            if cost < best_cost:
+                best, best_cost = x, cost
+    return best
 
 
 def _classical_first(objective: SimulationObjective, law: str, names: list[str],

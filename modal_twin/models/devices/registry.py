@@ -219,7 +219,7 @@ _BILINEAR = {"ratio": 0.75, "ub": 0.03}
 _BOUC_WEN = {"alpha": 0.3, "uy": 0.03, "c_factor": 1.0}
 _CUBIC = {"k3": 0.0}
 _GAP = {"g": 0.01, "kp": 0.0}
-_REG_FRICTION = {"kp": 0.0, "v_s": 0.05, "v_reg": 0.005}
+_REG_FRICTION = {"kp": 0.0, "v_s": 0.05, "v_reg": 0.005, "c_factor": 1.0}
 
 
 def _rel_linear(p: dict[str, Any], site: Site) -> Device:
@@ -259,7 +259,10 @@ def _rel_regularised_friction(p: dict[str, Any], site: Site) -> Device:
     Fs, Fk = _friction_limits(p, site, "regularised_friction")
     share = _take(p, "kp", _REG_FRICTION["kp"])
     kp = (share * float(site.k[0]), share * float(site.k[1]))
-    return CoulombFriction(Fs, Fk, _kmean(site), float(np.mean(site.c)), n_dir=2,
+    # c_factor: the share of the component's dashpot beside the slider (a damper whose
+    # viscous part a friction element partly replaced)
+    c = _take(p, "c_factor", _REG_FRICTION["c_factor"]) * float(np.mean(site.c))
+    return CoulombFriction(Fs, Fk, _kmean(site), c, n_dir=2,
                            name=site.name, kp=kp, v_s=_take(p, "v_s", _REG_FRICTION["v_s"]),
                            v_reg=_take(p, "v_reg", _REG_FRICTION["v_reg"]))
 
@@ -321,7 +324,7 @@ _ENTRIES = (
              ("Fs", "Fk", "kt", "c", "kp", "v_s", "v_reg"),
              {"c": "mean nominal c", "kp": (0.0, 0.0), "v_s": 0.0},
              "viscous-regularised Coulomb friction, Stribeck speed dependence",
-             _abs_coulomb, ("mu_s", "mu_k", "Fs", "Fk", "kp", "v_s", "v_reg"),
+             _abs_coulomb, ("mu_s", "mu_k", "Fs", "Fk", "kp", "v_s", "v_reg", "c_factor"),
              {"mu_s": 0.09, "mu_k": 0.06, **_REG_FRICTION},
              build_relative=_rel_regularised_friction),
     LawEntry("bilinear", BilinearElastic, law_bilinear_elastic,
