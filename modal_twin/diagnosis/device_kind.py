@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from modal_twin._types import FloatArray
 from modal_twin.channels import ChannelSpec, device_channels
 from modal_twin.diagnosis.effect_kind import Facts, Job, Piece, PlacedEffect, Round
 from modal_twin.diagnosis.evidence import DeviceEvidence, device_evidence
@@ -30,7 +31,7 @@ from modal_twin.models.effects import EffectSpec
 from modal_twin.models.loading import ModelFactory
 
 __all__ = ["DEVICE", "FAMILY_LAWS", "DeviceCandidate", "DeviceKind", "family_of",
-           "measured_device"]
+           "input_share", "measured_device"]
 
 # device laws that can express each family at a component, best first (a law may express
 # a family beside its own: stick-slip also makes a loop, a gap also hardens)
@@ -40,8 +41,8 @@ FAMILY_LAWS: Mapping[str, tuple[str, ...]] = {
     "softening": ("bilinear", "cubic"),
     "hardening": ("cubic", "bilinear", "gap"),
     "gap": ("gap", "cubic"),
-    "stiffness": ("linear",),
-    "damping": ("linear",),
+    "stiffness": ("linear", "maxwell"),
+    "damping": ("linear", "maxwell"),
 }
 _LINEAR = ("stiffness", "damping")  # what the nominal law already has
 
@@ -70,6 +71,27 @@ def measured_device(channels: Iterable[ChannelSpec], rec: Record, component: str
             c in rec.channel_names for c in drift + force):
         return drift, force
     return None
+
+
+def input_share(factory: ModelFactory, component: str, rec: Record, n_dir: int
+                ) -> tuple[FloatArray, FloatArray] | None:
+    """Return the input's own part of a site's drift and of its rate on ``rec``, or None.
+
+    From the factory's ``site_inputs(component)`` (input name -> coefficient of the drift,
+    and of its rate; a vehicle's primary suspension: ``-z_i``, ``-z_i'``), where it has
+    one; the first direction only (the others take none).
+    """
+    rows = getattr(factory, "site_inputs", None)
+    if rows is None:
+        return None
+    eu, ev = rows(component)
+    if not eu and not ev:
+        return None
+    u_in, v_in = np.zeros((n_dir, rec.inputs.shape[1])), np.zeros((n_dir, rec.inputs.shape[1]))
+    for row, coef in ((u_in, eu), (v_in, ev)):
+        for name, a in coef.items():
+            row[0] += a * rec.inputs[rec.input_names.index(name)]
+    return u_in, v_in
 
 
 def _bilinear_hysteretic(p: Mapping[str, float], facts: Facts) -> str:
@@ -144,12 +166,16 @@ class DeviceKind(PlacedEffect):
             u, f = train.channels(cols[0]), train.channels(cols[1])
             fv = [(tr_noise[n] * float(np.std(f[i]))) ** 2 for i, n in enumerate(cols[1])]
             spec = factory.sites[comp]
-            ev = device_evidence(comp, u, f, spec.k, spec.c, train.fs_hz, noise_var=fv)
+            share = input_share(factory, comp, train, u.shape[0])
+            ev = device_evidence(comp, u, f, spec.k, spec.c, train.fs_hz, noise_var=fv,
+                                 input_share=share)
             rnd.evidence_family[comp] = _top_family(ev)
             laws = _laws_named(ev, rnd.n_families)
             scr = screen_components({comp: u}, {comp: f}, {comp: spec},
                                     {comp: factory.weight(comp)}, train.fs_hz,
-                                    laws=tuple(x for x in laws if x != "linear")) if laws else []
+                                    laws=tuple(x for x in laws if x != "linear"),
+                                    input_shares=None if share is None else {comp: share}
+                                    ) if laws else []
             out.append(DeviceCandidate(ev, laws, tuple(scr)))
         if not out and factory.sites:
             rnd.skipped.append("evidence: no component has measured drift and force")
