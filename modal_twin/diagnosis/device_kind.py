@@ -262,14 +262,22 @@ class DeviceKind(PlacedEffect):
 
 
 def _laws_named(ev: DeviceEvidence, n_families: int) -> tuple[str, ...]:
-    """Every law of the family the evidence names first, the first law of the next ones."""
+    """Every law of the family the evidence names first, the first law of the next ones.
+
+    Nonlinear families go first; where a linear one (damping, stiffness) still leads the
+    evidence, its laws with memory (a ``maxwell`` damper: linear, but its force lags with
+    frequency, which the loop regressors also see as hysteresis) are tried beside them.
+    """
     sc = ev.family_scores()
     fams = [g for g in sorted(sc, key=lambda g: -sc[g]) if sc[g] > 0]
     nonlinear = [g for g in fams if g not in _LINEAR]
+    lead = fams[0] if fams else ""
     fams = (nonlinear or fams)[:n_families]
     first = list(FAMILY_LAWS.get(fams[0], ())) if fams else []
-    return tuple(dict.fromkeys(first + [x for g in fams[1:]
-                                        for x in FAMILY_LAWS.get(g, ())[:1]]))
+    rest = [x for g in fams[1:] for x in FAMILY_LAWS.get(g, ())[:1]]
+    if nonlinear and lead in _LINEAR:
+        rest += [x for x in FAMILY_LAWS[lead] if x != "linear"]
+    return tuple(dict.fromkeys(first + rest))
 
 
 def _top_family(e: DeviceEvidence) -> str:
