@@ -41,10 +41,16 @@ FAMILY_LAWS: Mapping[str, tuple[str, ...]] = {
     "softening": ("bilinear", "cubic"),
     "hardening": ("cubic", "bilinear", "gap"),
     "gap": ("gap", "cubic"),
-    "stiffness": ("linear", "maxwell"),
-    "damping": ("linear", "maxwell"),
+    "stiffness": ("linear",),
+    "damping": ("linear",),
 }
 _LINEAR = ("stiffness", "damping")  # what the nominal law already has
+# linear laws with memory, by the linear family they change: tried where that family
+# leads the evidence beside a significant nonlinear one (a damper behind a bushing: a
+# damping change whose force lags with frequency, which the loop regressors read as
+# hysteresis); where the linear terms alone explain the residual, the plain linear law is
+# the candidate, and a stiffness lead beside friction is a slider's spring, not a damper
+_LINEAR_WITH_MEMORY: Mapping[str, tuple[str, ...]] = {"damping": ("maxwell",)}
 
 
 @dataclass(frozen=True, slots=True)
@@ -264,9 +270,9 @@ class DeviceKind(PlacedEffect):
 def _laws_named(ev: DeviceEvidence, n_families: int) -> tuple[str, ...]:
     """Every law of the family the evidence names first, the first law of the next ones.
 
-    Nonlinear families go first; where a linear one (damping, stiffness) still leads the
-    evidence, its laws with memory (a ``maxwell`` damper: linear, but its force lags with
-    frequency, which the loop regressors also see as hysteresis) are tried beside them.
+    Nonlinear families go first; where a linear one still leads the evidence, its laws
+    with memory (:data:`_LINEAR_WITH_MEMORY`: damping, a ``maxwell`` damper) are tried
+    beside them.
     """
     sc = ev.family_scores()
     fams = [g for g in sorted(sc, key=lambda g: -sc[g]) if sc[g] > 0]
@@ -275,8 +281,8 @@ def _laws_named(ev: DeviceEvidence, n_families: int) -> tuple[str, ...]:
     fams = (nonlinear or fams)[:n_families]
     first = list(FAMILY_LAWS.get(fams[0], ())) if fams else []
     rest = [x for g in fams[1:] for x in FAMILY_LAWS.get(g, ())[:1]]
-    if nonlinear and lead in _LINEAR:
-        rest += [x for x in FAMILY_LAWS[lead] if x != "linear"]
+    if nonlinear:
+        rest += list(_LINEAR_WITH_MEMORY.get(lead, ()))
     return tuple(dict.fromkeys(first + rest))
 
 
