@@ -55,6 +55,11 @@ First run before any mechanism for them (2026-11-25, main at e45ae40; output in
 ``test/benchmarks/results/hidden_effects_new_baseline.txt``): 9 of 18 right, 4 false
 claims, 1 crash (the joint refit on a record with channels the model lacks, fixed since),
 after / noise median 1.21, worst 27.6; wall time median 30 s, worst 211 s per case.
+Two car cases added for issue 20, item 6 (``new_veh_primary_friction_w2``: friction in a
+primary damper, the primary strokes and forces recorded; ``new_veh_damper_bushing_rear``: a
+secondary damper behind a bushing), run on main's 8a7814d before the primary sites and the
+Maxwell law: both wrong (nothing named, after / noise 14.2; three false claims, 8.9); see
+``results/hidden_effects_issue20_item6_vehicle.txt`` for the runs after.
 
 Run::
 
