@@ -113,7 +113,7 @@ def model_loops(rec: Any, devices: Mapping[str, Any]) -> dict[str, Any]:
             continue
         U = rec.channels(cols)
         V = np.vstack([drift_velocity(x, rec.fs_hz, 25.0)[0] for x in U])
-        F = device.respond(U, V).f
+        F = device.respond(U, V, dt=1.0 / rec.fs_hz).f
         for i, a in enumerate("xy"[: device.n_dir]):
             out[f"{dev} {a}"] = (U[i], F[i])
     return out

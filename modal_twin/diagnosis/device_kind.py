@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from modal_twin._types import FloatArray
 from modal_twin.channels import ChannelSpec, device_channels
 from modal_twin.diagnosis.behaviour import Behaviour, classify_behaviour, reported_family
 from modal_twin.diagnosis.effect_kind import Facts, Job, Piece, PlacedEffect, Round
@@ -37,7 +38,7 @@ from modal_twin.models.effects import EffectSpec, effect_device
 from modal_twin.models.loading import ModelFactory
 
 __all__ = ["DEVICE", "FAMILY_LAWS", "DeviceCandidate", "DeviceKind", "behaviour_on",
-           "family_of", "measured_device"]
+           "family_of", "input_share", "measured_device"]
 
 # device laws that can express each family at a component, best first (a law may express
 # a family beside its own: stick-slip also makes a loop, a gap also hardens)
@@ -51,6 +52,12 @@ FAMILY_LAWS: Mapping[str, tuple[str, ...]] = {
     "damping": ("linear",),
 }
 _LINEAR = ("stiffness", "damping")  # what the nominal law already has
+# linear laws with memory, by the linear family they change: tried where that family
+# leads the evidence beside a significant nonlinear one (a damper behind a bushing: a
+# damping change whose force lags with frequency, which the loop regressors read as
+# hysteresis); where the linear terms alone explain the residual, the plain linear law is
+# the candidate, and a stiffness lead beside friction is a slider's spring, not a damper
+_LINEAR_WITH_MEMORY: Mapping[str, tuple[str, ...]] = {"damping": ("maxwell",)}
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,6 +84,27 @@ def measured_device(channels: Iterable[ChannelSpec], rec: Record, component: str
             c in rec.channel_names for c in drift + force):
         return drift, force
     return None
+
+
+def input_share(factory: ModelFactory, component: str, rec: Record, n_dir: int
+                ) -> tuple[FloatArray, FloatArray] | None:
+    """Return the input's own part of a site's drift and of its rate on ``rec``, or None.
+
+    From the factory's ``site_inputs(component)`` (input name -> coefficient of the drift,
+    and of its rate; a vehicle's primary suspension: ``-z_i``, ``-z_i'``), where it has
+    one; the first direction only (the others take none).
+    """
+    rows = getattr(factory, "site_inputs", None)
+    if rows is None:
+        return None
+    eu, ev = rows(component)
+    if not eu and not ev:
+        return None
+    u_in, v_in = np.zeros((n_dir, rec.inputs.shape[1])), np.zeros((n_dir, rec.inputs.shape[1]))
+    for row, coef in ((u_in, eu), (v_in, ev)):
+        for name, a in coef.items():
+            row[0] += a * rec.inputs[rec.input_names.index(name)]
+    return u_in, v_in
 
 
 def _bilinear_hysteretic(p: Mapping[str, float], facts: Facts) -> str:
@@ -138,8 +166,8 @@ def behaviour_on(factory: ModelFactory, channels: Iterable[ChannelSpec], rec: Re
     try:
         dev = effect_device(spec, effect.law, dict(effect.params),
                             weight=factory.weight(effect.component))
-        f = _respond(dev, u, v)
-        f_static = _respond(dev, u, np.zeros_like(v))  # its rate-independent part
+        f = _respond(dev, u, v, 1.0 / rec.fs_hz)
+        f_static = _respond(dev, u, np.zeros_like(v), 1.0 / rec.fs_hz)  # rate-independent
     except (ModalTwinError, ValueError):
         return None
     d = int(np.argmax(np.std(u, axis=1)))
@@ -176,13 +204,15 @@ class DeviceKind(PlacedEffect):
             found = _site_evidence(rnd, comp)
             if found is None:
                 continue
-            ev, u, f, fs_hz = found
+            ev, u, f, fs_hz, share = found
             spec = factory.sites[comp]
             rnd.evidence_family[comp] = _top_family(ev)
             laws = _laws_named(ev, rnd.n_families)
             scr = screen_components({comp: u}, {comp: f}, {comp: spec},
                                     {comp: factory.weight(comp)}, fs_hz,
-                                    laws=tuple(x for x in laws if x != "linear")) if laws else []
+                                    laws=tuple(x for x in laws if x != "linear"),
+                                    input_shares=None if share is None else {comp: share}
+                                    ) if laws else []
             out.append(DeviceCandidate(ev, laws, tuple(scr)))
         if not out and factory.sites:
             rnd.skipped.append("evidence: no component has measured drift and force")
@@ -278,9 +308,15 @@ class DeviceKind(PlacedEffect):
         return len(names), params, x0, lo_x, hi_x
 
 
-def _site_evidence(rnd: Round, comp: str
-                   ) -> tuple[DeviceEvidence, np.ndarray, np.ndarray, float] | None:
-    """Return the evidence at ``comp`` and the drift, force and rate it comes from.
+_Share = tuple[FloatArray, FloatArray] | None
+_SiteEvidence = tuple[DeviceEvidence, np.ndarray, np.ndarray, float, _Share]
+
+
+def _site_evidence(rnd: Round, comp: str) -> _SiteEvidence | None:
+    """Return the evidence at ``comp``, its drift, force, rate and input share.
+
+    The input share: the input's own part of the drift and its rate there
+    (:func:`input_share`).
 
     From the training record; when it names no family there, from the first other level
     the fits use (``rnd.fit_on``) whose evidence names one: a law with a threshold (a
@@ -289,7 +325,7 @@ def _site_evidence(rnd: Round, comp: str
     slider stuck at a low level). None when the site's drift and force are not measured.
     """
     spec = rnd.factory.sites[comp]
-    first: tuple[DeviceEvidence, np.ndarray, np.ndarray, float] | None = None
+    first: _SiteEvidence | None = None
     for i, rec in enumerate(rnd.records):
         if i == 1:  # the held-out record never informs a candidate
             continue
@@ -299,25 +335,35 @@ def _site_evidence(rnd: Round, comp: str
         noise = dict(zip(rec.channel_names, rnd.noise[i], strict=True))
         u, f = rec.channels(cols[0]), rec.channels(cols[1])
         fv = [(noise[n] * float(np.std(f[j]))) ** 2 for j, n in enumerate(cols[1])]
-        ev = device_evidence(comp, u, f, spec.k, spec.c, rec.fs_hz, noise_var=fv)
+        share = input_share(rnd.factory, comp, rec, u.shape[0])
+        ev = device_evidence(comp, u, f, spec.k, spec.c, rec.fs_hz, noise_var=fv,
+                             input_share=share)
         if _top_family(ev) != "nothing":
             if first is not None:  # another level than the first one measured
                 ev = replace(ev, notes=(*ev.notes, f"from {rec.source or f'record {i}'}: "
                                         "the training record names no family here"))
-            return ev, u, f, rec.fs_hz
-        first = first or (ev, u, f, rec.fs_hz)
+            return ev, u, f, rec.fs_hz, share
+        first = first or (ev, u, f, rec.fs_hz, share)
     return first
 
 
 def _laws_named(ev: DeviceEvidence, n_families: int) -> tuple[str, ...]:
-    """Every law of the family the evidence names first, the first law of the next ones."""
+    """Every law of the family the evidence names first, the first law of the next ones.
+
+    Nonlinear families go first; where a linear one still leads the evidence, its laws
+    with memory (:data:`_LINEAR_WITH_MEMORY`: damping, a ``maxwell`` damper) are tried
+    beside them.
+    """
     sc = ev.family_scores()
     fams = [g for g in sorted(sc, key=lambda g: -sc[g]) if sc[g] > 0]
     nonlinear = [g for g in fams if g not in _LINEAR]
+    lead = fams[0] if fams else ""
     fams = (nonlinear or fams)[:n_families]
     first = list(FAMILY_LAWS.get(fams[0], ())) if fams else []
-    return tuple(dict.fromkeys(first + [x for g in fams[1:]
-                                        for x in FAMILY_LAWS.get(g, ())[:1]]))
+    rest = [x for g in fams[1:] for x in FAMILY_LAWS.get(g, ())[:1]]
+    if nonlinear:
+        rest += list(_LINEAR_WITH_MEMORY.get(lead, ()))
+    return tuple(dict.fromkeys(first + rest))
 
 
 def _top_family(e: DeviceEvidence) -> str:

@@ -60,6 +60,7 @@ __all__ = [
     "DeviceEvidence",
     "cycle_features",
     "device_evidence",
+    "drift_state",
     "velocity_cutoff",
 ]
 
@@ -237,22 +238,46 @@ class DeviceEvidence:
                 + "".join(f"\n    note: {n}" for n in self.notes))
 
 
+def drift_state(u: FloatArray, fs_hz: float, cutoff_hz: float | None = None,
+                input_share: tuple[FloatArray, FloatArray] | None = None
+                ) -> tuple[FloatArray, FloatArray]:
+    """Return the low-passed drift and its velocity, each row (n_dir, nt).
+
+    Spectral, below ``cutoff_hz`` (default :func:`velocity_cutoff` of the drift). Where the
+    input carries a known part of the drift and its rate, ``input_share = (u_in, v_in)``
+    (a primary suspension's stroke holds the rough track, up to Nyquist), only the rest is
+    filtered and differentiated and the input's part added back: ``u = (u - u_in)_f + u_in``,
+    ``u' = (u - u_in)' + v_in``.
+    """
+    u = np.atleast_2d(np.asarray(u, float))
+    u_in = v_in = np.zeros_like(u)
+    if input_share is not None:
+        u_in, v_in = (np.atleast_2d(np.asarray(a, float)) for a in input_share)
+    body = u - u_in
+    cut = velocity_cutoff(body, fs_hz) if cutoff_hz is None else cutoff_hz
+    uf, v = np.empty_like(u), np.empty_like(u)
+    for i in range(u.shape[0]):
+        uf[i], v[i], _ = state_derivatives(body[i], fs_hz, f_max_hz=cut)
+    return uf + u_in, v + v_in
+
+
 def device_evidence(component: str, u: FloatArray, f: FloatArray, k: Sequence[float],
                     c: Sequence[float], fs_hz: float, *, noise_var: Sequence[float] | None = None,
-                    min_share: float = 0.01) -> DeviceEvidence:
+                    min_share: float = 0.01,
+                    input_share: tuple[FloatArray, FloatArray] | None = None
+                    ) -> DeviceEvidence:
     """Evidence at one component from its measured drift and force, shape (n_dir, nt).
 
     A component whose nominal law leaves less than ``min_share`` of the force variance (and
-    not four times its noise) is reported as such without the regression.
+    not four times its noise) is reported as such without the regression. ``input_share``:
+    the input's own part of the drift and its rate (:func:`drift_state`).
     """
     u = np.atleast_2d(np.asarray(u, float))
     f = np.atleast_2d(np.asarray(f, float))
     n_dir, nt = u.shape
-    cut = velocity_cutoff(u, fs_hz)
-    uf = np.empty_like(u)
-    v = np.empty_like(u)
-    for i in range(n_dir):
-        uf[i], v[i], _ = state_derivatives(u[i], fs_hz, f_max_hz=cut)
+    cut = velocity_cutoff(u if input_share is None
+                          else u - np.atleast_2d(input_share[0]), fs_hz)
+    uf, v = drift_state(u, fs_hz, cut, input_share)
     k_arr = np.asarray(k, float)[:n_dir]
     c_arr = np.asarray(c, float)[:n_dir]
     r = f - k_arr[:, None] * uf - c_arr[:, None] * v

@@ -310,6 +310,16 @@ def _t_gap(start: dict[str, float], k: float) -> Transform:
             np.array([lg + 3, np.log(50.0), lgn + 3, 3.0]))
 
 
+def _t_maxwell(start: dict[str, float], k: float) -> Transform:
+    """Relaxation time (log), the parallel spring and the dashpot's scale."""
+    return (["tau", "k", "c_factor"],
+            lambda x: {"tau": float(10.0 ** x[0]), "k": k * float(x[1]),
+                       "c_factor": float(x[2])},
+            lambda p: np.array([np.log10(p.get("tau", 0.02)), p.get("k", k) / k,
+                                p.get("c_factor", 1.0)]),
+            np.array([-3.0, 0.7, 0.1]), np.array([0.5, 1.3, 5.0]))
+
+
 def _t_linear(start: dict[str, float], k: float) -> Transform:
     """Fitted parameters of ``linear``."""
     return (["k", "ky", "c", "cy"],
@@ -330,6 +340,7 @@ _TRANSFORMS: dict[str, Callable[[dict[str, float], float], Transform]] = {
     "cubic": _t_cubic,
     "gap": _t_gap,
     "linear": _t_linear,
+    "maxwell": _t_maxwell,
 }
 
 

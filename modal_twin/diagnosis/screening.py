@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from modal_twin._types import FloatArray
-from modal_twin.diagnosis.evidence import velocity_cutoff
+from modal_twin.diagnosis.evidence import drift_state, velocity_cutoff
 from modal_twin.diagnosis.restoring_force import state_derivatives
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.devices import Device
@@ -72,6 +72,8 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
         u = max(u_max, 1e-9)
         return [{"k3": s * 0.3 * k / u ** (m - 1.0), "m": m} for s in (-1.0, 1.0)
                 for m in (3.0, 5.0)]
+    if law == "maxwell":  # the component's dashpot behind a spring: relaxation times
+        return [{"tau": tau} for tau in (0.003, 0.01, 0.03, 0.1)]
     if law == "gap":  # a stop beside the component's own spring-dashpot (kp = 1): on
         # both sides, or on one (the other clearance beyond every drift seen)
         far = 10.0 * u_max
@@ -104,6 +106,7 @@ def screen_components(
     *,
     laws: tuple[str, ...] = SCREEN_LAWS,
     cutoff_hz: float | None = None,
+    input_shares: Mapping[str, tuple[FloatArray, FloatArray]] | None = None,
 ) -> list[ScreenedCandidate]:
     """Screen every (component, law) on the measured force-state data.
 
@@ -119,6 +122,10 @@ def screen_components(
     cutoff_hz : float, optional
         Low-pass applied to the drift before differentiating it (default: from the drift's
         own spectrum, :func:`~modal_twin.diagnosis.evidence.velocity_cutoff`).
+    input_shares : mapping component -> (u_in, v_in), optional
+        The input's own part of a drift and of its rate (a primary suspension's stroke
+        holds the track): only the rest is differentiated
+        (:func:`~modal_twin.diagnosis.evidence.drift_state`).
 
     Returns
     -------
@@ -131,7 +138,11 @@ def screen_components(
             continue
         u = np.asarray(drifts[name], dtype=float)
         f = np.asarray(forces[name], dtype=float)
-        v = drift_velocity(u, fs_hz, cutoff_hz or velocity_cutoff(u, fs_hz))
+        share = (input_shares or {}).get(name)
+        if share is None:
+            v = drift_velocity(u, fs_hz, cutoff_hz or velocity_cutoff(u, fs_hz))
+        else:
+            v = drift_state(u, fs_hz, cutoff_hz, share)[1]
         n_dir = u.shape[0]  # 2 for an isolator (x, y), 1 for a vehicle's suspension (z)
         k = np.asarray(spec.k, float)[:n_dir, None]
         c = np.asarray(spec.c, float)[:n_dir, None]
@@ -155,7 +166,7 @@ def screen_components(
                                          float(weights.get(name, 0.0))):
                 try:
                     dev = effect_device(spec, law, params, weight=float(weights.get(name, 0.0)))
-                    g = (_respond(dev, u, v) - (k * u + c * v)).ravel()
+                    g = (_respond(dev, u, v, 1.0 / fs_hz) - (k * u + c * v)).ravel()
                 except (ModalTwinError, ValueError):
                     continue
                 if not np.all(np.isfinite(g)) or not np.any(g):
@@ -186,13 +197,16 @@ def _per_direction(u: FloatArray) -> list[FloatArray]:
     return cols
 
 
-def _respond(dev: Device, u: FloatArray, v: FloatArray) -> FloatArray:
-    """Return the force of ``dev`` along ``u`` (a 2-direction law on one: the other at rest)."""
+def _respond(dev: Device, u: FloatArray, v: FloatArray, dt: float) -> FloatArray:
+    """Return the force of ``dev`` along ``u`` (a 2-direction law on one: the other at rest).
+
+    ``dt``: the sample interval (a rate law integrates over it).
+    """
     n = u.shape[0]
     if dev.n_dir > n:
         pad = np.zeros((dev.n_dir - n, u.shape[1]))
-        return dev.respond(np.vstack([u, pad]), np.vstack([v, pad])).f[:n]
-    return dev.respond(u, v).f
+        return dev.respond(np.vstack([u, pad]), np.vstack([v, pad]), dt=dt).f[:n]
+    return dev.respond(u, v, dt=dt).f
 
 
 def _lstsq(A: FloatArray, b: FloatArray) -> tuple[FloatArray, float]:

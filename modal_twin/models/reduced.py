@@ -21,7 +21,7 @@ __all__ = ["DeviceAttachment", "ReducedSystem", "SimResult"]
 
 @dataclass(frozen=True, slots=True)
 class DeviceAttachment:
-    """A device and the matrix that extracts its local drift from q.
+    """A device and the matrices that extract its local drift from q (and the input).
 
     Attributes
     ----------
@@ -29,10 +29,26 @@ class DeviceAttachment:
         The law (1 or 2 directions).
     B : FloatArray
         Shape (n_dir, n): u_d = B q (m per unit of q).
+    E, Ed : FloatArray or None
+        Shape (n_dir, n_in): the part of the drift and of its rate the input carries
+        itself, ``u_d = B q + E a``, ``u_d' = B q' + Ed a`` (a vehicle's primary suspension:
+        its stroke is the bogie over the axle minus the track there); None: none.
     """
 
     device: Device
     B: FloatArray
+    E: FloatArray | None = None
+    Ed: FloatArray | None = None
+
+
+def _check_input_share(i: int, att: DeviceAttachment, n_in: int) -> None:
+    """Refuse an ``E`` or ``Ed`` of device ``i`` not shaped (n_dir, n_in)."""
+    for key in ("E", "Ed"):
+        X = getattr(att, key)
+        if X is not None and np.shape(X) != (att.device.n_dir, n_in):
+            msg = (f"devices[{i}].{key} ({att.device.name}): expected "
+                   f"({att.device.n_dir}, {n_in}), got {np.shape(X)}")
+            raise ShapeError(msg)
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,6 +112,7 @@ class ReducedSystem:
                     f"got {np.shape(att.B)}"
                 )
                 raise ShapeError(msg)
+            _check_input_share(i, att, n_in)
         for name in ("M", "C", "K", "Gamma", "C_out", "D_out"):
             if not np.all(np.isfinite(getattr(self, name))):
                 msg = f"{name}: expected finite entries, found NaN or inf"

@@ -35,9 +35,12 @@ Reduction: the real undamped modes of the coupled model, ``x = Phi q`` with
 ``Phi' M Phi = I``, give ``M_r = I``, ``K_r = diag(omega^2)``, ``C_r = Phi' C Phi`` (full),
 ``Gamma_r = Phi' Gamma``. Outputs: floor vertical absolute accelerations
 ``y = S Phi q''`` (no feed-through: ``x`` is absolute); on request the stroke ``D x`` and
-force (``k d + c d'``, or the device's) of each device site: the secondary suspensions and
-the elastic equipment hangers, where a device law of the registry may replace the
-element's spring and dashpot (:meth:`VehicleModel.sites`).
+force (``k d + c d'``, or the device's) of each device site: the secondary suspensions, the
+elastic equipment hangers and the primary suspensions, where a device law of the registry
+may replace the element's spring and dashpot (:meth:`VehicleModel.sites`). A primary
+stroke ``g_i' x - z_i`` holds the track input: the device there sees ``B q + E u`` (and its
+rate ``B q' + Ed u``), its linear element's share of ``Gamma`` leaves with it, and its
+stroke and force channels have a feed-through of the input.
 """
 
 from __future__ import annotations
@@ -72,6 +75,7 @@ from modal_twin.models.vehicle_spec import (
 __all__ = [
     "DEFAULT_VEHICLE_YAML",
     "INPUT_NAMES",
+    "PRIMARY_SITES",
     "SUSPENSION_SITES",
     "Carbody",
     "EquipmentSpec",
@@ -89,11 +93,11 @@ __all__ = [
 ]
 
 SUSPENSION_SITES: tuple[str, ...] = ("secondary_front", "secondary_rear")
-"""Device sites of the car: the secondary suspension of each bogie (stroke ``u_pivot - z_b``).
+"""Device sites of the car: the secondary suspension of each bogie (stroke ``u_pivot - z_b``)."""
 
-The primary suspensions are not sites: their stroke holds the track input, which a
-device's drift ``B q`` cannot.
-"""
+PRIMARY_SITES: tuple[str, ...] = ("primary_1", "primary_2", "primary_3", "primary_4")
+"""Device sites of the primary suspension of each wheelset (1 leads: front bogie, front
+axle), stroke ``z_b + a_i beta_b - z_i`` (the track under it: an input)."""
 
 INPUT_NAMES: tuple[str, ...] = ("zt1", "zt2", "zt3", "zt4", "vt1", "vt2", "vt3", "vt4")
 """Track irregularity under wheelsets 1 (leading) .. 4 (m) and its rate (m/s)."""
@@ -269,6 +273,9 @@ class VehicleModel:
         Secondary-suspension drifts ``u_pivot - z_b`` (front, rear) from ``x``.
     D_mount : (n_elastic, n) float array
         Mount drifts ``z_e - u_floor`` of the elastic equipment items from ``x``.
+    D_prim : (4, n) float array
+        Bogie point over each axle, ``z_b + a_i beta_b``, from ``x`` (the primary stroke
+        less the track, :data:`PRIMARY_SITES`).
     f_hz, omega : (n,) float arrays
         Undamped natural frequencies of the coupled model.
     Phi : (n, n) float array
@@ -287,6 +294,7 @@ class VehicleModel:
     S: FloatArray
     D_sec: FloatArray
     D_mount: FloatArray
+    D_prim: FloatArray
     f_hz: FloatArray
     omega: FloatArray
     Phi: FloatArray
@@ -343,10 +351,11 @@ class VehicleModel:
             :class:`~modal_twin.models.devices.LinearDevice` attachments (their spring and
             dashpot removed from ``K_r``, ``C_r``) so that an effect can replace them.
         site_devices : mapping, optional
-            Device site (:meth:`sites`: a secondary suspension or an elastic equipment
-            hanger) -> a device law of the registry that replaces that element's spring
-            and dashpot; its first direction takes the stroke (``u_pivot - z_b``,
-            ``z_e - u_floor``), a second one (of a 2-direction law) none.
+            Device site (:meth:`sites`: a secondary suspension, an elastic equipment
+            hanger or a primary suspension) -> a device law of the registry that replaces
+            that element's spring and dashpot; its first direction takes the stroke
+            (``u_pivot - z_b``, ``z_e - u_floor``, ``z_b + a_i beta_b - z_i``), a second one
+            (of a 2-direction law) none.
         device_outputs : sequence of str
             Sites whose stroke ``<site>_dz`` (m) and, where the element is linear, force
             ``<site>_fz = k d + c d'`` (N) are output after the accelerations.
@@ -383,35 +392,40 @@ class VehicleModel:
             atts.append(_along(dev, B1))
         devices = tuple(atts)
         K, C, mounts = self._nonlinear_mounts(Phi, K, C, given)
-        devices = devices + mounts
+        K, C, Gamma, primaries = self._primary_devices(Phi, K, C, given)
+        devices = devices + mounts + primaries
         SPhi = self.S @ Phi
         z = np.zeros_like(SPhi)
         rows, names = [np.hstack([z, z, SPhi])], [c.name for c in self.channels]
+        feed = [np.zeros((SPhi.shape[0], len(INPUT_NAMES)))]
         if device_outputs:  # strokes, then the forces of the sites still linear
             carried = {a.device.name for a in devices}
             sites = {k: v for k, v in self.sites().items() if k in device_outputs}
             DPhi = np.vstack([d for d, _, _ in sites.values()]) @ Phi
+            Eu, Ev = (np.vstack(e) for e in zip(*(self.site_inputs(s) for s in sites),
+                                                strict=True))
             zd = np.zeros_like(DPhi)
             rows.append(np.hstack([DPhi, zd, zd]))
+            feed.append(Eu)
             names += [f"{site}_dz" for site in sites]
             for j, (site, (_, k, c)) in enumerate(sites.items()):
                 if site in carried or f"mount_{site}" in carried:
                     continue  # its force is the device's
                 rows.append(np.hstack([k * DPhi[j], c * DPhi[j], np.zeros(r)])[None, :])
+                feed.append((k * Eu[j] + c * Ev[j])[None, :])
                 names.append(f"{site}_fz")
         C_out = np.vstack(rows)
         return ReducedSystem(M=np.eye(r), C=0.5 * (C + C.T), K=0.5 * (K + K.T),
-                             Gamma=Phi.T @ self.Gamma, devices=devices, C_out=C_out,
-                             D_out=np.zeros((C_out.shape[0], len(INPUT_NAMES))),
-                             output_names=tuple(names))
+                             Gamma=Phi.T @ Gamma, devices=devices, C_out=C_out,
+                             D_out=np.vstack(feed), output_names=tuple(names))
 
 
     def sites(self) -> dict[str, tuple[FloatArray, float, float]]:
         """Return the device sites: name -> (stroke row on ``x``, spring k, dashpot c).
 
-        The secondary suspensions (:data:`SUSPENSION_SITES`), then every elastic equipment
-        hanger (by the item's name). The primary suspensions are not sites: their stroke
-        holds the track input, which a device's drift ``B q`` cannot.
+        The secondary suspensions (:data:`SUSPENSION_SITES`), every elastic equipment
+        hanger (by the item's name), then the primary suspensions (:data:`PRIMARY_SITES`),
+        whose stroke is the row's ``x`` part less the track (:meth:`site_inputs`).
         """
         out = {site: (self.D_sec[b], self.spec.suspension("k_secondary", b),
                       self.spec.suspension("c_secondary", b))
@@ -419,7 +433,49 @@ class VehicleModel:
         elastic = [e for e in self.spec.equipment if e.mount == "elastic"]
         for e, d in zip(elastic, self.D_mount, strict=True):
             out[e.name] = (d, e.k_mount, e.c_mount)
+        for i, site in enumerate(PRIMARY_SITES):
+            out[site] = (self.D_prim[i], self.spec.suspension("k_primary", i // 2),
+                         self.spec.suspension("c_primary", i // 2))
         return out
+
+    def site_inputs(self, site: str) -> tuple[FloatArray, FloatArray]:
+        """Return the input's share of a site's stroke and of its rate, rows on ``u``.
+
+        ``-1`` on the track ``z_i`` (and its rate) under a primary suspension's wheelset,
+        zeros elsewhere (:data:`INPUT_NAMES`).
+        """
+        eu, ev = np.zeros(len(INPUT_NAMES)), np.zeros(len(INPUT_NAMES))
+        if site in PRIMARY_SITES:
+            i = PRIMARY_SITES.index(site)
+            eu[i] = -1.0
+            ev[4 + i] = -1.0
+        return eu, ev
+
+    def _primary_devices(self, Phi: FloatArray, K: FloatArray, C: FloatArray,
+                         given: Mapping[str, Device]
+                         ) -> tuple[FloatArray, FloatArray, FloatArray,
+                                    tuple[DeviceAttachment, ...]]:
+        """Carry the laws given at primary suspensions as devices (linear element moved).
+
+        The element's spring and dashpot leave ``K``, ``C`` and its track terms leave
+        ``Gamma`` (physical coordinates, returned); the device sees the stroke ``g_i' x -
+        z_i`` (module docstring).
+        """
+        Gamma = self.Gamma.copy()
+        atts = []
+        for i, site in enumerate(PRIMARY_SITES):
+            if site not in given:
+                continue
+            kp = self.spec.suspension("k_primary", i // 2)
+            cp = self.spec.suspension("c_primary", i // 2)
+            g = self.D_prim[i]
+            Gamma[:, i] += kp * g  # was -k_p g: the law supplies the element's whole force
+            Gamma[:, 4 + i] += cp * g
+            B1 = g @ Phi
+            K = K - kp * np.outer(B1, B1)
+            C = C - cp * np.outer(B1, B1)
+            atts.append(_along(given[site], B1, *self.site_inputs(site)))
+        return K, C, Gamma, tuple(atts)
 
     def _nonlinear_mounts(self, Phi: FloatArray, K: FloatArray, C: FloatArray,
                           given: Mapping[str, Device]
@@ -453,11 +509,19 @@ class VehicleModel:
         return K, C, tuple(atts)
 
 
-def _along(dev: Device, B1: FloatArray) -> DeviceAttachment:
-    """Attach ``dev`` along one stroke ``B1 q`` (a 2-direction law's second one at rest)."""
+def _along(dev: Device, B1: FloatArray, eu: FloatArray | None = None,
+           ev: FloatArray | None = None) -> DeviceAttachment:
+    """Attach ``dev`` along one stroke ``B1 q (+ eu u)``, rate ``B1 q' (+ ev u)``.
+
+    A 2-direction law's second direction stays at rest.
+    """
     B = np.zeros((dev.n_dir, B1.size))
     B[0] = B1
-    return DeviceAttachment(device=dev, B=B)
+    if eu is None or ev is None:
+        return DeviceAttachment(device=dev, B=B)
+    E, Ed = np.zeros((dev.n_dir, eu.size)), np.zeros((dev.n_dir, ev.size))
+    E[0], Ed[0] = eu, ev
+    return DeviceAttachment(device=dev, B=B, E=E, Ed=Ed)
 
 
 def _add_pair(A: FloatArray, d: FloatArray, k: float) -> None:
@@ -503,6 +567,7 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
     C[:n_cb, :n_cb] = car.C_cb
     Gamma = np.zeros((n, len(INPUT_NAMES)))
     D_sec = np.zeros((2, n))
+    D_prim = np.zeros((4, n))
     a = 0.5 * spec.wheelbase
     for b, xb in enumerate(spec.pivot_x):
         iz, ib = n_cb + 2 * b, n_cb + 2 * b + 1
@@ -519,6 +584,7 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
             g = np.zeros(n)
             g[iz] = 1.0
             g[ib] = off
+            D_prim[i] = g
             kp, cp = spec.suspension("k_primary", b), spec.suspension("c_primary", b)
             _add_pair(K, g, kp)
             _add_pair(C, g, cp)
@@ -550,7 +616,7 @@ def assemble_vehicle(spec: VehicleSpec, *, theta: Mapping[str, float] | None = N
                                  "z", position_m=(s.x, 0.0, 0.0)) for s in spec.sensors)
     return VehicleModel(spec=spec, carbody=car, M=M, C=C, K=K, Gamma=Gamma,
                         dof_names=tuple(names), S=S, D_sec=D_sec, D_mount=D_mount,
-                        f_hz=omega / (2 * math.pi),
+                        D_prim=D_prim, f_hz=omega / (2 * math.pi),
                         omega=omega, Phi=Phi, channels=channels)
 
 

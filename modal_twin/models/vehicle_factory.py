@@ -3,9 +3,9 @@
 The vehicle counterpart of :class:`~modal_twin.models.building_factory.BuildingFactory`,
 with the protocol :class:`~modal_twin.models.loading.ModelFactory` that the diagnosis and
 updating use (``plant``, ``with_theta``, ``parameters``, ``attachments``, ``sites``). The
-vehicle's device sites are its secondary suspensions (a device law of the registry can
-replace one; the diagnosis screens a site only where its stroke and force are measured in
-x and y, which a vertical-plane car does not give yet); its candidate effects are
+vehicle's device sites are its secondary suspensions, elastic equipment hangers and primary
+suspensions (a device law of the registry can replace one; the diagnosis screens a site
+where the record has its stroke and force); its candidate effects are also
 parameter changes (``EI_carbody``, ``m_<equipment>``, the suspensions' ``k_`` / ``c_``, the
 modal damping ratio ``zeta_cb_<k>`` of the k-th flexible carbody mode) and elastic mounts
 of the rigidly bolted equipment (``elastic_mount``, Fig. 3b of [002]).
@@ -26,7 +26,7 @@ from modal_twin.models.loading import merge_effects, split_sensor_effects
 from modal_twin.models.parameter_info import Kind, ParameterInfo
 from modal_twin.models.plant import Plant, with_sensor_effects
 from modal_twin.models.structure_yaml import DeviceSpec
-from modal_twin.models.vehicle import SUSPENSION_SITES, build_vehicle
+from modal_twin.models.vehicle import PRIMARY_SITES, SUSPENSION_SITES, build_vehicle
 from modal_twin.models.vehicle_spec import (
     CARBODY_MODE_PREFIX,
     VehicleSpec,
@@ -73,10 +73,12 @@ class VehicleFactory:
 
     @property
     def sites(self) -> dict[str, DeviceSpec]:
-        """Device sites: the secondary suspension of each bogie, each elastic hanger.
+        """Device sites: secondary suspensions, elastic hangers, primary suspensions.
 
-        With their k and c now. A device law of the registry placed there replaces the
-        element's spring and dashpot; a 2-direction law's second direction takes no stroke
+        The secondary suspension of each bogie, each elastic hanger, the primary suspension
+        of each wheelset, with their k and c now. A device law of the registry placed there
+        replaces the element's spring and dashpot; a 2-direction law's second direction
+        takes no stroke
         (the ``k`` and ``c`` of both directions are the element's). An item the file
         bolts rigidly is a candidate for an ``elastic_mount`` instead.
         """
@@ -85,8 +87,22 @@ class VehicleFactory:
               for b, site in enumerate(SUSPENSION_SITES)}
         kc.update({e.name: (e.k_mount, e.c_mount) for e in spec.equipment
                    if e.mount == "elastic"})
+        kc.update({site: (spec.suspension("k_primary", i // 2),
+                          spec.suspension("c_primary", i // 2))
+                   for i, site in enumerate(PRIMARY_SITES)})
         return {site: DeviceSpec(site, j, np.array([k, k]), np.array([c, c]), 0.0, "linear")
                 for j, (site, (k, c)) in enumerate(kc.items())}
+
+    def site_inputs(self, component: str) -> tuple[dict[str, float], dict[str, float]]:
+        """Return the input's share of a site's stroke and of its rate (input -> coefficient).
+
+        A primary suspension's stroke is its bogie's point less the track under its
+        wheelset (``-zt<i>``, rate ``-vt<i>``); the other sites' strokes hold no input.
+        """
+        if component not in PRIMARY_SITES:
+            return {}, {}
+        i = PRIMARY_SITES.index(component) + 1
+        return {f"zt{i}": -1.0}, {f"vt{i}": -1.0}
 
     def with_theta(self, changes: Mapping[str, float]) -> VehicleFactory:
         """Return a factory of the same vehicle with some parameter values changed.
@@ -133,10 +149,16 @@ class VehicleFactory:
         return tuple(e.name for e in self.spec.equipment if e.mount == "rigid")
 
     def weight(self, component: str) -> float:
-        """Weight of an equipment item or on a secondary suspension (half the carbody), N."""
+        """Weight of an equipment item or on a suspension, N.
+
+        On a secondary suspension half the carbody's, on a primary one a quarter of the
+        carbody's and half its bogie's.
+        """
         spec = apply_theta(self.spec, self.theta)
         if component in SUSPENSION_SITES:
             return 0.5 * 9.81 * spec.carbody_mass
+        if component in PRIMARY_SITES:
+            return 9.81 * (0.25 * spec.carbody_mass + 0.5 * spec.bogie_mass)
         return 9.81 * spec.equipment_named(component).mass
 
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:

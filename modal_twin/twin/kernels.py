@@ -41,6 +41,7 @@ from modal_twin.models.devices.base import (
     KIND_CUBIC,
     KIND_GAP,
     KIND_LINEAR,
+    KIND_MAXWELL,
     KIND_PRANDTL,
 )
 from modal_twin.models.devices.bilinear import law_bilinear_elastic, law_bilinear_hysteretic
@@ -49,6 +50,7 @@ from modal_twin.models.devices.coulomb import law_coulomb
 from modal_twin.models.devices.cubic import law_cubic
 from modal_twin.models.devices.gap import law_gap
 from modal_twin.models.devices.linear import law_linear
+from modal_twin.models.devices.maxwell import law_maxwell
 from modal_twin.models.devices.prandtl import law_prandtl
 
 __all__ = [
@@ -512,6 +514,8 @@ def run_block(  # noqa: C901 (one loop on purpose, see above)
                     law_coulomb(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 elif kind == KIND_GAP:
                     law_gap(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                elif kind == KIND_MAXWELL:
+                    law_maxwell(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 else:
                     return STATUS_UNKNOWN_KIND, d
                 for a in range(2):

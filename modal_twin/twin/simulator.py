@@ -6,7 +6,8 @@ Equation of motion in n reduced (e.g. modal) coordinates q::
 
 (Eq. (12) of [004] after the modal transformation, with the nominal linear isolation
 stiffness already removed from K, i.e. K = Phi^T (K - K_iso^nom) Phi.) Each device d sees the
-local drift u_d = B_d q (1 or 2 components) and returns the force f_d (see
+local drift u_d = B_d q (1 or 2 components; ``+ E_d a_g``, ``u_d' = B_d q' + Ed_d a_g`` where
+the input carries part of it, a vehicle's primary suspension) and returns the force f_d (see
 :mod:`modal_twin.models.devices`). Outputs: y = C_out [q; q'; q''] + D_out a_g.
 
 Integration scheme ("modal-foh")
@@ -204,6 +205,9 @@ class Simulator:
         """Device kinds, parameters, reference (linear) parts and rows; return ``B_s``."""
         nd = len(system.devices)
         Bs = np.zeros((2 * nd, system.n))
+        # input share of each drift and rate, u = B q + E a, u' = B q' + Ed a
+        self._Es = np.zeros((2 * nd, system.n_in))
+        self._Eds = np.zeros((2 * nd, system.n_in))
         self.kinds = np.zeros(nd, dtype=np.int64)
         self.params = np.zeros((nd, N_PARAM))
         self.Kr = np.zeros((nd, 2, 2))
@@ -223,8 +227,14 @@ class Simulator:
                 )
                 raise ModelError(msg)
             Bs[2 * d : 2 * d + nd_] = att.B
+            if att.E is not None:
+                self._Es[2 * d : 2 * d + nd_] = att.E
+            if att.Ed is not None:
+                self._Eds[2 * d : 2 * d + nd_] = att.Ed
             self.kinds[d] = dev.kind
             self.params[d] = dev.params
+            if dev.time_step_index >= 0:  # a rate law integrates over this sample interval
+                self.params[d, dev.time_step_index] = self.dt
             if dev.kind == KIND_BW_ESB:
                 self._consts[d] = esb_pressure_factor(self.params[d])
             self.Kr[d, :nd_, :nd_] = dev.reference_stiffness()[:nd_, :nd_]
@@ -259,8 +269,13 @@ class Simulator:
         )
         Minv = self._Minv
         A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ Kl, -Minv @ Cl]])
+        # the reference parts of the input's own share of a drift (E, Ed) act as an input
+        Gl = system.Gamma + sum(
+            (Bs[2 * d : 2 * d + 2].T @ (self.Kr[d] @ self._Es[2 * d : 2 * d + 2]
+                                        + self.Cr[d] @ self._Eds[2 * d : 2 * d + 2])
+             for d in range(nd)), np.zeros((n, n_in)))
         Bw = np.vstack([np.zeros((n, n_in + 2 * nd)),
-                        -Minv @ np.hstack([system.Gamma, Bs.T])])
+                        -Minv @ np.hstack([Gl, Bs.T])])
         lam, V = np.linalg.eig(A)
         self.cond_V = float(np.linalg.cond(V))
         if not np.isfinite(self.cond_V) or self.cond_V > 1e10:
@@ -302,7 +317,8 @@ class Simulator:
         Pc = np.vstack([Pu, Pv])
         self._Q = c(_split(Pc * lam_d[None, :]))  # (2 nf, 2 ns)
         self._Ua0T = c((Pc @ (e0[:, None] * Ga)).real.T)  # (n_in, 2 nf)
-        self._Ua1T = c((Pc @ (e1[:, None] * Ga)).real.T)  # (n_in, 2 nf)
+        # the input's own share of the drift of the next sample, [E; Ed] a_k+1
+        self._Ua1T = c((Pc @ (e1[:, None] * Ga)).real.T + np.hstack([self._Es.T, self._Eds.T]))
         self._HfT = c((Pc @ ((lam_d * e1 + e0)[:, None] * Gf)).real.T)  # (nf, 2 nf)
         # everything of a sample that depends on its input alone, computed for a whole chunk
         # before the per-sample loop: [E1 Ga; E0 Ga] a_k (split) and Ua1 a_k, Ua0 a_k

@@ -62,6 +62,12 @@ for them: 0 of 3 right (a gain of -1; nothing, worst channel 5.8x its floor; one
 candidates 3 of 3, also at ``--seed-offset 100``
 (``test/benchmarks/results/hidden_effects_sensor_item2.txt``).
 
+Two car cases added for issue 20, item 6 (``new_veh_primary_friction_w2``: friction in a
+primary damper, the primary strokes and forces recorded; ``new_veh_damper_bushing_rear``: a
+secondary damper behind a bushing), run on main's 8a7814d before the primary sites and the
+Maxwell law: both wrong (nothing named, after / noise 14.2; three false claims, 8.9); see
+``results/hidden_effects_issue20_item6_vehicle.txt`` for the runs after.
+
 Run::
 
     PYTHONPATH=. OMP_NUM_THREADS=1 .venv/bin/python test/benchmarks/bench_hidden_effects.py

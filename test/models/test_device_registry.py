@@ -49,6 +49,7 @@ ABSOLUTE = {
     "cubic": {"k1": 2e6, "k1y": 3e6, "k3": 0.0},  # the mean k kept per direction
     "gap": {"k": 2.5e6, "g": 0.01},
     "prandtl": {"Fs": 1.0e4, "Kb": 5.0e5},
+    "maxwell": {"kb": list(C_NOM / 0.02)},  # relaxing in 0.02 s, the effect default
 }
 
 
@@ -126,6 +127,7 @@ def test_every_law_builds_from_effect_params(law: str) -> None:
     ("bouc_wen", {}),
     ("cubic", {"k": 2.5e6}),
     ("gap", {"k": 2.5e6}),
+    ("maxwell", {}),
 ])
 def test_relative_defaults_are_the_documented_absolute_values(law: str, relative: dict) -> None:
     """Effect defaults (table of the README) = the absolute law with those numbers."""
@@ -186,10 +188,11 @@ def test_kind_codes_equal_the_dispatch() -> None:
 def test_law_names_by_family_and_form() -> None:
     assert law_names(relative=True) == EFFECT_LAWS == (
         "linear", "stick_slip", "regularised_friction", "bilinear", "bilinear_hysteretic",
-        "bouc_wen", "cubic", "gap")
+        "bouc_wen", "cubic", "gap", "maxwell")
     assert law_names(family="friction") == ("stick_slip", "regularised_friction",
                                             "bilinear_hysteretic", "bouc_wen_esb", "prandtl")
     assert law_names(family="hardening") == ("bilinear", "cubic")
+    assert law_names(family="damping") == ("linear", "maxwell")
     assert set(law_names(family="hysteresis")) == {
         "bilinear_hysteretic", "bouc_wen", "bouc_wen_esb", "prandtl"}
 

@@ -44,6 +44,7 @@ _PARAMS: dict[str, tuple[str, dict[str, Any]]] = {
     "cubic": ("effect", {"k3": 1.0e9}),
     "bouc_wen_esb": ("absolute", {"A": 1.0, "beta": 555.0, "gamma": 555.0}),
     "prandtl": ("absolute", {"Fs": 5.0e3, "Kb": 1.0e6, "K3": 1.0e8}),
+    "maxwell": ("effect", {"c_factor": 100.0, "tau": 0.05}),  # relaxing at ~3 Hz
 }
 _AMPLITUDES = (0.004, 0.02, 0.08)  # m: below, near and well beyond each law's knee
 _DIRECTIONS = ("x", "y", "xy")
@@ -131,7 +132,7 @@ def test_kernel_runs_the_law_as_its_own_implementation(law: str, amp: float,
     status, idx, u_twin, f_twin, s_twin = _kernel_on_history(sim, u, v)
     assert (status, idx) == (STATUS_OK, u.shape[1])
     np.testing.assert_array_equal(u_twin[:, 1:], u[:, 1:])  # the device saw the history
-    ref = dev.respond(u[: dev.n_dir], v[: dev.n_dir])
+    ref = dev.respond(u[: dev.n_dir], v[: dev.n_dir], dt=sim.dt)  # a rate law needs dt
     f_ref = ref.f
     # force scale: the largest force, or k amp where a law gives none (a gap's dead band)
     scale = np.abs(f_ref).max() or float(np.mean(_SITE.k)) * amp

@@ -20,6 +20,9 @@ from modal_twin.models.devices.registry import LAWS, Site, build_device, build_e
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
 from modal_twin.twin.simulator import Simulator
 
+# the registry's laws at commit e45ae40, whose building the digests below are of (a law
+# added since, maxwell, is run through the kernel by test_kernel_laws.py)
+_LAWS_THEN = tuple(law for law in LAWS if law != "maxwell")
 # law -> absolute params for the laws without a relative form
 _ABSOLUTE = {"bouc_wen_esb": {"A": 1.0, "beta": 555.0, "gamma": 555.0},
              "prandtl": {"Fs": 5.0e3, "Kb": 1.0e6}}
@@ -50,7 +53,7 @@ def _every_law_building() -> ReducedSystem:
     J = m_tot * (10.0**2 + 12.0**2) / 12.0
     w = 2 * np.pi * np.concatenate([[0.0, 0.0, 0.0], np.geomspace(2.0, 30.0, n - 3)])
     att = []
-    for i, law in enumerate(LAWS):
+    for i, law in enumerate(_LAWS_THEN):
         site = Site(f"D{i}", np.array([1.0e6, 1.4e6]), np.array([1.0e3, 2.0e3]), 1.0e6)
         dev = (build_device(law, _ABSOLUTE[law], site) if law in _ABSOLUTE
                else build_effect_device(law, {}, site))
@@ -102,7 +105,7 @@ def test_the_building_reaches_every_law_nonlinear_range() -> None:
     ag = np.random.default_rng(7).standard_normal((3, 4001)) * np.array([[3.0], [3.0], [0.1]])
     r = sim.step_block(ag)
     assert len({a.device.kind for a in sim.system.devices}) == len(
-        {e.kind for e in LAWS.values()})
+        {LAWS[law].kind for law in _LAWS_THEN})
     assert np.abs(r.drift).max() > 0.08  # beyond the gap (10 mm), yield (30 mm), slip
     assert r.newton_iterations[1:].mean() > 1.5  # the Newton correction runs on most samples
 

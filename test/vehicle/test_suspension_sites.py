@@ -24,7 +24,7 @@ from modal_twin.diagnosis.screening import screen_components
 from modal_twin.errors import OptionError
 from modal_twin.models.effects import EffectSpec
 from modal_twin.models.track import random_profile, wheelset_inputs
-from modal_twin.models.vehicle import SUSPENSION_SITES, build_vehicle
+from modal_twin.models.vehicle import PRIMARY_SITES, SUSPENSION_SITES, build_vehicle
 from modal_twin.models.vehicle_factory import VehicleFactory
 from modal_twin.models.vehicle_spec import equipment_mounted
 
@@ -55,7 +55,7 @@ def _rate(d: np.ndarray) -> np.ndarray:
 
 def test_channels_by_role_and_the_nominal_force_closed_form(factory: VehicleFactory) -> None:
     p = factory.plant()
-    assert set(factory.sites) == set(SUSPENSION_SITES)
+    assert set(factory.sites) == {*SUSPENSION_SITES, *PRIMARY_SITES}
     rec = _empty_record(factory)
     y = simulate_record(p, rec)
     for b, site in enumerate(SUSPENSION_SITES):
@@ -123,7 +123,7 @@ def hung(tmp_path_factory: pytest.TempPathFactory) -> VehicleFactory:
 
 
 def test_an_elastic_hanger_is_a_site_with_its_stroke_and_force(hung: VehicleFactory) -> None:
-    assert list(hung.sites) == [*SUSPENSION_SITES, "EQ1"]
+    assert list(hung.sites) == [*SUSPENSION_SITES, "EQ1", *PRIMARY_SITES]
     p = hung.plant()
     rec = _empty_record(hung)
     assert measured_device(p.channels, rec, "EQ1") == (["EQ1_dz"], ["EQ1_fz"])

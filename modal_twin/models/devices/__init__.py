@@ -16,6 +16,7 @@ from modal_twin.models.devices.coulomb import CoulombFriction
 from modal_twin.models.devices.cubic import CubicSpring
 from modal_twin.models.devices.gap import GapSpring
 from modal_twin.models.devices.linear import LinearDevice, table6_updated
+from modal_twin.models.devices.maxwell import MaxwellDamper
 from modal_twin.models.devices.prandtl import PrandtlJoint, table2_mode_bay
 
 __all__ = [
@@ -29,6 +30,7 @@ __all__ = [
     "DeviceResponse",
     "GapSpring",
     "LinearDevice",
+    "MaxwellDamper",
     "PrandtlJoint",
     "table2_mode_bay",
     "table6_updated",

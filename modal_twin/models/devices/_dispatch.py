@@ -14,6 +14,7 @@ from modal_twin.models.devices.base import (
     KIND_CUBIC,
     KIND_GAP,
     KIND_LINEAR,
+    KIND_MAXWELL,
     KIND_PRANDTL,
 )
 from modal_twin.models.devices.bilinear import law_bilinear_elastic, law_bilinear_hysteretic
@@ -22,6 +23,7 @@ from modal_twin.models.devices.coulomb import law_coulomb
 from modal_twin.models.devices.cubic import law_cubic
 from modal_twin.models.devices.gap import law_gap
 from modal_twin.models.devices.linear import law_linear
+from modal_twin.models.devices.maxwell import law_maxwell
 from modal_twin.models.devices.prandtl import law_prandtl
 
 __all__ = ["drive_law", "evaluate_law"]
@@ -53,6 +55,8 @@ def evaluate_law(kind, p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitt
         law_coulomb(p, s, u, v, f, Kt, Ct, s_new)
     elif kind == KIND_GAP:
         law_gap(p, s, u, v, f, Kt, Ct, s_new)
+    elif kind == KIND_MAXWELL:
+        law_maxwell(p, s, u, v, f, Kt, Ct, s_new)
     else:
         msg = "unknown device kind"
         raise ValueError(msg)

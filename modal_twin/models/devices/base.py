@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from modal_twin._types import FloatArray
-from modal_twin.errors import ShapeError, SignalError
+from modal_twin.errors import OptionError, ShapeError, SignalError
 
 __all__ = [
     "KIND_BILINEAR_ELASTIC",
@@ -32,6 +32,7 @@ __all__ = [
     "KIND_CUBIC",
     "KIND_GAP",
     "KIND_LINEAR",
+    "KIND_MAXWELL",
     "KIND_PRANDTL",
     "N_PARAM",
     "N_STATE",
@@ -82,6 +83,7 @@ KIND_PRANDTL = 5
 KIND_CUBIC = 6
 KIND_COULOMB = 7
 KIND_GAP = 8
+KIND_MAXWELL = 9
 
 N_PARAM = 12
 N_STATE = 8
@@ -115,6 +117,9 @@ class Device:
     """
 
     kind: int = -1
+    time_step_index: int = -1
+    """Parameter slot of the sample interval for a rate law (-1: the law needs none); the
+    simulator writes its ``dt`` there, :meth:`respond` the one it is given."""
 
     def __init__(self, params: list[float], *, n_dir: int, name: str) -> None:
         if n_dir not in (1, 2):
@@ -177,7 +182,8 @@ class Device:
         evaluate_law(self.kind, self.params, np.asarray(state, float), u2, v2, f, Kt, Ct, s_new)
         return f, Kt, Ct, s_new
 
-    def respond(self, u: FloatArray, v: FloatArray | None = None) -> DeviceResponse:
+    def respond(self, u: FloatArray, v: FloatArray | None = None, *,
+                dt: float | None = None) -> DeviceResponse:
         """Drive the device along a displacement (and velocity) history from rest.
 
         Parameters
@@ -186,6 +192,9 @@ class Device:
             Local displacement, shape (n_dir, nt) or (nt,) for n_dir = 1, m.
         v : FloatArray, optional
             Local velocity, same shape, m/s; zeros if omitted (rate-independent use).
+        dt : float, optional
+            Sample interval of the history, s: a rate law (``time_step_index >= 0``)
+            needs it unless its parameters hold one; other laws ignore it.
 
         Returns
         -------
@@ -197,8 +206,21 @@ class Device:
             If ``u`` or ``v`` do not have n_dir rows.
         SignalError
             If ``u`` or ``v`` hold non-finite samples.
+        OptionError
+            A rate law without a positive ``dt`` (given or held).
         """
         from modal_twin.models.devices._dispatch import drive_law
+
+        params = self.params
+        if self.time_step_index >= 0:
+            params = params.copy()
+            if dt is not None:
+                params[self.time_step_index] = float(dt)
+            if not (np.isfinite(params[self.time_step_index])
+                    and params[self.time_step_index] > 0):
+                msg = (f"{self.name}: the law {type(self).__name__} needs the sample interval "
+                       f"dt > 0 (respond(u, v, dt=...)), got {dt!r}")
+                raise OptionError(msg)
 
         U = np.atleast_2d(np.asarray(u, dtype=float))
         V = np.zeros_like(U) if v is None else np.atleast_2d(np.asarray(v, dtype=float))
@@ -216,5 +238,5 @@ class Device:
         V2 = np.zeros((2, U.shape[1]))
         U2[: self.n_dir] = U
         V2[: self.n_dir] = V
-        f, Kt, s = drive_law(self.kind, self.params, self.initial_state(), U2, V2)
+        f, Kt, s = drive_law(self.kind, params, self.initial_state(), U2, V2)
         return DeviceResponse(f=f[: self.n_dir], Kt=Kt, state=s)

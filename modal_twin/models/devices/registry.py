@@ -41,6 +41,7 @@ from modal_twin.models.devices.coulomb import CoulombFriction, law_coulomb
 from modal_twin.models.devices.cubic import CubicSpring, law_cubic
 from modal_twin.models.devices.gap import GapSpring, law_gap
 from modal_twin.models.devices.linear import LinearDevice, law_linear
+from modal_twin.models.devices.maxwell import MaxwellDamper, law_maxwell
 from modal_twin.models.devices.prandtl import PrandtlJoint, law_prandtl
 
 __all__ = [
@@ -207,6 +208,15 @@ def _abs_gap(p: dict[str, Any], site: Site) -> Device:
     return GapSpring(float(p.pop("k")), float(p.pop("g")), c, n_dir=2, name=site.name, **p)
 
 
+def _abs_maxwell(p: dict[str, Any], site: Site) -> Device:
+    """Absolute form: kp (default the nominal k), kb, c (default the nominal c)."""
+    n = 2
+    kp = np.broadcast_to(np.asarray(p.pop("k", site.k), float), (n,))
+    kb = np.broadcast_to(np.asarray(p.pop("kb"), float), (n,))
+    c = np.broadcast_to(np.asarray(p.pop("c", site.c), float), (n,))
+    return MaxwellDamper(list(kp), list(kb), list(c), name=site.name, **p)
+
+
 def _abs_prandtl(p: dict[str, Any], site: Site) -> Device:
     return PrandtlJoint(_take(p, "K1", site.k[0]), _take(p, "K2", 0.0), _take(p, "K3", 0.0),
                         _take(p, "D1", site.c[0]), float(p.pop("Fs")), float(p.pop("Kb")),
@@ -220,6 +230,7 @@ _BOUC_WEN = {"alpha": 0.3, "uy": 0.03, "c_factor": 1.0}
 _CUBIC = {"k3": 0.0}
 _GAP = {"g": 0.01, "kp": 0.0}
 _REG_FRICTION = {"kp": 0.0, "v_s": 0.05, "v_reg": 0.005, "c_factor": 1.0}
+_MAXWELL = {"c_factor": 1.0, "tau": 0.02}
 
 
 def _rel_linear(p: dict[str, Any], site: Site) -> Device:
@@ -309,6 +320,22 @@ def _rel_gap(p: dict[str, Any], site: Site) -> Device:
                      kp=kp, cp=cp, g_neg=_take(p, "g_neg", g), n=_take(p, "n", 1.0))
 
 
+def _rel_maxwell(p: dict[str, Any], site: Site) -> Device:
+    """Put the component's dashpot (x c_factor) behind a spring kb = c / tau, beside its spring.
+
+    k: the mean parallel stiffness; each direction keeps the nominal anisotropy.
+    """
+    kn = np.asarray(site.k, float)[:2]
+    kp = _take(p, "k", _kmean(site)) / _kmean(site) * kn if _kmean(site) > 0 else kn
+    c = _take(p, "c_factor", _MAXWELL["c_factor"]) * np.asarray(site.c, float)[:2]
+    tau = _take(p, "tau", _MAXWELL["tau"])
+    if not tau > 0:
+        msg = f"maxwell at {site.name}: tau must be > 0 s, got {tau}"
+        raise OptionError(msg)
+    kb = np.maximum(c, 1e-300) / tau
+    return MaxwellDamper(list(kp), list(kb), list(c), name=site.name)
+
+
 _NOM_C = {"c": "nominal c"}
 _ENTRIES = (
     LawEntry("linear", LinearDevice, law_linear, ("stiffness", "damping"),
@@ -357,6 +384,11 @@ _ENTRIES = (
              ("K1", "K2", "K3", "D1", "Fs", "Kb"),
              {"K1": "nominal kx", "K2": 0.0, "K3": 0.0, "D1": "nominal cx"},
              "Eqs. (3), (6)-(12) of [003] (uniaxial, x)", _abs_prandtl),
+    LawEntry("maxwell", MaxwellDamper, law_maxwell, ("damping",), ("k", "kb", "c"),
+             {"k": "nominal k", "c": "nominal c"},
+             "dashpot in series with a spring kb (Maxwell), beside the spring k; "
+             "K(w) = k + kb i w c / (kb + i w c)", _abs_maxwell,
+             ("k", "c_factor", "tau"), _MAXWELL, build_relative=_rel_maxwell),
 )
 
 LAWS: Mapping[str, LawEntry] = MappingProxyType({e.name: e for e in _ENTRIES})

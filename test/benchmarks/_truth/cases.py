@@ -273,6 +273,9 @@ def _veh_mount_softening() -> VehicleTruth:
 
 
 _SEC_FRONT = ("secondary", "c_secondary_front", "k_secondary_front", "c_secondary")
+_SEC_REAR = ("secondary", "c_secondary_rear", "k_secondary_rear", "c_secondary")
+_PRIMARY_FRONT = ("primary", "primary_front", "c_primary_front", "k_primary_front",
+                  "c_primary")
 _CARBODY = ("zeta_carbody", "carbody_bending", "bending_1", "mode_1")
 
 # issue 20, item 8: written and run once BEFORE any mechanism for them (first-run score in
@@ -383,6 +386,21 @@ NEW_CASES: tuple[Case, ...] = (
              "yaw_damper_1L", "yaw_damper_1R", "yaw_damper_2L", "yaw_damper_2R",
              "lateral_damper_1", "lateral_damper_2")), 2.0, seed=72, new=True,
          quiet_pct=0.05),
+    # issue 20, item 6 (added with the primary suspension sites and the Maxwell law, run on
+    # main's 8a7814d before them): friction (1 kN) in the primary damper of wheelset 2 (front
+    # bogie, trailing axle), the four primary strokes and forces recorded beside the
+    # secondary ones
+    Case("new_veh_primary_friction_w2", "vehicle",
+         (Hidden("friction", "primary_2", aliases=_PRIMARY_FRONT),),
+         lambda: VehicleTruth(primary_law=(1, laws.ArctanFriction(1000.0, 0.01)),
+                              device_channels=True, primary_channels=True), 1.0, seed=68,
+         new=True, quiet_pct=0.05),
+    # the rear secondary damper behind a 0.8 MN/m bushing (relaxation 0.05 s: a dashpot at
+    # the bounce, stiffer above ~3 Hz), its stroke and force recorded
+    Case("new_veh_damper_bushing_rear", "vehicle",
+         (Hidden("damping", "secondary_rear", aliases=_SEC_REAR),),
+         lambda: VehicleTruth(damper_bushing=(1, 8.0e5), device_channels=True), 2.0, seed=69,
+         new=True, quiet_pct=0.05),
 )
 
 

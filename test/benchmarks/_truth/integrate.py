@@ -2,7 +2,11 @@
 nonlinear laws, sub-stepped within each sample (not the library's exact modal first-order
 hold with Newton coupling).
 
-    M x'' + C x' + K x = -G w(t) - sum_d L_d' f_d(L_d x, L_d x', z_d),   z_d' = g_d(...)
+    M x'' + C x' + K x = -G w(t) - sum_d L_d' f_d(u_d, u_d', z_d),   z_d' = g_d(...)
+    u_d = L_d x + E_d w(t),   u_d' = L_d x' + Ed_d w(t)
+
+(``E_d``, ``Ed_d``: the part of a law's drift and drift rate the input itself carries,
+e.g. a primary suspension's stroke ``z_bogie - z_track``; zero for most laws.)
 
 ``w`` is interpolated linearly between samples (first-order hold). Rate-independent law
 memory is committed after every sub-step (:mod:`.laws`).
@@ -21,11 +25,20 @@ FloatArray = np.ndarray
 
 @dataclass
 class Attached:
-    """A law acting on the drift ``L x`` (L: (2, n))."""
+    """A law acting on the drift ``L x + E w`` and rate ``L x' + Ed w`` (L: (2, n); E,
+    Ed: (2, n_in) or None for none)."""
 
     name: str
     law: Law
     L: FloatArray
+    E: FloatArray | None = None
+    Ed: FloatArray | None = None
+
+    def drift(self, x: FloatArray, xd: FloatArray, w: FloatArray
+              ) -> tuple[FloatArray, FloatArray]:
+        """Drift and its rate at state ``x``, ``xd`` and input ``w``."""
+        u = self.L @ x + (0.0 if self.E is None else self.E @ w)
+        return u, self.L @ xd + (0.0 if self.Ed is None else self.Ed @ w)
 
 
 @dataclass
@@ -54,18 +67,19 @@ def run_rk4(M: FloatArray, C: FloatArray, K: FloatArray, G: FloatArray,
     nt = w.shape[1]
     h = 1.0 / (fs_hz * n_sub)
 
-    def law_forces(x: FloatArray, xd: FloatArray, z: FloatArray
+    def law_forces(x: FloatArray, xd: FloatArray, z: FloatArray, wt: FloatArray
                    ) -> tuple[list[FloatArray], FloatArray]:
         fs, zd = [], np.empty(nz)
         for i, a in enumerate(laws):
-            f, dz = a.law.force(a.L @ x, a.L @ xd, z[offs[i]:offs[i + 1]])
+            u, ud = a.drift(x, xd, wt)
+            f, dz = a.law.force(u, ud, z[offs[i]:offs[i + 1]])
             fs.append(f)
             zd[offs[i]:offs[i + 1]] = dz
         return fs, zd
 
     def rhs(y: FloatArray, wt: FloatArray) -> FloatArray:
         x, xd, z = y[:n], y[n:2 * n], y[2 * n:]
-        fs, zd = law_forces(x, xd, z)
+        fs, zd = law_forces(x, xd, z, wt)
         xdd = -A_K @ x - A_C @ xd - A_G @ wt
         for AL, f in zip(A_L, fs, strict=True):
             xdd -= AL @ f
@@ -78,7 +92,7 @@ def run_rk4(M: FloatArray, C: FloatArray, K: FloatArray, G: FloatArray,
     def store(k: int, y: FloatArray) -> None:
         d = rhs(y, w[:, k])
         X[:, k], XD[:, k], XDD[:, k] = y[:n], y[n:2 * n], d[n:2 * n]
-        fs, _ = law_forces(y[:n], y[n:2 * n], y[2 * n:])
+        fs, _ = law_forces(y[:n], y[n:2 * n], y[2 * n:], w[:, k])
         for i, f in enumerate(fs):
             F[i, :, k] = f
 
@@ -96,6 +110,6 @@ def run_rk4(M: FloatArray, C: FloatArray, K: FloatArray, G: FloatArray,
             k4 = rhs(y + h * k3, wb)
             y = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             for a in laws:
-                a.law.commit(a.L @ y[:n])
+                a.law.commit(a.L @ y[:n] + (0.0 if a.E is None else a.E @ wb))
         store(k + 1, y)
     return RunResult(X, XD, XDD, F)

@@ -20,7 +20,9 @@ Bouc-Wen ``n = 2`` style, bilinear, cubic, piecewise-linear gap, linear k-c):
   elastic non-linearities;
 * :class:`HertzGap` -- contact of power 1.5 beyond a clearance;
 * :class:`LinearKC` -- a spring-dashpot with changed values (damping change);
-* :class:`ArctanFriction` -- friction alone (a damper's seals), arctangent-regularised.
+* :class:`ArctanFriction` -- friction alone (a damper's seals), arctangent-regularised;
+* :class:`SeriesBushingDashpot` -- a dashpot behind an elastic bushing (its force an ODE
+  state).
 """
 
 from __future__ import annotations
@@ -244,3 +246,20 @@ class ArctanFriction(Law):
 
     def force(self, u, v, z):
         return self.F * (2.0 / np.pi) * np.arctan(v / self.v_eps), z[:0]
+
+
+@dataclass
+class SeriesBushingDashpot(Law):
+    """A dashpot ``c`` behind an elastic bushing ``k_b`` (in series), per direction: the
+    force ``f`` they carry is an ODE state, ``f' = k_b (v - f / c)`` (the bushing stretches
+    by ``f / k_b``, the dashpot moves at ``f / c``). Slow strokes see the dashpot, fast ones
+    the bushing (relaxation time ``c / k_b``)."""
+
+    k_b: float
+    c: float
+
+    def __post_init__(self) -> None:
+        self.n_ode = 2
+
+    def force(self, u, v, z):
+        return z.copy(), self.k_b * (v - z / self.c)
