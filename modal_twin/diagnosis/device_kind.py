@@ -33,6 +33,7 @@ from modal_twin.diagnosis.screening import (
     screen_components,
 )
 from modal_twin.errors import ModalTwinError, OptionError
+from modal_twin.models.devices.base import Device
 from modal_twin.models.devices.registry import ALIASES, FAMILIES, LAWS, law_entry
 from modal_twin.models.effects import EffectSpec, effect_device
 from modal_twin.models.loading import ModelFactory
@@ -173,8 +174,26 @@ def behaviour_on(factory: ModelFactory, channels: Iterable[ChannelSpec], rec: Re
     d = int(np.argmax(np.std(u, axis=1)))
     k = np.atleast_1d(np.asarray(spec.k, float))
     c = np.atleast_1d(np.asarray(spec.c, float))
-    return classify_behaviour(u[d], v[d], f[d], k=float(k[min(d, k.size - 1)]),
-                              c=float(c[min(d, c.size - 1)]), f_static=f_static[d])
+    b = classify_behaviour(u[d], v[d], f[d], k=float(k[min(d, k.size - 1)]),
+                           c=float(c[min(d, c.size - 1)]), f_static=f_static[d])
+    if b.family not in _LINEAR and _homogeneous(dev, u, v, f, 1.0 / rec.fs_hz):
+        return None  # linear with memory (a damper behind a bushing): its law's family
+    return b
+
+
+def _homogeneous(dev: Device, u: FloatArray, v: FloatArray, f: FloatArray, dt: float,
+                 tol: float = 1e-3) -> bool:
+    """Whether the law's force scales with its drift history (``f(u / 2) = f(u) / 2``).
+
+    A linear law, with memory or not, does; every law with a threshold, a yield drift or
+    a power does not. The loop and secant readings of :mod:`.behaviour` cannot tell a
+    relaxing linear law (a Maxwell damper) from a softening spring; this can.
+    """
+    try:
+        half = _respond(dev, 0.5 * u, 0.5 * v, dt)
+    except (ModalTwinError, ValueError):
+        return False
+    return bool(np.linalg.norm(half - 0.5 * f) <= tol * 0.5 * np.linalg.norm(f))
 
 
 class DeviceKind(PlacedEffect):

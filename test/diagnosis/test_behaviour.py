@@ -169,3 +169,22 @@ def test_without_a_measured_drift_the_law_reports_its_own_family() -> None:
     f = labelled(FittedEffect(eff, 3, 0.0, 0.0, 0.0, 0.0, 0, 0.0), Facts())
     assert f.family == "hysteresis" and f.behaviour == ""
     assert f.family_text() == "hysteresis (bouc_wen)"
+
+
+def test_a_relaxing_linear_law_is_told_from_a_softening_spring_by_homogeneity() -> None:
+    """A Maxwell damper's force halves with its drift history (linear, with memory); a
+    bilinear spring's does not once the drift passes its knee."""
+    from modal_twin.diagnosis.device_kind import _homogeneous
+    from modal_twin.models.devices.bilinear import BilinearElastic
+    from modal_twin.models.devices.maxwell import MaxwellDamper
+
+    fs = 200.0
+    t = np.arange(4000) / fs
+    u = (0.02 * np.sin(2 * np.pi * 1.3 * t) * np.minimum(t / 5, 1.0))[None, :]
+    v = np.gradient(u, 1 / fs, axis=1)
+    dev = MaxwellDamper([1.0e5], [8.0e5], [4.0e4], dt=1 / fs)
+    f = dev.respond(u, v, dt=1 / fs).f
+    assert _homogeneous(dev, u, v, f, 1 / fs)
+    spring = BilinearElastic(1.0e6, 0.3e6, 0.005, [0.0])
+    fb = spring.respond(u, v).f
+    assert not _homogeneous(spring, u, v, fb, 1 / fs)
