@@ -15,6 +15,7 @@ import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -401,11 +402,64 @@ def fit_effect(
                           bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev, x_scale="jac")
             for xs in starts]
     sol = min(ends, key=lambda e: float(e.cost))
+    far = _extensions_at_far_bound(law, names, sol)
+    if far:  # judged at its bound it could never be accepted: its classical form instead
+        sol = _held_fit(objective, sol, far, [SWITCHED_OFF[law][names[i]] for i in far],
+                        lo, hi, max_nfev)
     params = to_params(sol.x)
     effect = EffectSpec(component, law, {n: params[n] for n in names if n in params}
                         if law != "linear" else params)
     return judge_fit(effect, factory.plant([effect]), factory.plant(), sol, len(names), train,
                      test, objective, t0, _parameter_std(sol, to_params, names))
+
+
+def _extensions_at_far_bound(law: str, names: list[str], sol: Any) -> list[int]:
+    """Return the law's switchable extensions that ended at their far bound.
+
+    Extensions of :data:`SWITCHED_OFF` at the bound opposite to their "off" one (a
+    static-to-kinetic ratio run to its cap).
+    """
+    off = SWITCHED_OFF.get(law, {})
+    mask = np.asarray(getattr(sol, "active_mask", np.zeros(len(names))))
+    return [i for i, (n, a) in enumerate(zip(names, mask, strict=False))
+            if n in off and a != 0 and int(a) != off[n]]
+
+
+def _held_fit(objective: SimulationObjective, sol: Any, held: list[int], side: list[int],
+              lo: FloatArray, hi: FloatArray, max_nfev: int) -> Any:
+    """Refit ``sol`` with the coordinates ``held`` switched off, the others free.
+
+    Held at their ``side`` bound (-1 lower, +1 upper), from ``sol.x``.
+
+    Returns a solution on the full coordinates (the held columns of its Jacobian zero, so
+    their standard deviation reads "not determined"; their active mask the "off" side, so
+    they are not flagged as stopped at a bound).
+    """
+    x = np.array(sol.x, float)
+    for i, a in zip(held, side, strict=True):
+        x[i] = lo[i] if a < 0 else hi[i]
+    free = np.ones(x.size, bool)
+    free[held] = False
+    if not free.any():
+        return sol
+
+    def sub(xs: FloatArray) -> FloatArray:
+        xf = x.copy()
+        xf[free] = xs
+        return objective(xf)
+
+    x0 = np.clip(x[free], lo[free] + 1e-9, hi[free] - 1e-9)
+    r = least_squares(sub, x0, bounds=(lo[free], hi[free]), diff_step=1e-3,
+                      max_nfev=max_nfev, x_scale="jac")
+    x[free] = r.x
+    jac = np.zeros((r.fun.size, x.size))
+    jac[:, free] = r.jac
+    mask = np.zeros(x.size, int)
+    mask[free] = r.active_mask
+    mask[held] = side
+    return SimpleNamespace(x=x, fun=r.fun, jac=jac, active_mask=mask, cost=r.cost,
+                           message=f"{r.message} (extensions {held} switched off: they ran "
+                                   "to their far bound)")
 
 
 def threshold_start(objective: Callable[[FloatArray], FloatArray], axes: Sequence[int],

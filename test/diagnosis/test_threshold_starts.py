@@ -169,3 +169,28 @@ def test_a_slider_hidden_at_one_level_is_named_from_another() -> None:
     start = {s.law: s.params for s in both.screened}["regularised_friction"]
     assert 1.5e4 < start["Fk"] < 6.0e4
     assert "from level 0.0025 m: the training record names no family" in both.evidence.format()
+
+
+def test_an_extension_run_to_its_far_bound_is_switched_off_and_the_rest_refitted() -> None:
+    """A static-to-kinetic ratio that runs to its cap cannot be accepted (a fit stopped by
+    its bound); the fit is repeated in the law's classical form (Fs = Fk) with the other
+    parameters free: on a known quadratic, their optimum given the held value."""
+    from scipy.optimize import least_squares
+
+    from modal_twin.diagnosis.fitting import _extensions_at_far_bound, _held_fit
+
+    names = ["Fk", "Fs", "kp", "v_s", "v_reg"]
+    lo = np.array([0.0, 1.0, 0.0, -3.0, -4.0])
+    hi = np.array([10.0, 3.0, 1.5, 0.0, -1.0])
+
+    def objective(x: np.ndarray) -> np.ndarray:  # wants ratio 5 (beyond the cap of 3)
+        return np.array([x[0] - 4.0 + 0.5 * (x[1] - 1.0), x[1] - 5.0, x[2] - 0.5,
+                         x[3] + 1.0, x[4] + 2.0])
+
+    sol = least_squares(objective, np.array([1.0, 1.5, 0.1, -2.0, -3.0]), bounds=(lo, hi))
+    assert _extensions_at_far_bound("regularised_friction", names, sol) == [1]
+    held = _held_fit(objective, sol, [1], [-1], lo, hi, 50)
+    assert held.x[1] == 1.0  # Fs = Fk: switched off
+    np.testing.assert_allclose(held.x[[0, 2, 3, 4]], [4.0, 0.5, -1.0, -2.0], atol=1e-6)
+    assert not _extensions_at_far_bound("regularised_friction", names, held)
+    assert not np.any(held.jac[:, 1])  # the held coordinate: not determined by the data
