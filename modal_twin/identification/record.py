@@ -11,7 +11,8 @@ channel map and does, in this order and for every caller alike:
 2. **Method**: ``n4sid`` (input-output, Eqs. (1)-(4) of [004]), ``ssi-cov``
    (output-only) or ``polymax`` (pLSCF, Eqs. (1)-(4) of [002]: on H1 FRFs when inputs are
    known and coherent, else on the outputs' positive half-spectra from their correlation
-   functions; LSFD shapes, Eq. (5), for the selected modes). By default ``n4sid`` when the record has
+   functions; LSFD shapes, Eq. (5), for the selected modes). By default ``n4sid`` when
+   the record has
    driven inputs whose mean multiple coherence with the outputs in the band (debiased for
    the number of averages: the share of the output power the inputs explain) is at least
    :data:`COHERENT`, else ``ssi-cov``; PolyMAX uses the map's inputs by the same
