@@ -96,6 +96,11 @@ STRICT = {"rel_tol_f": 0.01, "rel_tol_zeta": 0.05, "mac_min": 0.95}
 """Stability thresholds of sec. 3 of [004]."""
 RELAXED = {"rel_tol_f": 0.02, "rel_tol_zeta": 0.2, "mac_min": 0.9}
 """Thresholds of the second try when the default ones give no mode."""
+H1_ZETA = 0.01
+"""Damping of the mode whose half-power width (:math:`2 \\zeta f` at the band's centre)
+the H1 lines of input-output PolyMAX must resolve; coarser lines (short records with many
+inputs: Berkeley's 6 ground channels, 0.31 Hz lines; Rio Dell's 9, 0.2 Hz) bias the poles
+by leakage, and PolyMAX runs output-only on the half-spectra instead."""
 NONSTATIONARY = 4.0
 """Largest / smallest window RMS above which output-only SSI is warned about."""
 COHERENT = 0.8
@@ -481,21 +486,31 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
     """Return the method, the debiased input coherence (NaN: not needed), whether to use inputs.
 
     The default method and PolyMAX with the inputs of the channel map (not named) use the
-    inputs only when their debiased coherence is at least :data:`COHERENT`.
+    inputs only when their debiased coherence is at least :data:`COHERENT`; PolyMAX also
+    only when the H1 lines (:func:`welch_segment`) resolve a mode damped
+    :data:`H1_ZETA` at the band's centre.
     """
     method = opts.method
     coh = math.nan
     n_in = u.shape[0]
     if n_in and (method is None or (method == "polymax" and opts.inputs is None)):
         s0 = _settings(y, fs_hz, n_in, opts, corners)
-        coh = _coherence(decimate(u, fs_hz, s0.factor).x,
-                         decimate(y, fs_hz, s0.factor).x, s0.fs_hz, s0.band_hz)
-    if method == "polymax" and n_in and opts.inputs is None and coh < COHERENT:
-        notes.append(f"PolyMAX output-only: {n_in} driven inputs, mean coherence "
-                     f"{coh:.2f} with the outputs in the band (debiased) (< {COHERENT:g}: "
-                     f"the inputs explain too little of the response for H1; name them "
-                     f"with --inputs to use them)")
-        return method, coh, False
+        yd = decimate(y, fs_hz, s0.factor).x
+        coh = _coherence(decimate(u, fs_hz, s0.factor).x, yd, s0.fs_hz, s0.band_hz)
+    if method == "polymax" and n_in and opts.inputs is None:
+        df = s0.fs_hz / welch_segment(yd.shape[1], n_in)
+        fc = 0.5 * (s0.band_hz[0] + s0.band_hz[1])
+        why = (f"mean coherence {coh:.2f} with the outputs in the band (debiased) "
+               f"(< {COHERENT:g}: the inputs explain too little of the response)"
+               if coh < COHERENT else
+               f"H1 lines {df:.3g} Hz apart (>= 2 x {n_in} + 2 averages) do not resolve "
+               f"a {100 * H1_ZETA:g} %-damped mode at the band's centre {fc:.3g} Hz "
+               f"(half-power width {2 * H1_ZETA * fc:.3g} Hz)"
+               if df > 2 * H1_ZETA * fc else "")
+        if why:
+            notes.append(f"PolyMAX output-only: {n_in} driven inputs, {why}; name them "
+                         f"with --inputs to use them")
+            return method, coh, False
     if method is None and n_in:
         method = "n4sid" if coh >= COHERENT else "ssi-cov"
         notes.append(f"method {method}: {n_in} driven inputs, mean coherence "
