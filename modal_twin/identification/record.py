@@ -10,16 +10,18 @@ channel map and does, in this order and for every caller alike:
    is left out, and said.
 2. **Method**: ``n4sid`` (input-output, Eqs. (1)-(4) of [004]), ``ssi-cov``
    (output-only) or ``polymax`` (pLSCF, Eqs. (1)-(4) of [002]: on H1 FRFs when inputs are
-   known, else on the outputs' positive half-spectra from their correlation functions;
-   LSFD shapes, Eq. (5), for the selected modes). By default ``n4sid`` when the record has
+   known and coherent, else on the outputs' positive half-spectra from their correlation
+   functions; LSFD shapes, Eq. (5), for the selected modes). By default ``n4sid`` when
+   the record has
    driven inputs whose mean multiple coherence with the outputs in the band (debiased for
    the number of averages: the share of the output power the inputs explain) is at least
-   :data:`COHERENT`, else ``ssi-cov``; the choice and its reason are said.
+   :data:`COHERENT`, else ``ssi-cov``; PolyMAX uses the map's inputs by the same
+   coherence rule (named inputs always); the choice and its reason are said.
 3. **Settings** (:func:`~modal_twin.identification.auto.choose_settings`): band,
    decimation, block rows and orders from the record, each one replaced by a given
    option; a given option the record cannot support is an error naming the limit. The
    H1 segments (PolyMAX) are the longest power of two with ``2 n_in + 2`` averages.
-4. **Selection**: by default (``selection="clusters"``; PolyMAX keeps the rule of
+4. **Selection**: by default (``selection="clusters"``; PolyMAX on H1 keeps the rule of
    [004] unless asked) hierarchical clustering of the
    poles of every order (:mod:`~modal_twin.identification.clustering`, Magalhaes et al.
    2009 with a cut-off from the data): each cluster's median reported with its size,
@@ -94,6 +96,11 @@ STRICT = {"rel_tol_f": 0.01, "rel_tol_zeta": 0.05, "mac_min": 0.95}
 """Stability thresholds of sec. 3 of [004]."""
 RELAXED = {"rel_tol_f": 0.02, "rel_tol_zeta": 0.2, "mac_min": 0.9}
 """Thresholds of the second try when the default ones give no mode."""
+H1_ZETA = 0.01
+"""Damping of the mode whose half-power width (:math:`2 \\zeta f` at the band's centre)
+the H1 lines of input-output PolyMAX must resolve; coarser lines (short records with many
+inputs: Berkeley's 6 ground channels, 0.31 Hz lines; Rio Dell's 9, 0.2 Hz) bias the poles
+by leakage, and PolyMAX runs output-only on the half-spectra instead."""
 NONSTATIONARY = 4.0
 """Largest / smallest window RMS above which output-only SSI is warned about."""
 COHERENT = 0.8
@@ -131,9 +138,10 @@ class IdentifyOptions:
     relax : bool
         Try :data:`RELAXED` thresholds when the first ones give no mode (``stability``).
     selection : str, optional
-        One of :data:`SELECTIONS`; default ``clusters`` for the subspace methods,
-        ``stability`` for PolyMAX (its few-channel H1 fits give spurious columns as
-        steady as the modes; the clustering has no shape to tell them apart).
+        One of :data:`SELECTIONS`; default ``clusters`` for the subspace methods and
+        output-only PolyMAX, ``stability`` for PolyMAX on H1 (its few-channel H1 fits
+        give spurious columns as steady as the modes; the clustering has no shape to tell
+        them apart).
     zeta_max : float
         Poles damped above this are not physical.
     n_blocks_std : int
@@ -443,9 +451,10 @@ def _coherence(u: FloatArray, y: FloatArray, fs_hz: float, band: tuple[float, fl
 
 
 def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float],
-            notes: list[str], harmonic: Callable[[float], bool] | None = None
+            notes: list[str], harmonic: Callable[[float], bool] | None = None,
+            io: bool = True
             ) -> tuple[StabilizationDiagram, ModalModel, bool, list[DroppedColumn]]:
-    rule = opts.selection or ("stability" if sweep.method == "polymax" else "clusters")
+    rule = opts.selection or ("stability" if sweep.method == "polymax" and io else "clusters")
     if rule == "clusters":
         diag = stabilization_diagram(sweep, **opts.thresholds)
         cm = cluster_modes(diag, zeta_max=opts.zeta_max, f_range_hz=band, mpc_min=MPC_MIN,
@@ -470,6 +479,49 @@ def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float],
                      f"to {RELAXED}")
     drop = dropped_columns(diag, mm, zeta_max=opts.zeta_max, f_range_hz=band)
     return diag, mm, relaxed, drop
+
+
+def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOptions,
+                   corners: tuple[float, float], notes: list[str]) -> tuple[str, float, bool]:
+    """Return the method, the debiased input coherence (NaN: not needed), whether to use inputs.
+
+    The default method and PolyMAX with the inputs of the channel map (not named) use the
+    inputs only when their debiased coherence is at least :data:`COHERENT`; PolyMAX also
+    only when the H1 lines (:func:`welch_segment`) resolve a mode damped
+    :data:`H1_ZETA` at the band's centre.
+    """
+    method = opts.method
+    coh = math.nan
+    n_in = u.shape[0]
+    if n_in and (method is None or (method == "polymax" and opts.inputs is None)):
+        s0 = _settings(y, fs_hz, n_in, opts, corners)
+        yd = decimate(y, fs_hz, s0.factor).x
+        coh = _coherence(decimate(u, fs_hz, s0.factor).x, yd, s0.fs_hz, s0.band_hz)
+    if method == "polymax" and n_in and opts.inputs is None:
+        df = s0.fs_hz / welch_segment(yd.shape[1], n_in)
+        fc = 0.5 * (s0.band_hz[0] + s0.band_hz[1])
+        why = (f"mean coherence {coh:.2f} with the outputs in the band (debiased) "
+               f"(< {COHERENT:g}: the inputs explain too little of the response)"
+               if coh < COHERENT else
+               f"H1 lines {df:.3g} Hz apart (>= 2 x {n_in} + 2 averages) do not resolve "
+               f"a {100 * H1_ZETA:g} %-damped mode at the band's centre {fc:.3g} Hz "
+               f"(half-power width {2 * H1_ZETA * fc:.3g} Hz)"
+               if df > 2 * H1_ZETA * fc else "")
+        if why:
+            notes.append(f"PolyMAX output-only: {n_in} driven inputs, {why}; name them "
+                         f"with --inputs to use them")
+            return method, coh, False
+    if method is None and n_in:
+        method = "n4sid" if coh >= COHERENT else "ssi-cov"
+        notes.append(f"method {method}: {n_in} driven inputs, mean coherence "
+                     f"{coh:.2f} with the outputs in the band (debiased) "
+                     + ("(>= " if coh >= COHERENT else "(< ") + f"{COHERENT:g}: "
+                     + ("the inputs explain the response; input-output)" if coh >= COHERENT
+                        else "the inputs explain too little of the response; output-only)"))
+    elif method is None:
+        method = "ssi-cov"
+        notes.append("method ssi-cov: no driven input, output-only")
+    return method, coh, method not in OUTPUT_ONLY
 
 
 def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None = None,
@@ -514,24 +566,10 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     y = block.select(tuple(c.name for c in outs)).data
     u = block.select(tuple(c.name for c in ins)).data if ins else np.zeros((0, y.shape[1]))
     corners = _corners(outs + ins)
-    method = opts.method
-    coh = math.nan
-    if method is None and ins:
-        s0 = _settings(y, block.fs_hz, len(ins), opts, corners)
-        coh = _coherence(decimate(u, block.fs_hz, s0.factor).x,
-                         decimate(y, block.fs_hz, s0.factor).x, s0.fs_hz, s0.band_hz)
-        method = "n4sid" if coh >= COHERENT else "ssi-cov"
-        notes.append(f"method {method}: {len(ins)} driven inputs, mean coherence "
-                     f"{coh:.2f} with the outputs in the band (debiased) "
-                     + ("(>= " if coh >= COHERENT else "(< ") + f"{COHERENT:g}: "
-                     + ("the inputs explain the response; input-output)" if coh >= COHERENT
-                        else "the inputs explain too little of the response; output-only)"))
-    elif method is None:
-        method = "ssi-cov"
-        notes.append("method ssi-cov: no driven input, output-only")
-    if method in OUTPUT_ONLY:
+    method, coh, io = _choose_method(u, y, block.fs_hz, opts, corners, notes)
+    if not io:
         ins, u = [], np.zeros((0, y.shape[1]))
-    elif not ins and method == "n4sid":
+    if not ins and method == "n4sid":
         msg = (f"{block.source or 'record'}: method {method} needs input channels (role "
                f"'input'), the record has none driven; use ssi-cov or polymax (output-only) "
                f"or name the inputs")
@@ -555,7 +593,8 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     sweep = _sweep(method, uq, yq, s, opts.n_blocks_std, notes, spectra)
     diag, mm, relaxed, drop = _select(
         sweep, opts, s.band_hz, notes,
-        harmonic=lambda f: is_harmonic(yq, s.fs_hz, f))  # a column damped at about zero
+        harmonic=lambda f: is_harmonic(yq, s.fs_hz, f),  # a column damped at about zero
+        io=bool(ins))
     if spectra:
         mm = _lsfd_shapes(mm, spectra[0], s.band_hz)
     return RecordModes(method, tuple(ins), tuple(outs), s, sweep, diag, mm, relaxed,
