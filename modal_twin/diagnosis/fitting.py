@@ -181,7 +181,10 @@ SWITCHED_OFF: dict[str, dict[str, int]] = {
     "gap": {"n": -1, "g_neg": 1, "g": 1},
     "cubic": {"m": -1},
 }
-# of those, the optional extensions of a law (fitted once its classical form is)
+# bounds that are a physical end, not a fit stopped short, though not the classical form:
+# a slider with no dashpot beside it (a sliding bearing's friction is its whole damping)
+PHYSICAL_ENDS: dict[str, dict[str, int]] = {"regularised_friction": {"c_factor": -1}}
+# of the switched-off bounds, the optional extensions of a law (fitted once its classical form is)
 EXTENSIONS: dict[str, tuple[str, ...]] = {"stick_slip": ("kp", "v_s"),
                                           "regularised_friction": ("kp",), "gap": ("n",)}
 # laws whose force has a threshold (a friction force, a yield drift, a clearance) and the
@@ -207,7 +210,7 @@ def judge_fit(effect: EffectSpec, fitted: Plant, nominal: Plant, sol: Any, n_par
     N = sol.fun.size
     sse = float(sol.fun @ sol.fun)
     mask = np.asarray(getattr(sol, "active_mask", np.zeros(len(std))))
-    off = SWITCHED_OFF.get(effect.law, {})
+    off = {**SWITCHED_OFF.get(effect.law, {}), **PHYSICAL_ENDS.get(effect.law, {})}
     at_bound = tuple(n for n, a in zip(std, mask, strict=False)
                      if a != 0 and off.get(n) != int(a))
     return FittedEffect(
