@@ -95,10 +95,7 @@ def input_share(factory: ModelFactory, component: str, rec: Record, n_dir: int
     and of its rate; a vehicle's primary suspension: ``-z_i``, ``-z_i'``), where it has
     one; the first direction only (the others take none).
     """
-    rows = getattr(factory, "site_inputs", None)
-    if rows is None:
-        return None
-    eu, ev = rows(component)
+    eu, ev = factory.site_inputs(component)
     if not eu and not ev:
         return None
     u_in, v_in = np.zeros((n_dir, rec.inputs.shape[1])), np.zeros((n_dir, rec.inputs.shape[1]))

@@ -445,15 +445,8 @@ def _held_fit(objective: SimulationObjective, sol: Any, held: list[int], side: l
     free[held] = False
     if not free.any():
         return sol
-
-    def sub(xs: FloatArray) -> FloatArray:
-        xf = x.copy()
-        xf[free] = xs
-        return objective(xf)
-
-    x0 = np.clip(x[free], lo[free] + 1e-9, hi[free] - 1e-9)
-    r = least_squares(sub, x0, bounds=(lo[free], hi[free]), diff_step=1e-3,
-                      max_nfev=max_nfev, x_scale="jac")
+    x[free] = np.clip(x[free], lo[free] + 1e-9, hi[free] - 1e-9)
+    r = _fit_free(objective, x, free, lo, hi, max_nfev)
     x[free] = r.x
     jac = np.zeros((r.fun.size, x.size))
     jac[:, free] = r.jac
@@ -510,17 +503,26 @@ def _classical_first(objective: SimulationObjective, law: str, names: list[str],
     if not held.any() or held.all():
         return x0
     free = ~held
+    out = x0.copy()
+    out[free] = _fit_free(objective, x0, free, lo, hi, max_nfev).x
+    return out
+
+
+def _fit_free(objective: Callable[[FloatArray], FloatArray], x: FloatArray,
+              free: np.ndarray, lo: FloatArray, hi: FloatArray, max_nfev: int) -> Any:
+    """Return the least-squares fit over the coordinates ``free`` of ``x``.
+
+    The others are held at ``x``; the fit starts at ``x[free]`` and its result is on the
+    free coordinates.
+    """
 
     def sub(xs: FloatArray) -> FloatArray:
-        x = x0.copy()
-        x[free] = xs
-        return objective(x)
+        xf = x.copy()
+        xf[free] = xs
+        return objective(xf)
 
-    sol = least_squares(sub, x0[free], bounds=(lo[free], hi[free]), diff_step=1e-3,
-                        max_nfev=max_nfev, x_scale="jac")
-    out = x0.copy()
-    out[free] = sol.x
-    return out
+    return least_squares(sub, x[free], bounds=(lo[free], hi[free]), diff_step=1e-3,
+                         max_nfev=max_nfev, x_scale="jac")
 
 
 def _parameter_std(sol: object, to_params: Callable[[FloatArray], dict[str, float]],

@@ -108,6 +108,10 @@ class BuildingFactory:
         """
         return ()
 
+    def site_inputs(self, component: str) -> tuple[dict[str, float], dict[str, float]]:
+        """Return no input share: every site's drift here is the structure's own."""
+        return {}, {}
+
     def weight(self, component: str) -> float:
         """Weight carried by a component, N."""
         return float(max(self.weights[self.bld.device_names.index(component)], 0.0))

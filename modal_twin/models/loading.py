@@ -69,6 +69,13 @@ class ModelFactory(Protocol):
         """Weight carried by a component, N."""
         ...
 
+    def site_inputs(self, component: str) -> tuple[dict[str, float], dict[str, float]]:
+        """Return the input's share of a site's drift and of its rate (input -> coefficient).
+
+        Empty where the drift is the structure's own (all but a primary suspension's stroke).
+        """
+        ...
+
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:
         """Return the plant with the base effects and ``effects`` in place."""
         ...

@@ -96,6 +96,10 @@ class MatrixFactory:
         """Return no attachments: a matrix model has no rigid masses to mount elastically."""
         return ()
 
+    def site_inputs(self, component: str) -> tuple[dict[str, float], dict[str, float]]:
+        """Return no input share: every site's drift here is the structure's own."""
+        return {}, {}
+
     def weight(self, component: str) -> float:
         """Refuse: a matrix model has no devices that carry weight."""
         msg = f"{self.structure_file}: a matrix model has no device {component!r}"

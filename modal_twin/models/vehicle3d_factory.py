@@ -339,6 +339,10 @@ class Vehicle3DFactory:
         """No rigidly bolted items in the 3D car file (hangers are not modelled there)."""
         return ()
 
+    def site_inputs(self, component: str) -> tuple[dict[str, float], dict[str, float]]:
+        """Return no input share: every site's drift here is the structure's own."""
+        return {}, {}
+
     def weight(self, component: str) -> float:
         """Weight on an air spring's vertical element (a quarter of the carbody), else 0, N."""
         if component.startswith("air_spring_") and component.endswith("_z"):
