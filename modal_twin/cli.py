@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import re
 import sys
 
 from modal_twin import demo
@@ -96,6 +97,26 @@ def _verbosity_flags(p: argparse.ArgumentParser, default: object = False) -> Non
                       help="no progress and no info logging (errors only)")
 
 
+_NUMBER_LIST = re.compile(r"^-[0-9.][0-9.eE+-]*(,[-+]?[0-9.][0-9.eE+-]*)+$")
+
+
+def _negative_lists_joined(argv: list[str]) -> list[str]:
+    """``--opt -0.7,1.5`` as ``--opt=-0.7,1.5``.
+
+    argparse reads a value that starts with a minus as an option unless it is one plain
+    negative number, so a list such as ``--bounds -0.7,1.5`` failed with "expected one
+    argument". A comma-separated list of numbers after a long option is its value.
+    """
+    out: list[str] = []
+    for token in argv:
+        if (out and out[-1].startswith("--") and "=" not in out[-1]
+                and _NUMBER_LIST.match(token)):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``modal-twin``."""
     argv = sys.argv[1:] if argv is None else argv
@@ -110,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
         from modal_twin.io.replay import main as replay_main
 
         return replay_main(argv[1:])
-    a = _parser().parse_args(argv)
+    a = _parser().parse_args(_negative_lists_joined(argv))
     level = Verbosity.QUIET if a.quiet else Verbosity.VERBOSE if a.verbose else Verbosity.NORMAL
     set_verbosity(level)
     logging.basicConfig(level={Verbosity.QUIET: logging.WARNING, Verbosity.NORMAL: logging.INFO,

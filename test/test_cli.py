@@ -29,3 +29,16 @@ def test_model_info_bad_file(tmp_path: Path) -> None:
     out = _cli("model", "info", str(bad))
     assert out.returncode == 2
     assert "Traceback" not in out.stderr and str(bad) in out.stderr
+
+
+def test_a_negative_number_list_is_an_option_value() -> None:
+    from modal_twin import cli
+
+    argv = ["update", "m.yaml", "--modes", "x.json", "--bounds", "-0.7,1.5", "-q"]
+    assert cli._negative_lists_joined(argv) == ["update", "m.yaml", "--modes", "x.json",
+                                                "--bounds=-0.7,1.5", "-q"]
+    a = cli._parser().parse_args(cli._negative_lists_joined(argv))
+    assert a.bounds == "-0.7,1.5"
+    # a single negative number and an option after an option stay as they were
+    assert cli._negative_lists_joined(["--f-min", "-5", "--x", "-y"]) == \
+        ["--f-min", "-5", "--x", "-y"]
