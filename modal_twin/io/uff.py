@@ -38,8 +38,8 @@ from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
 from modal_twin.models.array_files import check_text_file
 
-__all__ = ["AXIS_CODES", "CHANNELS_TAG", "UffContents", "read_uff", "read_uff55", "uff_role",
-           "write_uff55", "write_uff58_frf", "write_uff58_time"]
+__all__ = ["AXIS_CODES", "CHANNELS_TAG", "UffContents", "rate_from_increment", "read_uff",
+           "read_uff55", "uff_role", "write_uff55", "write_uff58_frf", "write_uff58_time"]
 
 log = logging.getLogger(__name__)
 
@@ -167,7 +167,33 @@ def _time_channel(s: dict[str, Any], path: Path, k: int) -> tuple[ChannelSpec, f
                f"time series and no channel role takes complex data")
         raise SignalError(msg)
     data = np.real(raw).astype(np.float64) * scale
-    return spec, 1.0 / dt, float(s.get("abscissa_min", 0.0)), data
+    return spec, rate_from_increment(dt), float(s.get("abscissa_min", 0.0)), data
+
+
+def rate_from_increment(dt: float, digits: int = 6) -> float:
+    """Sample rate of a UFF 58 record from its abscissa increment.
+
+    Record 7 holds the increment in E13.5 (six significant digits), so 1 / 4096 s is read
+    as 2.44141e-4 s and its reciprocal as 4095.99 Hz. The increment only fixes the rate to
+    within the field's half last digit; where a whole number of hertz lies in that interval
+    it is the rate (the one the writer most likely meant), otherwise ``1 / dt``.
+
+    Parameters
+    ----------
+    dt : float
+        Abscissa increment as read, s (> 0).
+    digits : int
+        Significant digits the field carries (6 for E13.5).
+
+    Returns
+    -------
+    float
+        Sample rate, Hz.
+    """
+    half = 0.5 * 10.0 ** (np.floor(np.log10(dt)) - (digits - 1))
+    lo, hi = 1.0 / (dt + half), 1.0 / (dt - half) if dt > half else np.inf
+    whole = float(np.round(1.0 / dt))
+    return whole if lo <= whole <= hi else 1.0 / dt
 
 
 def _geometry(sets: list[dict[str, Any]]) -> dict[str, Any]:

@@ -7,7 +7,13 @@ import pytest
 import pyuff
 
 from modal_twin.errors import ConfigError
-from modal_twin.io.uff import read_uff, read_uff55, write_uff55, write_uff58_frf
+from modal_twin.io.uff import (
+    rate_from_increment,
+    read_uff,
+    read_uff55,
+    write_uff55,
+    write_uff58_frf,
+)
 
 
 def _time_set(node: int, direction: int, data: np.ndarray, dt: float, unit: str,
@@ -44,6 +50,19 @@ def test_uff58_time_data_in_si(tmp_path: Path) -> None:
     assert t0 == 0.0
     np.testing.assert_allclose(x1, a, rtol=1e-6)
     np.testing.assert_allclose(x2, b * 9.80665, rtol=1e-6)
+
+
+def test_a_rate_survives_the_six_digits_of_the_increment(tmp_path: Path) -> None:
+    # E13.5 keeps 2.44141e-04 of 1/4096 s: the rate is 4096 Hz, not 4095.99 Hz
+    assert rate_from_increment(float(f"{1 / 4096:.5e}")) == 4096.0
+    assert rate_from_increment(float(f"{1 / 2500:.5e}")) == 2500.0
+    # a rate that is not a whole number of hertz and is written exactly stays as it is
+    assert rate_from_increment(1 / 333.3) == pytest.approx(333.3, rel=1e-12)
+    # through a file (ASCII 58): 4096 Hz written, 4096 Hz read
+    x = np.random.default_rng(2).standard_normal(32)
+    p = tmp_path / "r.uff"
+    pyuff.UFF(str(p)).write_sets([_time_set(1, 3, x, 1 / 4096, "m/s2")], mode="overwrite")
+    assert read_uff(p).time[0][1] == 4096.0
 
 
 def test_uff55_round_trip_through_pyuff(tmp_path: Path) -> None:
