@@ -29,9 +29,20 @@ LIVE_TOLERANCE_PP = 1e-9  # as test/diagnosis/test_imported_records.py
 
 @pytest.fixture(scope="module")
 def run_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The shipped 3D-car scenario, 8 s of track at 200 Hz, launched and recorded."""
+    """The shipped 3D-car scenario, 8 s of track at 200 Hz, launched and recorded.
+
+    The twin's compiled kernels are built here first (numba's cache on disk), so that the
+    rig and twin nodes of a fresh checkout do not spend the run compiling.
+    """
     from modal_twin.launch import Launcher, free_domain_id
+    from modal_twin.models.loading import load_model
+    from modal_twin.rig.truth import TruthRig
     from modal_twin.scenario import load_scenario, with_parameters
+    from modal_twin.signal_block import SignalBlock
+
+    plant = load_model(CAR3D).plant()
+    TruthRig(plant, 1 / 200.0).process(SignalBlock(plant.input_names, 200.0, 0,
+                                                   np.zeros((len(plant.input_names), 10))))
 
     mp = pytest.MonkeyPatch()
     mp.setenv("ROS_DOMAIN_ID", str(free_domain_id()))
