@@ -13,7 +13,7 @@ a twin, rig) ran a vehicle file -- the 3D car (``kind: vehicle3d``) or the verti
   ``residual``), the floor-PSD power error in 4-15 Hz and the record's PSD peak, and a
   figure of the floor PSDs, record beside model (Welch; Sec. 5.2 of [002]).
 
-A run whose vehicle file is not there is one line naming it (the caller exits 2).
+A run whose model file is not there is one line naming it (the caller exits 2).
 """
 
 from __future__ import annotations
@@ -163,7 +163,7 @@ def load_vehicle_run(folder: Path) -> tuple[Any, str]:
         return None, f"{folder}: not a launched vehicle run (bag/, params naming a vehicle)"
     source, path = found
     if not path.is_file():
-        return None, (f"{folder}: the run's vehicle file {path} ({source}) is not there: no "
+        return None, (f"{folder}: the run's model file {path} ({source}) is not there: no "
                       "modes, ride or twin error to report against it")
     notes = [f"run folder: {folder.resolve()}", f"vehicle: {path} ({source})"]
     with step(f"report: modes of {path.name}"):
