@@ -121,7 +121,9 @@ def test_track_drive_of_the_3d_car_has_three_delayed_components() -> None:
     samples at 300 km/h and 2 kHz), then their rates (the time derivatives; 2 kHz so that
     the central difference resolves the 1 m wavelengths, 83 Hz, to 1 %)."""
     from modal_twin.excitation.drive import TRACK_CHANNELS, TRACK_CHANNELS_3D
+    from modal_twin.models.vehicle3d_factory import INPUT_NAMES_3D
 
+    assert TRACK_CHANNELS_3D == INPUT_NAMES_3D  # the drive's rows are the 3D plant's inputs
     car3d = "config/vehicles/trailer_car_3d.yaml"
     cfg = ExcitationConfig(kind="track", channels=TRACK_CHANNELS_3D, fs_hz=2000.0,
                            duration_s=1.0, speed_kmh=300.0, seed=3, vehicle_file=car3d)
