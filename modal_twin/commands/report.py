@@ -33,7 +33,7 @@ from modal_twin.progress import step, track
 from modal_twin.validation import check_name
 
 __all__ = ["FIGURES", "is_run_folder", "load_run", "make_report", "model_loops", "own_bags",
-           "own_figures", "register", "run"]
+           "own_figures", "register", "run", "twin_metrics"]
 
 _DEVICE_SUFFIX = ("_dx", "_dy")
 
@@ -48,7 +48,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _metrics(bag: Path) -> tuple[Any, dict[str, tuple[str, str, str]]]:
+def twin_metrics(bag: Path) -> tuple[Any, dict[str, tuple[str, str, str]]]:
+    """Return the bag's last consistent /twin/metrics (None if none) and its channel meta."""
     from modal_twin.commands.residual import metrics_consistent
     from modal_twin.io.bag import bag_info, read_messages
     from modal_twin.io.convert import channel_map_from_msg
@@ -208,7 +209,7 @@ def load_run(run_dir: Path, *, n_modes: int = 4) -> Any:
     notes = [f"run folder: {run_dir.resolve()}"]
     bags = own_bags(run_dir, notes)
     for bag in track(bags, "report: records", unit="bag"):
-        m, meta = _metrics(bag)
+        m, meta = twin_metrics(bag)
         loops, states, model = (({}, {}, {}) if "replay" in bag.parent.name else
                                 _device_data(bag, set(blamed), devices))
         records.append(RecordData(
@@ -280,11 +281,16 @@ def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: 
         Nothing to report: one line naming what is missing.
     """
     from modal_twin.commands.report_record import load_record_folder
+    from modal_twin.commands.report_vehicle import load_vehicle_run, vehicle_of_run
     from modal_twin.viz.report import write_report
 
     rd = Path(run_dir)
     target = check_new(out or rd / "report.html", force)
-    if is_run_folder(rd):
+    if vehicle_of_run(rd) is not None:  # a launched run of a car (bag/, params/)
+        data, missing = load_vehicle_run(rd)
+        if data is None:
+            raise ConfigError(missing)
+    elif is_run_folder(rd):
         data = load_run(rd, n_modes=n_modes)
         if not (data.records or data.versions or data.images or data.stabilization):
             msg = (f"{rd}: nothing to report: its bags hold no metrics, record or device "

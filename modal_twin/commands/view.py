@@ -16,7 +16,9 @@ suspensions, equipment) with its coupled modes (:mod:`modal_twin.viz.vehicle_sce
 A 3D vehicle file (``kind: vehicle3d``) is drawn with the shell carbody's mesh, bogies and
 wheelsets (:mod:`modal_twin.viz.vehicle3d_scene`), animating its carbody modes at the
 file's speed: the lowest ``--n-modes``, or those named by ``--carbody-mode`` (e.g.
-``"vertical bending 1"``; ``--carbody-params`` applies an updating's zone factors).
+``"vertical bending 1"``; ``--carbody-params`` applies an updating's zone factors); with
+``--bag`` the shell car's deflection on the record's track (:func:`vehicle3d_bag_scene`).
+Its ``--html`` page moves each copy's line set by its own script (drawn once).
 
 MODEL may also be a test geometry: a UFF file with nodes and trace lines, or a bag
 ``modal-twin import`` wrote with one (its channels' nodes are the sensors); ``--modes`` (the
@@ -93,7 +95,12 @@ def model_scene(model: Path, n_modes: int) -> tuple[list[object], str]:
 
 
 def vehicle3d_scene_commands(args: argparse.Namespace) -> tuple[list[object], str]:
-    """meshcat commands and caption of a 3D vehicle file with the shell carbody."""
+    """meshcat commands and caption of a 3D vehicle file with the shell carbody.
+
+    Its carbody modes, or with ``--bag`` the car's deflection over the record's strongest
+    stretch (:func:`vehicle3d_bag_scene`). With ``--html`` the moving copies are line sets
+    moved by the page's script (:class:`~modal_twin.viz.scene.VertexAnimation`).
+    """
     from modal_twin.commands.ride import with_carbody_options
     from modal_twin.errors import ConfigError
     from modal_twin.models.vehicle3d import build_vehicle3d
@@ -101,16 +108,76 @@ def vehicle3d_scene_commands(args: argparse.Namespace) -> tuple[list[object], st
     from modal_twin.viz.scene import overlay_html, scene_commands
     from modal_twin.viz.vehicle3d_scene import vehicle3d_scene
 
-    if args.modes is not None or args.bag is not None:
-        msg = (f"{args.model}: a 3D vehicle shows its carbody modes (--carbody-mode); "
-               "--modes and --bag are for a building, a test geometry or the vertical-plane car")
+    if args.modes is not None:
+        msg = (f"{args.model}: a 3D vehicle shows its carbody modes (--carbody-mode) or a "
+               "record's deflection (--bag); --modes is for a building or a test geometry")
         raise ConfigError(msg)
     spec = load_vehicle3d(args.model).with_carbody("shell")
     spec = with_carbody_options(spec, args)
     veh = build_vehicle3d(spec)
     vs = vehicle3d_scene(veh)
+    vertex = args.html is not None
+    if args.bag is not None:
+        return vehicle3d_bag_scene(args.model, args.bag, veh, vs, window_s=args.window,
+                                   vertex_frames=vertex)
     modes = vs.modes(veh, spec.speed, labels=args.carbody_mode, n_modes=args.n_modes)
-    return scene_commands(vs.geom, modes), overlay_html(vs.geom, modes)
+    return (scene_commands(vs.geom, modes, vertex_frames=vertex),
+            overlay_html(vs.geom, modes))
+
+
+def vehicle3d_bag_scene(model: Path, bag: Path, veh: Any, vs: Any, *, window_s: float = 0.0,
+                        n_frames: int = 96, vertex_frames: bool = False
+                        ) -> tuple[list[object], str]:
+    """meshcat commands and caption of the shell car's deflection on a record's track.
+
+    The record's track inputs (by role, as ``residual``) drive the car ``veh`` (the file's
+    with the shell carbody) from rest; its strongest ``window_s`` (default three periods
+    of the lowest carbody mode) is drawn in real time on every node; the floor sensors
+    are coloured by the model's NRMSE of the recorded floor accelerations.
+
+    Raises
+    ------
+    ModalTwinError
+        A bag that does not read or has none of the car's track inputs.
+    """
+    import html
+
+    import numpy as np
+
+    from modal_twin.io.records import record_from_bag
+    from modal_twin.models.loading import load_model
+    from modal_twin.models.vehicle3d_ride import carbody_modes
+    from modal_twin.viz.live import residual_colour
+    from modal_twin.viz.motion import nrmse_per_sensor
+    from modal_twin.viz.scene import SceneMotion, caption_html, scene_commands
+    from modal_twin.viz.vehicle3d_scene import record_deflection
+
+    plant = load_model(model).plant()  # the file's car: the record's channels by role
+    rec = record_from_bag(bag, plant=plant)
+    w = plant.input_matrix(rec.input_names, rec.inputs)
+    f1 = min((m.f_hz for m in carbody_modes(veh, veh.spec.speed)), default=1.0)
+    span = window_s if window_s > 0 else 3.0 / f1
+    d = record_deflection(vs, veh, w, rec.fs_hz, window_s=span, n_frames=n_frames)
+    floor = [c for c in d.floor_names if c in rec.channel_names]
+    rows = [d.floor_names.index(c) for c in floor]
+    worst = nrmse_per_sensor([c.removeprefix("floor_") for c in floor],
+                             rec.channels(floor) if floor else np.zeros((0, 1)),
+                             d.floor[rows] if floor else np.zeros((0, 1)))
+    colours = {s: residual_colour(r) for s, r in worst.items()}
+    motion = SceneMotion(d.frames[None], 1.0 / d.dt_s, (0xE4572E,), colours)
+    t1 = d.t0_s + d.dt_s * d.frames.shape[0]
+    peak = float(np.abs(d.frames).max())
+    label = bag.parent.name if bag.name == "bag" else bag.name
+    items = [f"<b>{html.escape(label)}</b> on {html.escape(veh.spec.name)} (shell carbody): "
+             f"the car's deflection on the record's track, {d.t0_s:.2f}-{t1:.2f} s in real "
+             f"time ({d.frames.shape[0]} frames), largest node motion {1e3 * peak:.2f} mm "
+             "(drawn enlarged)",
+             "floor sensors coloured by the model's NRMSE of the recorded floor "
+             "accelerations: " + (", ".join(f"{html.escape(s)} {100 * v:.1f} %"
+                                           for s, v in worst.items()) or "none recorded")]
+    cmds = scene_commands(vs.geom, motion=motion, vertex_frames=vertex_frames,
+                          motion_times=(d.t0_s, d.dt_s))
+    return cmds, caption_html(items)
 
 
 def _is_vehicle3d(path: Path) -> bool:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -10,10 +11,16 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
 from modal_twin.excitation import signals
 
-__all__ = ["KINDS", "TRACK_CHANNELS", "ExcitationConfig", "make_drive"]
+__all__ = ["KINDS", "TRACK_CHANNELS", "TRACK_CHANNELS_3D", "ExcitationConfig", "make_drive"]
 
 KINDS = ("random", "chirp", "multisine", "earthquake", "record", "track", "impact")
 TRACK_CHANNELS = ("zt1", "zt2", "zt3", "zt4", "vt1", "vt2", "vt3", "vt4")
+TRACK_CHANNELS_3D = tuple(
+    [f"{c}{a}" for c in ("zt", "phit", "yat") for a in range(1, 5)]
+    + [f"d{c}{a}" for c in ("zt", "phit", "yat") for a in range(1, 5)])
+"""The 3D car's track inputs (a ``kind: vehicle3d`` vehicle file): vertical profile, cross
+level and alignment under wheelsets 1..4, then their rates
+(:data:`modal_twin.models.vehicle3d_factory.INPUT_NAMES_3D`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,7 +47,10 @@ class ExcitationConfig:
     speed_kmh: float = field(default=300.0, metadata={"doc": "running speed (kind=track)"})
     vehicle_file: str = field(default="config/vehicles/trailer_car.yaml",
                               metadata={"doc": "vehicle whose axle positions the track "
-                                        "irregularity passes under (kind=track)"})
+                                        "irregularity passes under (kind=track); a 3D car "
+                                        "(kind: vehicle3d) takes the 3D track channels"})
+    track_level: str = field(default="low", metadata={
+        "doc": "German track spectrum, low or high interference (kind=track, 3D car)"})
     impact_spacing_s: float = field(default=4.0, metadata={
         "doc": "time between hammer hits (kind=impact)"})
     hits_per_point: int = field(default=5, metadata={
@@ -63,10 +73,12 @@ class ExcitationConfig:
         if self.block_size < 1:
             msg = f"block_size: expected >= 1, got {self.block_size}"
             raise OptionError(msg)
-        if self.kind == "track" and tuple(self.channels) != TRACK_CHANNELS:
+        if self.kind == "track" and tuple(self.channels) not in (TRACK_CHANNELS,
+                                                                 TRACK_CHANNELS_3D):
             msg = (f"channels: kind=track drives the track irregularity under the four "
-                   f"wheelsets and its rate, expected {list(TRACK_CHANNELS)}, got "
-                   f"{list(self.channels)}")
+                   f"wheelsets and its rate, expected {list(TRACK_CHANNELS)} (a vertical car) "
+                   f"or {list(TRACK_CHANNELS_3D[:3])} ... ({len(TRACK_CHANNELS_3D)}, a 3D "
+                   f"car), got {list(self.channels)}")
             raise OptionError(msg)
         if self.kind == "track" and not self.speed_kmh > 0:
             msg = f"speed_kmh: expected > 0, got {self.speed_kmh}"
@@ -147,15 +159,58 @@ def _track_drive(cfg: ExcitationConfig) -> FloatArray:
     """Return the vertical irregularity of a random German low-interference track and its rate.
 
     Both are taken under the wheelsets of ``cfg.vehicle_file`` running at ``cfg.speed_kmh``.
+    A 3D car's file (``kind: vehicle3d``) gets :func:`_track_drive_3d`.
+
+    Raises
+    ------
+    OptionError
+        Channels of the other kind of car than the file's.
     """
     from modal_twin.models.track import random_profile, wheelset_inputs
+    from modal_twin.models.vehicle3d_spec import is_vehicle3d_file
     from modal_twin.models.vehicle_spec import load_vehicle
     from modal_twin.paths import resolve_config
 
-    spec = load_vehicle(resolve_config(cfg.vehicle_file))
+    path = resolve_config(cfg.vehicle_file)
+    is_3d = is_vehicle3d_file(path)
+    if is_3d != (tuple(cfg.channels) == TRACK_CHANNELS_3D):
+        msg = (f"channels: {cfg.vehicle_file} is a {'3D' if is_3d else 'vertical-plane'} car, "
+               f"its track channels are "
+               f"{list((TRACK_CHANNELS_3D if is_3d else TRACK_CHANNELS)[:4])} ...")
+        raise OptionError(msg)
+    if is_3d:
+        return _track_drive_3d(cfg, path)
+    spec = load_vehicle(path)
     v = cfg.speed_kmh / 3.6
     prof = random_profile(v * cfg.duration_s + spec.length + 20.0, rng=cfg.seed)
     return wheelset_inputs(prof, spec.axle_x, v, cfg.fs_hz, cfg.duration_s)
+
+
+def _track_drive_3d(cfg: ExcitationConfig, path: Path) -> FloatArray:
+    """Return the 3D car's track: profile, cross level and alignment of a German spectrum.
+
+    Drawn by :func:`modal_twin.models.track3d.random_track_3d` (``cfg.track_level``) and
+    taken under the car's wheelsets (:func:`~modal_twin.models.track3d.track_inputs_3d`);
+    the car's wheel-rail contact is built at its file's speed, which ``cfg.speed_kmh``
+    must equal.
+
+    Raises
+    ------
+    OptionError
+        A speed other than the file's, or an unknown track level.
+    """
+    from modal_twin.models.track3d import random_track_3d, track_inputs_3d
+    from modal_twin.models.vehicle3d_spec import load_vehicle3d
+
+    spec = load_vehicle3d(path)
+    if not np.isclose(cfg.speed_kmh, spec.speed_kmh):
+        msg = (f"speed_kmh: the 3D car's contact is built at its file's speed_kmh "
+               f"{spec.speed_kmh:g}, got {cfg.speed_kmh:g}")
+        raise OptionError(msg)
+    v = spec.speed
+    track = random_track_3d(v * cfg.duration_s + spec.v("carbody", "length") + 20.0,
+                            level=cfg.track_level, rng=cfg.seed)
+    return track_inputs_3d(track, spec.axle_x, v, cfg.fs_hz, cfg.duration_s)
 
 
 def _record_drive(cfg: ExcitationConfig) -> FloatArray:

@@ -32,6 +32,7 @@ from types import TracebackType
 from typing import Any
 
 from modal_twin.errors import LaunchError
+from modal_twin.viz.scene import VertexAnimation
 
 __all__ = ["MeshcatServer", "default_pid_file", "send_commands"]
 
@@ -171,6 +172,8 @@ def send_commands(zmq_url: str, commands: Sequence[Any], *, timeout_s: float = 1
     sock.connect(zmq_url)
     try:
         for cmd in commands:
+            if isinstance(cmd, VertexAnimation):  # a static page's own script: at rest here
+                continue
             data = cmd.lower()
             sock.send_multipart([data["type"].encode(), data["path"].encode(),
                                  umsgpack.packb(data)])

@@ -27,7 +27,7 @@ from modal_twin._types import FloatArray
 from modal_twin.paths import atomic_file
 from modal_twin.viz._figure import png_data_uri
 
-__all__ = ["RecordData", "RunData", "render_report", "write_report"]
+__all__ = ["RecordData", "RunData", "figure_html", "render_report", "write_report"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,6 +82,7 @@ class RunData:
     images: Sequence[tuple[str, bytes]] = ()  # (caption, PNG bytes) found in the run folder
     figures: Sequence[tuple[str, bytes]] = ()  # identify's PNGs (caption, bytes)
     notes: Sequence[str] = ()
+    sections: Sequence[tuple[str, str, str]] = ()  # (anchor, title, HTML) after the scenes
 
 
 _CSS = """
@@ -99,9 +100,13 @@ nav a {margin-right: 12px;} iframe {width: 100%; height: 520px; border: 1px soli
 """
 
 
-def _img(fig: Any, caption: str) -> str:
+def figure_html(fig: Any, caption: str) -> str:
+    """Return a matplotlib figure as an inline PNG ``<figure>`` with its caption."""
     return (f'<figure><img alt="{html.escape(caption)}" src="{png_data_uri(fig)}">'
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
+_img = figure_html
 
 
 def _png(data: bytes, caption: str) -> str:
@@ -215,6 +220,7 @@ def render_report(d: RunData) -> str:
     """Return the HTML of the report (sections without data are left out)."""
     sections = [("scene", "3D scene", _scene(d)),
                 ("record", "the record on the structure", _record_scene(d)),
+                *d.sections,
                 ("identification", "identification", _identification(d)),
                 ("frf", "FRF overlay", _frf(d)),
                 ("where", "where the model fails", _where(d)),

@@ -41,6 +41,7 @@ from modal_twin.errors import ShapeError
 __all__ = [
     "SceneModes",
     "StructureGeometry",
+    "VertexAnimation",
     "building_geometry",
     "building_modes",
     "label_object",
@@ -127,6 +128,45 @@ class SceneMotion:
     fps: float
     colors: tuple[int, ...] = ()
     sensor_colors: Mapping[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class VertexAnimation:
+    """Moving copies animated by their node positions in the page's own script.
+
+    meshcat animates transforms, so :func:`scene_commands` by default draws every element
+    of a moving copy as its own segment with a clip of position, rotation and length per
+    frame (about 80 bytes per element and frame in the page). With ``vertex_frames`` each
+    moving copy is instead one line set, drawn once, whose vertices a small script of the
+    static page (:func:`static_html`) moves through the copy's node positions, frame by
+    frame: 12 bytes per node and frame. Not a meshcat command: a server
+    (:func:`~modal_twin.viz.meshcat_server.send_commands`) shows such copies at rest.
+
+    Attributes
+    ----------
+    paths : tuple of str
+        meshcat path of each copy's line set.
+    edges : (n_edges, 2) int array
+        The structure's lines (node index pairs), the vertex order of every line set.
+    positions : tuple of (n_frames, n_nodes, 3) float32 arrays
+        Node positions of each copy per frame (rest + drawn displacement), m, in the
+        copy's own frame.
+    fps : float
+        Frames per second.
+    scale : float
+        Drawn displacement per metre of the copies' displacement (NaN: modes, each scaled
+        on its own).
+    t0_s, dt_s : float
+        Record time of the first frame and between frames, s (0 for modes).
+    """
+
+    paths: tuple[str, ...]
+    edges: IntArray
+    positions: tuple[FloatArray, ...]
+    fps: float
+    scale: float = float("nan")
+    t0_s: float = 0.0
+    dt_s: float = 0.0
 
 
 def _edges_from_stiffness(K_full: Any) -> IntArray:
@@ -235,6 +275,19 @@ def _moving_copy(geom: StructureGeometry, frames: FloatArray, base: Any, anim: A
     return cmds
 
 
+def _vertex_copy(geom: StructureGeometry, frames: FloatArray, base: Any, color: int
+                 ) -> tuple[list[Any], str, Any]:
+    """Draw a grey copy at rest and a coloured line set at frame 0 (:class:`VertexAnimation`).
+
+    Returns the commands, the line set's path and its node positions per frame.
+    """
+    path = base.append("moving")
+    pos = (geom.node_xyz[None] + frames).astype(np.float32)
+    cmds = [lines_object(geom.node_xyz, geom.edges, 0xBBBBBB, base.append("rest")),
+            lines_object(pos[0], geom.edges, color, path)]
+    return cmds, str(path.lower()), pos
+
+
 def mode_label(k: int, f_hz: float, zeta: float) -> str:
     """Return the label drawn above a mode's copy: ``mode 2: 3.46 Hz, zeta 1.2 %``."""
     return f"mode {k + 1}: {f_hz:.3g} Hz, \u03b6 {100 * zeta:.2g} %"
@@ -273,7 +326,8 @@ def mode_frames(shape: FloatArray, amplitude: float, n_frames: int) -> FloatArra
 def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
                    blamed: Mapping[str, str] | None = None, n_frames: int = 24,
                    amplitude_fraction: float = 0.08, fps: int = 24,
-                   motion: SceneMotion | None = None) -> list[Any]:
+                   motion: SceneMotion | None = None, vertex_frames: bool = False,
+                   motion_times: tuple[float, float] = (0.0, 0.0)) -> list[Any]:
     """meshcat commands drawing the structure and (optionally) its animated modes.
 
     Parameters
@@ -292,11 +346,20 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
     motion : SceneMotion, optional
         Instead of modes: copies moving through given displacements (scaled together so
         that the largest is ``amplitude_fraction`` of the size), sensors coloured.
+    vertex_frames : bool
+        Moving copies as line sets moved by the static page's script
+        (:class:`VertexAnimation`, the last item) instead of meshcat's animation of
+        one segment per element: a page a fraction of the size, for :func:`static_html`
+        only.
+    motion_times : (float, float)
+        Record time of the motion's first frame and between frames, s (kept in the
+        :class:`VertexAnimation`).
 
     Returns
     -------
     list of meshcat commands
-        The last one is the ``SetAnimation`` when modes are given.
+        The last one is the ``SetAnimation`` (or the :class:`VertexAnimation`) when
+        copies move.
 
     Raises
     ------
@@ -351,17 +414,31 @@ def scene_commands(geom: StructureGeometry, modes: SceneModes | None = None, *,
     if not copies:
         return cmds
     anim = ma.Animation(default_framerate=round(motion.fps) if motion is not None else fps)
+    paths, positions = [], []
     for m, (frames, color) in enumerate(copies):
         mbase = root.append(f"mode_{m + 1}")
         shift = np.eye(4)
         shift[1, 3], shift[2, 3] = -step * ((m + 1) % cols), -zstep * ((m + 1) // cols)
         cmds.append(mc.SetTransform(shift, path=mbase))
-        cmds += _moving_copy(geom, frames, mbase, anim, color)
+        if vertex_frames:
+            more, path, pos = _vertex_copy(geom, frames, mbase, color)
+            cmds += more
+            paths.append(path)
+            positions.append(pos)
+        else:
+            cmds += _moving_copy(geom, frames, mbase, anim, color)
         if modes is not None and motion is None:
             w = max(1.2 * float(hi[1] - lo[1]), 0.4 * size)
             top = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, hi[2] + 0.18 * w])
             cmds += label_object(mode_label(m, float(modes.f_hz[m]), float(modes.zeta[m])),
                                  w, top, mbase.append("label"))
+    if vertex_frames:
+        peak = float(np.abs(motion.frames).max()) if motion is not None else 0.0
+        cmds.append(VertexAnimation(
+            tuple(paths), np.asarray(geom.edges, dtype=np.int64), tuple(positions),
+            float(motion.fps if motion is not None else fps),
+            amplitude_fraction * size / peak if peak > 0 else float("nan"), *motion_times))
+        return cmds
     cmds.append(mc.SetAnimation(anim, play=True, repetitions=100000))
     return cmds
 
@@ -435,12 +512,16 @@ def static_html(commands: Sequence[Any], *, caption: str = "", title: str = "mod
     The page sets ``document.body.dataset.sceneCommands`` to the number of commands it
     handled (a marker for headless checks).
     """
-    cmds = "".join(_command_js(c) for c in commands)
+    cmds = "".join(_command_js(c) for c in commands if not isinstance(c, VertexAnimation))
+    vertex = [c for c in commands if isinstance(c, VertexAnimation)][-1:]  # one at most
+    data = "".join('<script type="application/json" id="modal-twin-frames">'
+                   + vertex_frames_json(v).replace("</", "<\\/") + "</script>" for v in vertex)
+    cmds += _VERTEX_JS if vertex else ""
     return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>body {{margin: 0;}} #meshcat-pane {{width: 100vw; height: 100vh; overflow: hidden;}}
 </style></head>
-<body><div id="meshcat-pane"></div>{caption}
+<body><div id="meshcat-pane"></div>{caption}{data}
 <script>{_viewer_js()}</script>
 <script>
 var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
@@ -448,3 +529,65 @@ var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
 document.body.dataset.sceneCommands = "{len(commands)}";
 </script></body></html>
 """
+
+
+def _b64(a: Any, dtype: Any) -> str:
+    return base64.b64encode(np.ascontiguousarray(a, dtype=dtype).tobytes()).decode()
+
+
+def vertex_frames_json(anim: VertexAnimation) -> str:
+    """Return the frame data a static page carries for ``anim`` (JSON).
+
+    ``{"fps", "scale", "t0_s", "dt_s", "n_frames", "n_nodes", "edges": base64 int32
+    (n_edges, 2), "copies": [{"path", "positions": base64 float32 (n_frames, n_nodes,
+    3)}]}`` (little-endian, row-major).
+    """
+    import json
+
+    first = anim.positions[0] if anim.positions else np.zeros((0, 0, 3))
+    doc = {"fps": anim.fps, "scale": None if np.isnan(anim.scale) else anim.scale,
+           "t0_s": anim.t0_s, "dt_s": anim.dt_s, "n_frames": int(first.shape[0]),
+           "n_nodes": int(first.shape[1]), "edges": _b64(anim.edges, "<i4"),
+           "copies": [{"path": p, "positions": _b64(x, "<f4")}
+                      for p, x in zip(anim.paths, anim.positions, strict=True)]}
+    return json.dumps(doc)
+
+
+_VERTEX_JS = """
+(function () {
+  const doc = JSON.parse(document.getElementById("modal-twin-frames").textContent);
+  const raw = (s) => Uint8Array.from(atob(s), (c) => c.charCodeAt(0)).buffer;
+  const edges = new Int32Array(raw(doc.edges));
+  const copies = doc.copies.map((c) => ({path: c.path.split("/").filter((p) => p.length),
+                                         pos: new Float32Array(raw(c.positions))}));
+  const per = 3 * doc.n_nodes;
+  let start = null, shown = -1;
+  function tick(now) {
+    if (start === null) start = now;
+    const k = Math.floor((now - start) / 1000 * doc.fps) % doc.n_frames;
+    if (k !== shown) {
+      let found = 0;
+      for (const c of copies) {
+        const obj = viewer.scene_tree.find(c.path.concat(["<object>"])).object;
+        const attr = obj && obj.geometry && obj.geometry.attributes.position;
+        if (!attr) continue;
+        const a = attr.array, off = k * per;
+        for (let e = 0; e < edges.length; e++) {
+          const n = off + 3 * edges[e];
+          a[3 * e] = c.pos[n]; a[3 * e + 1] = c.pos[n + 1]; a[3 * e + 2] = c.pos[n + 2];
+        }
+        attr.needsUpdate = true;
+        found++;
+      }
+      if (found === copies.length) {
+        shown = k;
+        document.body.dataset.vertexCopies = String(found);
+        viewer.set_dirty();
+      }
+    }
+    requestAnimationFrame(tick);
+  }
+  requestAnimationFrame(tick);
+})();
+"""
+

@@ -14,7 +14,9 @@ reduction times the carbody basis, :meth:`ShellCarbody.recover`), a body point `
 bogie or wheelset by its rigid motion ``u + theta x (r - r_G)`` (a wheelset: lateral ``y``
 and yaw only; its vertical and roll follow the track). The coupled modes are complex (the
 creep forces and Maxwell dampers make the damping non-proportional): a shape is turned so
-that its largest carbody component is real, then its real part drawn.
+that its largest carbody component is real, then its real part drawn. A record's track
+drives the car for :func:`record_deflection`: every node over the record's strongest
+stretch.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from modal_twin.models.vehicle3d import Vehicle3D
 from modal_twin.models.vehicle3d_ride import carbody_mode_shapes
 from modal_twin.viz.scene import SceneModes, StructureGeometry, _edges_from_stiffness
 
-__all__ = ["Vehicle3DScene", "vehicle3d_scene"]
+__all__ = ["RecordDeflection", "Vehicle3DScene", "record_deflection", "vehicle3d_scene"]
 
 FRAME_HALF_WIDTH_M = 1.0
 """Half width of a bogie frame's rectangle, m (drawing only)."""
@@ -99,6 +101,60 @@ class Vehicle3DScene:
         caption = tuple(f"{modes[i].label}: {modes[i].f_hz:.2f} Hz, "
                         f"{100 * modes[i].zeta:.1f} %" for i in pick)
         return SceneModes(f, zeta, shapes, labels=caption)
+
+
+@dataclass(frozen=True, slots=True)
+class RecordDeflection:
+    """The car's deflection over a stretch of a record, on every wireframe node.
+
+    Attributes
+    ----------
+    frames : (n_frames, n_nodes, 3) float array
+        Node displacements, m (:attr:`Vehicle3DScene.move` times the coordinates).
+    t0_s, dt_s : float
+        Record time of the first frame and between frames, s.
+    floor : (n_floor, nt) float array
+        The model's floor accelerations over the whole record, m/s^2.
+    floor_names : tuple of str
+    """
+
+    frames: FloatArray
+    t0_s: float
+    dt_s: float
+    floor: FloatArray
+    floor_names: tuple[str, ...]
+
+
+def record_deflection(scene: Vehicle3DScene, vehicle: Vehicle3D, w: FloatArray,
+                      fs_hz: float, *, window_s: float, n_frames: int = 96
+                      ) -> RecordDeflection:
+    """Run the car on a record's track input ``w`` and draw its strongest stretch.
+
+    The car (:meth:`~modal_twin.models.vehicle3d.Vehicle3D.simulate`, exact zero-order
+    hold from rest at the file's speed) gives every coordinate; the ``window_s`` with the
+    largest carbody motion is cut into ``n_frames`` (every ``step``-th sample) and each
+    frame's coordinates moved onto the nodes by :attr:`Vehicle3DScene.move`.
+
+    Parameters
+    ----------
+    scene : Vehicle3DScene
+    vehicle : Vehicle3D
+    w : (24, nt) float array
+        ``[u; u']`` of :func:`modal_twin.models.track3d.track_inputs_3d`.
+    fs_hz : float
+    window_s : float
+    n_frames : int
+    """
+    from modal_twin.viz.motion import strongest_window
+
+    sim = vehicle.simulate(w, fs_hz, vehicle.spec.speed, dofs=vehicle.dof_names)
+    q = sim.dofs
+    win = strongest_window(q[: vehicle.carbody.n], max(2, round(window_s * fs_hz)))
+    step = max(1, (win.stop - win.start) // max(n_frames, 1))
+    idx = np.arange(win.start, win.stop, step)
+    frames = np.einsum("nck,kt->tnc", scene.move, q[:, idx])
+    return RecordDeflection(frames, win.start / fs_hz, step / fs_hz, sim.floor,
+                            sim.floor_names)
 
 
 def _rigid_rows(n: int, col: int, r: FloatArray, dofs: Sequence[int] = range(6)

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -112,3 +113,31 @@ def test_track_drive_delays_the_irregularity_between_wheelsets() -> None:
                                atol=0.05 * np.abs(u[4]).max())
     with pytest.raises(OptionError, match=r"kind=track drives the track irregularity"):
         ExcitationConfig(kind="track")
+
+
+def test_track_drive_of_the_3d_car_has_three_delayed_components() -> None:
+    """The 3D car's file takes the 24 track channels: profile, cross level and alignment
+    under each wheelset (wheelset 2 meets what wheelset 1 met 2.5 m / V earlier: 60
+    samples at 300 km/h and 2 kHz), then their rates (the time derivatives; 2 kHz so that
+    the central difference resolves the 1 m wavelengths, 83 Hz, to 1 %)."""
+    from modal_twin.excitation.drive import TRACK_CHANNELS, TRACK_CHANNELS_3D
+    from modal_twin.models.vehicle3d_factory import INPUT_NAMES_3D
+
+    assert TRACK_CHANNELS_3D == INPUT_NAMES_3D  # the drive's rows are the 3D plant's inputs
+    car3d = "config/vehicles/trailer_car_3d.yaml"
+    cfg = ExcitationConfig(kind="track", channels=TRACK_CHANNELS_3D, fs_hz=2000.0,
+                           duration_s=1.0, speed_kmh=300.0, seed=3, vehicle_file=car3d)
+    u = make_drive(cfg)
+    assert u.shape == (24, 2001)
+    for first in (0, 4, 8):  # zt1, phit1, yat1 against zt2, phit2, yat2
+        a, b = u[first], u[first + 1]
+        np.testing.assert_allclose(b[60:], a[:-60], atol=1e-9 * np.abs(a).max())
+        rate = u[first + 12, 10:-10]
+        assert np.std(np.gradient(a, 1 / 2000.0)[10:-10] - rate) < 0.02 * np.std(rate)
+    assert 1e-4 < np.std(u[8]) < 1e-2  # alignment: millimetres on a low-interference track
+    with pytest.raises(OptionError, match=r"a 3D car, its track channels are"):
+        make_drive(ExcitationConfig(kind="track", channels=TRACK_CHANNELS, vehicle_file=car3d))
+    with pytest.raises(OptionError, match=r"a vertical-plane car"):
+        make_drive(ExcitationConfig(kind="track", channels=TRACK_CHANNELS_3D))
+    with pytest.raises(OptionError, match=r"built at its file's speed_kmh 300, got 250"):
+        make_drive(replace(cfg, speed_kmh=250.0))
