@@ -134,3 +134,31 @@ def test_free_wheelset_runs_at_klingels_frequency():
     expect = V * math.sqrt(c["conicity"] / (c["r0"] * c["b"]))
     assert np.max(lam.imag) == pytest.approx(expect, rel=1e-9)
     assert np.max(np.abs(lam.real)) < 1e-9 * expect
+
+
+@pytest.mark.parametrize("which", ["lift", "cross level", "alignment"])
+def test_constant_track_input_moves_the_car_rigidly(which):
+    """Held track inputs: the truth's rest state is the rigid motion of the whole car
+    (lift ``z0``; roll ``phi0`` about the axle line at ``r0``: each body rolls ``phi0`` and
+    moves ``-phi0 (h - r0)`` laterally; alignment ``y0``), every element unstretched."""
+    own = Vehicle3DOwn()
+    A, B = own.matrices()
+    w = np.zeros(24)
+    col = {"lift": 0, "cross level": 4, "alignment": 8}[which]
+    w[col:col + 4] = 1e-3
+    s = np.linalg.solve(A, -B @ w)
+    N = vehicle3d_own.N_Q
+    expect = np.zeros(N)
+    r0 = own.values["contact"]["r0"]
+    for body in (*own.bogies, own.car):
+        i, h = body.first, body.origin[2]
+        if which == "lift":
+            expect[i + 2] = 1e-3
+        elif which == "cross level":
+            expect[i + 1], expect[i + 3] = -1e-3 * (h - r0), 1e-3
+        else:
+            expect[i + 1] = 1e-3
+    if which == "alignment":
+        expect[0:8:2] = 1e-3  # the wheelsets follow the rails
+    assert s[:N] == pytest.approx(expect, abs=1e-12)
+    assert np.abs(s[N:]).max() < 1e-12  # at rest, the Maxwell springs unstretched

@@ -53,9 +53,13 @@ creepages at the left (+b) / right (-b) wheel (rolling at ``Omega = V / r0``)::
 summed over the two wheels (forces at ``(0, +-b, 0)`` from the axle centre); the coned
 wheels' gravitational stiffness (Wickens Sec. 2.5): a lateral force ``-W lambda / b y_r``
 and a yaw moment ``+W lambda b psi`` (destabilising), ``W`` the axle load
-(static: a quarter of carbody and bogies plus the wheelset, g = 9.81 m/s^2). As in the
-library: the alignment enters through ``y_r`` only (the track's heading and curvature terms
-are not modelled), no gravity (pendulum) terms of body roll, no spin creep.
+(static: a quarter of carbody and bogies plus the wheelset, g = 9.81 m/s^2). With the
+yaw ``psi`` absolute, the creepages need no term of the track's heading or curvature (the
+track's heading cancels in ``xi_y``, and ``xi_x`` holds the wheelset's own yaw rate: on a
+curve that is what gives the outward shift ``r0 b / (lambda R)``). As in the library: the
+gravitational yaw moment on the absolute ``psi``, not on the yaw relative to the rail
+``psi - y_a' / V`` (that term changes the benchmark track's lateral floor accelerations by
+NRMSE 1-2e-3), no gravity (pendulum) terms of body roll, no spin creep.
 
 Inputs ``w`` (24, nt): ``z_1..4, phi_1..4, ya_1..4`` then their rates, per wheelset (the
 delays between wheelsets are in the track generator :func:`track_inputs_3d`). The system is
