@@ -131,6 +131,9 @@ class Vehicle3DOwn:
                                                                  repr=False)
 
     def __post_init__(self) -> None:
+        if self.hold not in ("linear", "zero"):
+            msg = f"hold: expected 'linear' or 'zero', got {self.hold!r}"
+            raise ValueError(msg)
         with open(self.vehicle_file, encoding="utf-8") as fh:
             self.values = yaml.safe_load(fh)
         v = self.values
