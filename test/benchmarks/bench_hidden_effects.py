@@ -5,9 +5,11 @@ own effect laws (Bouc-Wen n = 1 with a dashpot, Iwan microslip, Stribeck frictio
 softening, quintic / sinh hardening, Hertz contact, a dashpot change, a weaker column line
 or storey, an eccentric roof mass, a hardening equipment mount, a worn damper) and its own
 RK4 integration; only the linear structure (FE assembly, modal / coupled matrices) comes
-from the library. Every case has a training record (earthquake-level random), a held-out
-record (earthquake-like, other seed; for the car another speed) and a low-level record
-(1/20), with 1-3 % white sensor noise.
+from the library, except for the 3D car, whose truth is written whole from the physics
+(``_truth/vehicle3d_own.py``, checked against the library's car in
+``test/models/test_vehicle3d_own_truth.py``). Every case has a training record
+(earthquake-level random), a held-out record (earthquake-like, other seed; for the car
+another speed) and a low-level record (1/20), with 1-3 % white sensor noise.
 
 For each case the diagnosis is called through ONE adapter, :func:`run_diagnosis`, and the
 model it returns is judged by the library's own simulation (it is the model under test):

@@ -26,8 +26,8 @@ from .building import BuildingTruth, add_masses, weaken_columns
 from .records import Noisy, measured, table_earthquake, table_random, track_inputs
 from .vehicle import INPUTS as V_INPUTS
 from .vehicle import VehicleTruth
-from .vehicle3d import INPUTS as V3_INPUTS
-from .vehicle3d import Vehicle3DTruth, track_inputs_3d
+from .vehicle3d_own import INPUTS as V3_INPUTS
+from .vehicle3d_own import Vehicle3DOwn, track_inputs_3d
 
 # words one of which a law's name must contain to be of a kind (Hidden.kind)
 KIND_WORDS = {"gain": ("gain",), "delay": ("delay", "lag", "time", "shift"),
@@ -70,7 +70,7 @@ class Case:
     name: str
     model: str  # "building" | "vehicle" | "vehicle3d"
     hidden: tuple[Hidden, ...]
-    build: Callable[[], BuildingTruth | VehicleTruth | Vehicle3DTruth]
+    build: Callable[[], BuildingTruth | VehicleTruth | Vehicle3DOwn]
     noise_pct: float = 2.0
     gains: dict[str, float] = field(default_factory=dict)
     seed: int = 0
@@ -376,13 +376,13 @@ NEW_CASES: tuple[Case, ...] = (
     # leading bogie worn to 30 % of its c, floor accelerations (vertical and lateral) only
     Case("new_veh3d_worn_yaw_damper_1L", "vehicle3d",
          (Hidden("damping", "yaw_damper_1L", aliases=("c_yaw_damper_1L", "yaw damper 1L")),),
-         lambda: Vehicle3DTruth(damper_wear=("yaw_damper_1L", 0.3)), 2.0, seed=71,
+         lambda: Vehicle3DOwn(damper_wear=("yaw_damper_1L", 0.3)), 2.0, seed=71,
          new=True),
     # ... and the same with the strokes and forces of the four yaw and two lateral dampers
     # recorded (0.05 % noise there)
     Case("new_veh3d_worn_yaw_damper_1L_strokes", "vehicle3d",
          (Hidden("damping", "yaw_damper_1L", aliases=("c_yaw_damper_1L", "yaw damper 1L")),),
-         lambda: Vehicle3DTruth(damper_wear=("yaw_damper_1L", 0.3), device_channels=(
+         lambda: Vehicle3DOwn(damper_wear=("yaw_damper_1L", 0.3), device_channels=(
              "yaw_damper_1L", "yaw_damper_1R", "yaw_damper_2L", "yaw_damper_2R",
              "lateral_damper_1", "lateral_damper_2")), 2.0, seed=72, new=True,
          quiet_pct=0.05),
@@ -421,7 +421,7 @@ def records(case: Case, *, quick: bool = False) -> dict[str, Noisy]:
         inputs = B_INPUTS
     elif case.model == "vehicle3d":  # one speed: the 3D car's contact depends on it
         fs, T = 200.0, (8.0 if quick else 12.0)
-        ax, v = truth.spec.axle_x, truth.spec.speed_kmh
+        ax, v = truth.axle_x, truth.speed_kmh
         ins = {"train": track_inputs_3d(ax, v, T, fs, 1.5e-3, s + 1),
                "test": track_inputs_3d(ax, v, T, fs, 1.5e-3, s + 2),
                "low": track_inputs_3d(ax, v, T, fs, 1.5e-3 / 20.0, s + 3)}
