@@ -63,6 +63,7 @@ from modal_twin.models.vehicle3d import (
     carbody_full,
     default_carbody,
     mass_matrix,
+    n_coordinates,
     suspension_elements,
 )
 from modal_twin.models.vehicle3d_spec import G_ACC, Vehicle3DSpec, load_vehicle3d
@@ -107,7 +108,7 @@ def _assemble(spec: Vehicle3DSpec, cb: ReducedCarbody, els: list[SuspensionEleme
               replaced: Iterable[str]) -> _Assembly:
     """M, C, K, Gamma of ``x = [q; p]`` with the elements of ``replaced`` left out."""
     skip = set(replaced)
-    nq = cb.n + 2 * 6 + 2 * N_AXLES
+    nq = n_coordinates(spec, cb)
     mx = [el for el in els if el.kind == "maxwell" and el.c > 0.0 and el.name not in skip]
     n = nq + len(mx)
     M, C, K = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
@@ -117,10 +118,10 @@ def _assemble(spec: Vehicle3DSpec, cb: ReducedCarbody, els: list[SuspensionEleme
     for el in els:
         if el.name in skip:
             continue
-        if el.kind == "damper":
+        if el.kind in ("damper", "spring_damper"):
             C[:nq, :nq] += el.c * np.outer(el.g, el.g)
             Gamma[:nq, N_U:] += el.c * np.outer(el.g, el.h)
-        elif el.kind == "spring" or (el.kind == "maxwell" and el.c > 0.0):
+        if el.kind in ("spring", "spring_damper") or (el.kind == "maxwell" and el.c > 0.0):
             K[:nq, :nq] += el.k * np.outer(el.g, el.g)
             Gamma[:nq, :N_U] += el.k * np.outer(el.g, el.h)
     index = {}
