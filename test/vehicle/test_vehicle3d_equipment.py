@@ -4,7 +4,8 @@ Known answers: the car's rigid-body mass (total, centre of mass, inertia) is the
 carbody values with a box taken out of the carbody and hung (parallel-axis theorem, by
 hand), or the shell's plus the box's; with very stiff hangers the car's modes are those of
 the car with the box bolted (a rigid added mass); a light box on soft hangers bounces at
-``sqrt(4 k_z / m) / (2 pi)``, the file's mount frequency.
+``sqrt(4 k_z / m) / (2 pi)``, the file's mount frequency; its hangers are device sites and a
+linear law of doubled stiffness at its four vertical hangers moves that mode by sqrt(2).
 """
 
 from __future__ import annotations
@@ -18,7 +19,10 @@ import scipy.linalg
 
 from modal_twin.errors import ConfigError, ModelError
 from modal_twin.models.carbody_interface import skew
+from modal_twin.models.effects import EffectSpec
+from modal_twin.models.loading import load_model
 from modal_twin.models.vehicle3d import build_vehicle3d, default_carbody
+from modal_twin.models.vehicle3d_factory import Vehicle3DFactory
 from modal_twin.models.vehicle3d_spec import (
     DEFAULT_VEHICLE3D_YAML,
     Vehicle3DSpec,
@@ -170,6 +174,69 @@ def test_light_box_on_soft_hangers_bounces_at_its_mount_frequency(spec) -> None:
     kz = veh.spec.equipment[0].mass * (2 * math.pi * 10.0) ** 2 / 4.0
     f_closed = math.sqrt(4.0 * kz / 30.0) / (2 * math.pi)  # = 10 Hz
     assert _box_bounce_hz(veh) == pytest.approx(f_closed, rel=0.01)
+
+
+# ------------------------------------------------------------------------------ sites
+@pytest.fixture(scope="module")
+def hung_factory(tmp_path_factory) -> Vehicle3DFactory:
+    text = DEFAULT_VEHICLE3D_YAML.read_text()
+    p = tmp_path_factory.mktemp("car") / "car_eq1_hung.yaml"
+    p.write_text(text.replace("hanger: rigid ", "hanger: elastic ", 1))
+    f = load_model(p)
+    assert isinstance(f, Vehicle3DFactory)
+    return f
+
+
+def test_every_hanger_is_a_site(hung_factory: Vehicle3DFactory) -> None:
+    sites = hung_factory.sites
+    hangers = [s for s in sites if s.startswith("EQ1_hanger")]
+    assert hangers == [f"EQ1_hanger{j}_{a}" for j in range(1, 5) for a in "xyz"]
+    assert len(sites) == 58 + 12
+    el = {e.name: e for e in hung_factory.elements()}
+    kz = 3000.0 * (2 * math.pi * 10.0) ** 2 / 4.0
+    cz = 2 * 0.05 * math.sqrt(kz * 3000.0 / 4.0)
+    assert (el["EQ1_hanger3_z"].k, el["EQ1_hanger3_z"].c) == pytest.approx((kz, cz))
+    assert sites["EQ1_hanger3_z"].k[0] == pytest.approx(kz)
+    assert sites["EQ1_hanger3_z"].c[0] == pytest.approx(cz)
+    assert hung_factory.weight("EQ1_hanger3_z") == pytest.approx(9.81 * 3000.0 / 4)
+    assert hung_factory.site_inputs("EQ1_hanger1_y") == ({}, {})
+    p = hung_factory.plant()
+    assert "EQ1_hanger2_z_fz" in p.channel_names and "EQ1_hanger2_z_dz" in p.channel_names
+
+
+def _plant_box_hz(plant, factory: Vehicle3DFactory) -> float:
+    """Natural frequency of the plant's mode that moves the box vertically most."""
+    s = plant.system
+    K, C = s.K.copy(), s.C.copy()
+    for att in s.devices:
+        K += att.B.T @ att.device.reference_stiffness() @ att.B
+        C += att.B.T @ att.device.reference_damping() @ att.B
+    n = s.n
+    Minv = np.linalg.inv(s.M)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ C]])
+    lam, X = np.linalg.eig(A)
+    iz = build_vehicle3d(factory.spec).dof("EQ1_z")
+    share = np.abs(X[iz]) ** 2 / np.sum(np.abs(X[:n]) ** 2, axis=0)
+    i = int(np.argmax(np.where(lam.imag > 0, share, -1.0)))
+    return float(abs(lam[i]) / (2 * math.pi))
+
+
+def test_doubled_hanger_stiffness_law_moves_the_box_by_sqrt2(tmp_path: Path) -> None:
+    """A linear law with 2 k_z at the four vertical hangers of a light box: sqrt(2) x f."""
+    text = DEFAULT_VEHICLE3D_YAML.read_text()
+    text = text.replace("hanger: rigid ", "hanger: elastic ", 1).replace(
+        "mass: 3000.0 ", "mass: 30.0 ", 1).replace("[800.0, 1160.0, 1640.0]", "[8.0, 11.6, 16.4]")
+    p = tmp_path / "light_box.yaml"
+    p.write_text(text)
+    f = load_model(p)
+    assert isinstance(f, Vehicle3DFactory)
+    f0 = _plant_box_hz(f.plant(), f)
+    assert f0 == pytest.approx(10.0, rel=0.01)
+    laws = [EffectSpec(f"EQ1_hanger{j}_z", "linear",
+                       {"k": 2.0 * f.sites[f"EQ1_hanger{j}_z"].k[0]}) for j in range(1, 5)]
+    p2 = f.plant(laws)
+    assert len(p2.system.devices) == 4
+    assert _plant_box_hz(p2, f) / f0 == pytest.approx(math.sqrt(2.0), rel=0.01)
 
 
 def test_shell_hung_box_is_the_shells_own_box_on_the_same_hangers(spec) -> None:
