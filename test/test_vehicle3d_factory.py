@@ -181,3 +181,21 @@ def test_a_file_without_yaw_dampers_has_no_yaw_damper_sites(factory: Vehicle3DFa
     w = 2 * np.pi * 1.2
     Hv = _car_frf(spec, w)
     assert np.abs(_frf(p.system, w)[:6] - Hv).max() <= 1e-10 * np.abs(Hv).max()
+
+
+def test_a_primary_dashpot_site_takes_the_track_rate(factory: Vehicle3DFactory) -> None:
+    # the linear law at a primary vertical dashpot: its rate holds the track's rate (Ed);
+    # the nominal car from sample 1, the force channel c (g' q' + h' u') of the element
+    w = _track(800)
+    p0 = factory.plant()
+    p1 = factory.plant([EffectSpec("primary_2R_cz", "linear", {})])
+    y0 = p0.measure(simulate(p0.system, w, 1.0 / FS))[:, 1:]
+    y1 = p1.measure(simulate(p1.system, w, 1.0 / FS))[:, 1:]
+    assert np.abs(y1 - y0).max() <= 1e-9 * np.abs(y0).max()
+    i = p1.channel_names.index("primary_2R_cz_fz")
+    assert p1.sources[i][0] == "force" and np.std(y1[i]) > 0.0
+    # the device's force is c times the rate of the stroke channel (bogie less track)
+    d = y1[p1.channel_names.index("primary_2R_cz_dz")]
+    rate = np.gradient(d, 1.0 / FS)
+    c_fit = float(np.dot(y1[i], rate) / np.dot(rate, rate))
+    assert c_fit == pytest.approx(factory.spec.v("primary", "cz"), rel=0.02)
