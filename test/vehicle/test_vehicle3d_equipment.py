@@ -267,3 +267,20 @@ def test_shell_hung_box_is_the_shells_own_box_on_the_same_hangers(spec) -> None:
     c = f2[(f2 > 0.1) & (f2 < 40.0)]
     assert c.size == b.size
     assert 1e-3 < np.max(np.abs(c / b - 1.0)) < 0.01
+
+
+def test_model_info_counts_the_hung_box(tmp_path: Path, capsys) -> None:
+    """``model info``: the car with EQ1 hung weighs what the shipped car weighs (53.83 t)."""
+    import json
+
+    from modal_twin.cli import main
+
+    p = tmp_path / "car.yaml"
+    p.write_text(DEFAULT_VEHICLE3D_YAML.read_text().replace("hanger: rigid ", "hanger: elastic ",
+                                                            1))
+    masses = []
+    for f in (DEFAULT_VEHICLE3D_YAML, p):
+        assert main(["model", "info", str(f), "--json", "--show", "3"]) == 0
+        masses.append(json.loads(capsys.readouterr().out)["total_mass_kg"])
+    assert masses[1] == pytest.approx(masses[0], rel=1e-12)
+    assert masses[0] == pytest.approx(41030.0 + 2 * 2600.0 + 4 * 1900.0)
