@@ -146,7 +146,8 @@ def vehicle3d_info(a: argparse.Namespace) -> int:
     show = getattr(a, "show", None)
     if show is not None:
         modes = modes[: max(int(show), 0)]
-    mass = carbody_mass(veh) + 2 * spec.v("bogie", "mass") + 4 * spec.v("wheelset", "mass")
+    mass = (carbody_mass(veh) + 2 * spec.v("bogie", "mass") + 4 * spec.v("wheelset", "mass")
+            + sum(e.mass for e in spec.hung_equipment))
     info = {"name": spec.name, "carbody": veh.carbody.name, "n_dof": veh.n_dof,
             "n_carbody_coordinates": veh.carbody.n, "n_state": veh.n_state,
             "maxwell_elements": list(veh.maxwell_names), "total_mass_kg": mass,

@@ -203,6 +203,10 @@ class CarbodyParams:
     equipment_bodies : bool
         False: the hanger nodes are placed and named but the equipment bodies and their
         hangers are left out (a vehicle model adds them, the hangers as devices).
+    hung_outside : tuple of str
+        Equipment whose body and hangers are left out while its hanger nodes are placed
+        and named (also in the empty shell): the 3D vehicle hangs these boxes itself
+        (:mod:`modal_twin.models.vehicle3d`).
     n_length, n_width, n_height : int
         Elements along the length, across the floor / roof and up a side wall (minimum
         counts: break lines at the pivots, seats, belt and doors are added).
@@ -225,6 +229,7 @@ class CarbodyParams:
     equipment: tuple[Equipment, ...] = field(default_factory=default_equipment)
     in_service: bool = True
     equipment_bodies: bool = True
+    hung_outside: tuple[str, ...] = ()
     n_length: int = 30
     n_width: int = 4
     n_height: int = 4
@@ -437,10 +442,11 @@ def build_carbody(p: CarbodyParams | None = None) -> CarbodyFE:
     seats, pivots = _bolsters(fem, p, xs, ring, ring_yz)
     hangers: dict[str, tuple[NodeId, ...]] = {}
     eq_nodes: dict[str, NodeId] = {}
-    if p.in_service:
-        for e in p.equipment:
+    for e in p.equipment:
+        outside = e.name in p.hung_outside
+        if p.in_service or outside:
             hangers[e.name] = _hanger_nodes(e, xs, ring, ring_yz, W, H)
-            if p.equipment_bodies:
+            if p.in_service and p.equipment_bodies and not outside:
                 eq_nodes[e.name] = _equipment(fem, e, hangers[e.name], H)
     return CarbodyFE(params=p, asm=fem.assemble(), stations=xs, ring=ring, ring_yz=ring_yz,
                      seats=seats, pivots=pivots, hangers=hangers, equipment_nodes=eq_nodes,

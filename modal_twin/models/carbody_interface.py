@@ -92,6 +92,9 @@ class ReducedCarbody:
     source : object, optional
         What the carbody was reduced from (a shell carbody:
         :class:`modal_twin.models.carbody_shell.ShellCarbody`), for naming its modes.
+    hangers : mapping str -> ((3,) position, (3, n) P)
+        Attachment points of the equipment boxes the vehicle hangs (``<box>_h1 ..
+        <box>_h4``) and their displacement matrices; empty without such boxes.
     """
 
     name: str
@@ -103,6 +106,7 @@ class ReducedCarbody:
     coordinates: tuple[str, ...] = ()
     motion: FloatArray | None = None
     source: object = field(default=None, compare=False, repr=False)
+    hangers: Mapping[str, tuple[FloatArray, FloatArray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         n = self.M.shape[0]
@@ -118,10 +122,11 @@ class ReducedCarbody:
             if T.shape != (6, n):
                 msg = f"seats[{name!r}]: expected T of shape (6, {n}), got {T.shape}"
                 raise ShapeError(msg)
-        for name, (_, P) in self.points.items():
-            if P.shape != (3, n):
-                msg = f"points[{name!r}]: expected P of shape (3, {n}), got {P.shape}"
-                raise ShapeError(msg)
+        for what, pts in (("points", self.points), ("hangers", self.hangers)):
+            for name, (_, P) in pts.items():
+                if P.shape != (3, n):
+                    msg = f"{what}[{name!r}]: expected P of shape (3, {n}), got {P.shape}"
+                    raise ShapeError(msg)
         if self.coordinates and len(self.coordinates) != n:
             msg = f"coordinates: expected {n} names, got {len(self.coordinates)}"
             raise ShapeError(msg)

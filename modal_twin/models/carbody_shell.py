@@ -3,7 +3,8 @@
 The shell carbody (:mod:`modal_twin.models.carbody3d`) reduced by Craig-Bampton on its
 interface nodes (:mod:`modal_twin.models.carbody_reduction`: the air-spring seats, the
 centre pins and the equipment hangers, six DOFs each; the equipment bodies stay inside the
-carbody on their elastic or bolted hangers) becomes a
+carbody on their elastic or bolted hangers, except the boxes the vehicle file hangs
+itself, whose hanger nodes' translations are the carbody's ``hangers``) becomes a
 :class:`~modal_twin.models.carbody_interface.ReducedCarbody` in four steps.
 
 1. **Rigid-body subspace by a physical rule.** The reduced rigid-body vectors ``R_r`` are
@@ -190,9 +191,18 @@ def _residual_vectors(cb: CBReduction, lam: FloatArray, V: FloatArray, drop: Boo
     return np.asarray(U[:, s > 1e-9 * s[0]]) if s.size and s[0] > 0 else np.zeros((V.shape[0], 0))
 
 
+def _hanger_matrices(car: CarbodyFE, cb: CBReduction, boxes: Sequence[str]
+                     ) -> dict[str, tuple[FloatArray, FloatArray]]:
+    """Hanger nodes ``<box>_h1 .. _h4`` of the boxes the vehicle hangs: translations."""
+    xyz = {n: car.asm.xyz[i] for i, n in enumerate(car.asm.nodes)}
+    return {f"{box}_h{j + 1}": (np.asarray(xyz[node], dtype=float),
+                                _rows(car, cb, node, _TRANSLATIONS))
+            for box in boxes for j, node in enumerate(car.hangers[box])}
+
+
 def shell_carbody(car: CarbodyFE, cb: CBReduction, *, points: Mapping[str, tuple[float, float]],
                   z0: float, zeta: float = 0.02, f_keep_hz: float | None = 40.0,
-                  name: str = "shell") -> ReducedCarbody:
+                  name: str = "shell", hung: Sequence[str] = ()) -> ReducedCarbody:
     """Return the CB shell carbody as the vehicle's reduced carbody (module docstring).
 
     Parameters
@@ -211,6 +221,9 @@ def shell_carbody(car: CarbodyFE, cb: CBReduction, *, points: Mapping[str, tuple
     f_keep_hz : float or None
         Flexible modes kept in the modal basis, Hz (plus residual vectors); None keeps the
         CB coordinates.
+    hung : sequence of str
+        Equipment boxes the vehicle hangs (``params.hung_outside``): their hanger nodes'
+        translations are the carbody's ``hangers`` (and get residual vectors, step 4).
 
     Returns
     -------
@@ -238,6 +251,7 @@ def shell_carbody(car: CarbodyFE, cb: CBReduction, *, points: Mapping[str, tuple
     Cr = MVf @ np.diag(2.0 * zeta * w[flex]) @ MVf.T + cb.project(car.asm.C)  # step 2
     seats = _seat_matrices(car, cb)
     pts = _floor_points(car, cb, points)
+    hang = _hanger_matrices(car, cb, hung)
     lift = np.array([0.0, 0.0, z0])
     if f_keep_hz is None:
         basis = np.eye(Mr.shape[0])
@@ -247,7 +261,8 @@ def shell_carbody(car: CarbodyFE, cb: CBReduction, *, points: Mapping[str, tuple
         M, K, C = Mr, Kr, Cr
     else:
         keep = rigid | (w < 2.0 * np.pi * f_keep_hz)
-        loads = np.hstack([seats[s][1][:3].T for s in sorted(seats)])  # T' e_j, translations
+        loads = np.hstack([seats[s][1][:3].T for s in sorted(seats)]  # T' e_j, translations
+                          + [P.T for _, P in hang.values()])
         Res = _residual_vectors(cb, lam, V, ~keep, loads)
         Mres, Kres = Res.T @ Mr @ Res, Res.T @ Kr @ Res
         lr, Vr = sla.eigh(0.5 * (Kres + Kres.T), 0.5 * (Mres + Mres.T))
@@ -271,10 +286,12 @@ def shell_carbody(car: CarbodyFE, cb: CBReduction, *, points: Mapping[str, tuple
     elastic = [T[:3] @ basis - offset_matrix(p - G) @ fit for s, (p, T) in sorted(seats.items())]
     motion = np.vstack([fit, *elastic])
     pt_map = {s: (p + lift, P @ basis) for s, (p, P) in pts.items()}
+    hang_map = {s: (p + lift, P @ basis) for s, (p, P) in hang.items()}
     source = ShellCarbody(car=car, cb=cb, basis=basis, f_free_hz=w / (2.0 * np.pi),
                           rigid=rigid, z0=float(z0), rigid_mass=Rg.T @ MRg, cg=G)
     return ReducedCarbody(name=name, M=M, K=K, C=C, seats=seat_map, points=pt_map,
-                          coordinates=tuple(labels), motion=motion, source=source)
+                          coordinates=tuple(labels), motion=motion, source=source,
+                          hangers=hang_map)
 
 
 _RIGID_NAMES = ("surge", "sway", "bounce", "roll", "pitch", "yaw")
@@ -331,8 +348,15 @@ def vehicle_shell_carbody(spec: Vehicle3DSpec) -> ReducedCarbody:
     params = replace(sh.params, seat_half_spacing=spec.v("secondary", "half_spacing"),
                      pivot_spacing=spec.v("carbody", "pivot_spacing"),
                      length=spec.v("carbody", "length"))
+    hung = spec.hung_equipment
+    if hung:  # the vehicle's boxes replace the shell's items of their names
+        names = {e.name for e in hung}
+        params = replace(params, equipment=tuple(
+            e for e in params.equipment if e.name not in names) + hung,
+            hung_outside=tuple(e.name for e in hung))
     car, cb = reduced_shell(params, sh.f_cut_hz)
     state = "in service" if params.in_service else "empty"
     return shell_carbody(car, cb, points={p.label: (p.x, p.y) for p in spec.floor_points},
                          z0=spec.v("secondary", "seat_height"), zeta=sh.zeta,
-                         f_keep_hz=sh.f_keep_hz, name=f"shell ({state}, CB)")
+                         f_keep_hz=sh.f_keep_hz, name=f"shell ({state}, CB)",
+                         hung=params.hung_outside)

@@ -27,6 +27,21 @@ half_spacing)``. The wheel-rail forces are the linear contact of
 :mod:`modal_twin.models.wheel_rail` on each wheelset's ``(y, psi)`` with the alignment
 ``y_a`` under it. Gravity's roll (pendulum) terms of the bodies are neglected.
 
+**Equipment** on elastic hangers (the file's ``equipment`` with ``hanger: elastic``,
+:mod:`modal_twin.models.vehicle3d_spec`): each box is a rigid body of six DOFs about its
+centre of mass ``E`` (``<box>_x .. <box>_yaw``, after the wheelsets), ``M_e = diag(m, m,
+m, J_xx, J_yy, J_zz)``, on four hangers at ``x_e +- half_length`` on the side beams
+(underframe, ``y = +-W/2`` at the underframe's height) or the roof (``y = +-half_width``),
+each a spring-damper ``<box>_hanger<j>_<axis>`` in x, y and z (``k d + c d'``) from the box's
+point to the carbody's point there (``ReducedCarbody.hangers``). The rigid carbody's values
+are the car in service with its boxes ([002] Sec. 2's 41.03 t), so its own mass matrix
+about ``G`` loses each hung box's rigid-body mass::
+
+    M_c = diag(m, m, m, I_xx, I_yy, I_zz) - T_e' M_e T_e,   T_e = [[I, -skew(E - G)], [0, I]]
+
+and the car's total mass and centre of mass stay the file's; the shell leaves out its own
+item of the box's name and its hanger nodes are interface nodes of the reduction.
+
 First-order model, state ``s = [q; q'; e]``, input ``w = [u; u']`` with
 ``u = [z_1..4, phi_1..4, ya_1..4]`` (:func:`modal_twin.models.track3d.track_inputs_3d`)::
 
@@ -43,15 +58,21 @@ least-damped kinematic mode's damping ratio crosses zero (:mod:`modal_twin.model
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.signal
 
 from modal_twin._types import ComplexArray, FloatArray
-from modal_twin.errors import OptionError, ShapeError
-from modal_twin.models.carbody_interface import ReducedCarbody, offset_matrix, rigid_carbody
+from modal_twin.errors import ModelError, OptionError, ShapeError
+from modal_twin.models.carbody3d import Equipment
+from modal_twin.models.carbody_interface import (
+    ReducedCarbody,
+    offset_matrix,
+    rigid_carbody,
+    skew,
+)
 from modal_twin.models.carbody_shell import vehicle_shell_carbody
 from modal_twin.models.vehicle3d_spec import Vehicle3DSpec
 from modal_twin.models.wheel_rail import WheelRailContact, contact_matrices
@@ -60,17 +81,24 @@ __all__ = [
     "SimulationResult",
     "SuspensionElement",
     "Vehicle3D",
+    "box_centre",
+    "box_mass",
     "build_vehicle3d",
     "carbody_full",
     "default_carbody",
+    "hanger_points",
+    "hanger_stiffness",
     "mass_matrix",
+    "n_coordinates",
     "propagate",
+    "rigid_mass_about",
     "suspension_elements",
     "zoh",
 ]
 
 N_AXLES = 4
 N_U = 3 * N_AXLES  # z, phi, ya per wheelset
+_SIX = ("x", "y", "z", "roll", "pitch", "yaw")
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,9 +122,9 @@ class SuspensionElement:
     ----------
     name : str
         ``primary_1L_y``, ``air_spring_2R_z``, ``yaw_damper_1L``, ``anti_roll_bar_2`` ...
-    kind : {"spring", "damper", "maxwell"}
-        Spring ``k d``, dashpot ``c d'``, or Maxwell (dashpot ``c`` behind ``k``; module
-        docstring).
+    kind : {"spring", "damper", "spring_damper", "maxwell"}
+        Spring ``k d``, dashpot ``c d'``, both in parallel (an equipment hanger), or Maxwell
+        (dashpot ``c`` behind ``k``; module docstring).
     g : (n,) float array
         Elongation per coordinate ``q``.
     h : (12,) float array
@@ -107,7 +135,7 @@ class SuspensionElement:
     """
 
     name: str
-    kind: str  # spring | damper | maxwell
+    kind: str  # spring | damper | spring_damper | maxwell
     g: FloatArray
     h: FloatArray
     k: float = 0.0
@@ -476,11 +504,39 @@ def _mass(spec: Vehicle3DSpec, carbody: ReducedCarbody, n: int) -> FloatArray:
     for a in range(N_AXLES):
         iy = nc + 12 + 2 * a
         M[iy, iy], M[iy + 1, iy + 1] = v("wheelset", "mass"), v("wheelset", "Izz")
+    for i, box in enumerate(spec.hung_equipment):
+        c0 = nc + 20 + 6 * i
+        M[c0:c0 + 6, c0:c0 + 6] = box_mass(box)
     return M
 
 
+def box_mass(box: Equipment) -> FloatArray:
+    """``diag(m, m, m, J_xx, J_yy, J_zz)`` of a box about its centre of mass."""
+    return np.diag([box.mass] * 3 + [float(j) for j in box.inertia])
+
+
+def rigid_mass_about(M_e: FloatArray, r: FloatArray) -> FloatArray:
+    """Return a body's 6x6 mass matrix (about its point ``o``) seen from ``o - r``.
+
+    ``T' M_e T`` with ``T = [[I, -skew(r)], [0, I]]`` (the body's motion at ``o`` of a
+    rigid motion of the reference point; module docstring).
+    """
+    T = np.eye(6)
+    T[:3, 3:] = -skew(r)
+    return np.asarray(T.T @ M_e @ T)
+
+
 def default_carbody(spec: Vehicle3DSpec) -> ReducedCarbody:
-    """Return the spec's carbody: rigid (its mass and inertia) or the shell (``carbody_model``)."""
+    """Return the spec's carbody: rigid (its mass and inertia) or the shell (``carbody_model``).
+
+    The rigid carbody loses the hung boxes' mass and has their hanger points (module
+    docstring).
+
+    Raises
+    ------
+    ModelError
+        The boxes outweigh the carbody (its mass matrix without them is not positive).
+    """
     if spec.carbody_model == "shell":
         return vehicle_shell_carbody(spec)
     v = spec.v
@@ -488,8 +544,21 @@ def default_carbody(spec: Vehicle3DSpec) -> ReducedCarbody:
     seats = {f"seat_{i + 1}{side}": (x, sgn * ds, hs) for i, x in enumerate(spec.pivot_x)
              for side, sgn in (("L", 1.0), ("R", -1.0))}
     pts = {p.label: (p.x, p.y, v("carbody", "floor_height")) for p in spec.floor_points}
-    return rigid_carbody(v("carbody", "mass"), (v("carbody", "Ixx"), v("carbody", "Iyy"),
-                         v("carbody", "Izz")), (0.0, 0.0, v("carbody", "cg_height")), seats, pts)
+    G = np.array([0.0, 0.0, v("carbody", "cg_height")])
+    cb = rigid_carbody(v("carbody", "mass"), (v("carbody", "Ixx"), v("carbody", "Iyy"),
+                       v("carbody", "Izz")), tuple(G), seats, pts)
+    if not spec.hung_equipment:
+        return cb
+    M = cb.M.copy()
+    hangers = {}
+    for box in spec.hung_equipment:
+        M -= rigid_mass_about(box_mass(box), box_centre(spec, box) - G)
+        hangers.update({k: (p, offset_matrix(p - G)) for k, p in hanger_points(spec, box).items()})
+    if np.linalg.eigvalsh(0.5 * (M + M.T)).min() <= 0.0:
+        msg = (f"{spec.source}: equipment: the hung boxes outweigh the carbody's mass or "
+               f"inertia ({[e.name for e in spec.hung_equipment]})")
+        raise ModelError(msg)
+    return replace(cb, M=0.5 * (M + M.T), hangers=hangers)
 
 
 def build_vehicle3d(spec: Vehicle3DSpec, carbody: ReducedCarbody | None = None) -> Vehicle3D:
@@ -507,22 +576,24 @@ def build_vehicle3d(spec: Vehicle3DSpec, carbody: ReducedCarbody | None = None) 
     v = spec.v
     cb = carbody if carbody is not None else default_carbody(spec)
     nc = cb.n
-    n = nc + 2 * 6 + 2 * N_AXLES
+    n = n_coordinates(spec, cb)
     names = [f"car_{k}" for k in cb.coordinate_names]
     for b in (1, 2):
-        names += [f"bogie{b}_{d}" for d in ("x", "y", "z", "roll", "pitch", "yaw")]
+        names += [f"bogie{b}_{d}" for d in _SIX]
     for a in range(1, N_AXLES + 1):
         names += [f"ws{a}_y", f"ws{a}_yaw"]
+    for e in spec.hung_equipment:
+        names += [f"{e.name}_{d}" for d in _SIX]
     ws = [(nc + 12 + 2 * a, nc + 13 + 2 * a) for a in range(N_AXLES)]
     els = suspension_elements(spec, cb)
     K, C = carbody_full(cb, n)
     Bu, Bdu = np.zeros((n, N_U)), np.zeros((n, N_U))
     mx = [el for el in els if el.kind == "maxwell" and el.c > 0.0]
     for el in els:
-        if el.kind == "spring" or (el.kind == "maxwell" and el.c > 0.0):
+        if el.kind in ("spring", "spring_damper") or (el.kind == "maxwell" and el.c > 0.0):
             K += el.k * np.outer(el.g, el.g)
             Bu -= el.k * np.outer(el.g, el.h)
-        elif el.kind == "damper":
+        if el.kind in ("damper", "spring_damper"):
             C += el.c * np.outer(el.g, el.g)
             Bdu -= el.c * np.outer(el.g, el.h)
     contact = WheelRailContact(v("contact", "conicity"), v("contact", "r0"), v("contact", "b"),
@@ -545,19 +616,82 @@ def suspension_elements(spec: Vehicle3DSpec, carbody: ReducedCarbody
     2's (module docstring); ``g`` has ``carbody.n + 20`` entries.
     """
     nc = carbody.n
-    n = nc + 2 * 6 + 2 * N_AXLES
+    n = n_coordinates(spec, carbody)
     ws = [(nc + 12 + 2 * a, nc + 13 + 2 * a) for a in range(N_AXLES)]
     els: list[SuspensionElement] = []
     for b in range(2):
         bog = _body_anchor(n, nc + 6 * b, np.array([spec.pivot_x[b], 0.0,
                                                     spec.v("bogie", "cg_height")]))
         els += _primary(spec, n, b, bog, ws) + _secondary(spec, carbody, n, b, bog)
-    return els
+    return els + _hangers(spec, carbody, n)
+
+
+def n_coordinates(spec: Vehicle3DSpec, carbody: ReducedCarbody) -> int:
+    """Return the number of coordinates ``q``: carbody, bogies, wheelsets, hung boxes."""
+    return carbody.n + 2 * 6 + 2 * N_AXLES + 6 * len(spec.hung_equipment)
 
 
 def mass_matrix(spec: Vehicle3DSpec, carbody: ReducedCarbody) -> FloatArray:
-    """Mass matrix of the car's coordinates ``q`` (carbody, bogies, wheelsets)."""
-    return _mass(spec, carbody, carbody.n + 2 * 6 + 2 * N_AXLES)
+    """Mass matrix of the car's coordinates ``q`` (carbody, bogies, wheelsets, boxes)."""
+    return _mass(spec, carbody, n_coordinates(spec, carbody))
+
+
+def box_centre(spec: Vehicle3DSpec, box: Equipment) -> FloatArray:
+    """Centre of mass of an equipment box in the car's frame (from rail), m.
+
+    Below the underframe (at the seat height, the shell's ``z = 0``) by ``depth``, or
+    above the roof (``height`` of the shell's parameters higher) by ``depth``.
+    """
+    z0 = spec.v("secondary", "seat_height")
+    z = (z0 + spec.shell.params.height + box.depth if box.mount == "roof"
+         else z0 - box.depth)
+    return np.array([box.x, 0.0, z])
+
+
+def hanger_points(spec: Vehicle3DSpec, box: Equipment) -> dict[str, FloatArray]:
+    """Return the four hanger points ``<box>_h1 .. _h4`` of a box on a rigid carbody, m.
+
+    At ``x +- half_length`` (h1, h2 behind, h3, h4 ahead; right then left) on the side
+    beams ``y = +-W/2`` at the underframe or on the roof at ``y = +-half_width`` (the
+    shell's nodes there: :func:`modal_twin.models.carbody3d.build_carbody`).
+    """
+    p = spec.shell.params
+    z0 = spec.v("secondary", "seat_height")
+    roof = box.mount == "roof"
+    hy, z = (box.half_width, z0 + p.height) if roof else (0.5 * p.width, z0)
+    pts = [(box.x + sx * box.half_length, sy * hy, z) for sx in (-1.0, 1.0)
+           for sy in (-1.0, 1.0)]
+    return {f"{box.name}_h{j + 1}": np.array(q) for j, q in enumerate(pts)}
+
+
+def hanger_stiffness(box: Equipment) -> tuple[FloatArray, FloatArray]:
+    """Per hanger ``k`` and ``c`` in x, y, z (:mod:`modal_twin.models.vehicle3d_spec`)."""
+    kz = box.mass * (2.0 * math.pi * box.f_mount_hz) ** 2 / 4.0
+    cz = 2.0 * box.zeta * math.sqrt(kz * box.mass / 4.0)
+    r = box.lateral_ratio
+    return np.array([r * kz, r * kz, kz]), np.array([r * cz, r * cz, cz])
+
+
+def _hangers(spec: Vehicle3DSpec, carbody: ReducedCarbody, n: int) -> list[_Element]:
+    """Hanger spring-dampers of every hung box (module docstring)."""
+    out: list[_Element] = []
+    col = carbody.n + 2 * 6 + 2 * N_AXLES
+    for i, box in enumerate(spec.hung_equipment):
+        anchor = _body_anchor(n, col + 6 * i, box_centre(spec, box))
+        k, c = hanger_stiffness(box)
+        for j in range(4):
+            key = f"{box.name}_h{j + 1}"
+            if key not in carbody.hangers:
+                msg = f"carbody {carbody.name!r}: no hanger point {key!r}"
+                raise ModelError(msg)
+            p, P = carbody.hangers[key]
+            Pq = np.zeros((3, n))
+            Pq[:, : carbody.n] = P
+            for axis in range(3):
+                out.append(_element(f"{box.name}_hanger{j + 1}_{'xyz'[axis]}",
+                                    "spring_damper", anchor.at(p), (Pq, np.zeros((3, N_U))),
+                                    np.eye(3)[axis], k=float(k[axis]), c=float(c[axis])))
+    return out
 
 
 def carbody_full(carbody: ReducedCarbody, n: int) -> tuple[FloatArray, FloatArray]:

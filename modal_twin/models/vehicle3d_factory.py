@@ -18,22 +18,27 @@ input ``w = [u; u']`` of :func:`modal_twin.models.track3d.track_inputs_3d` and t
 contact at the file's speed: the plant's frequency response is the car's
 (:meth:`~modal_twin.models.vehicle3d.Vehicle3D.state_space`) to rounding.
 
-Device sites: every suspension element whose elongation holds no track input (``h =
-0``): the air springs in x, y, z, the vertical, lateral and yaw dampers, the traction rods,
-the anti-roll bars and the primary springs in x and y; the primary vertical springs and
-dashpots are not sites (their stroke holds the track's vertical profile and cross level,
-which a device's drift ``B x`` cannot). A device law placed at a site replaces the whole
-element; the registry's ``linear`` law at a spring site is the element itself (its
-:class:`~modal_twin.models.structure_yaml.DeviceSpec` carries the element's ``k`` and
-``c``); at a Maxwell site the spec carries the series joint's ``k`` and the dashpot's ``c``
-(the scale of the registry's relative laws), so a ``linear`` law there is the two in
-parallel, not the Maxwell element (the model itself keeps the Maxwell element until a law
-replaces it). Parameters ``k_<element>`` and ``c_<element>`` (a Maxwell
-element's ``k`` is its series stiffness) change one element's values.
+Device sites: every suspension element: the primary springs in x, y, z and the primary
+vertical dashpots, the air springs in x, y, z, the vertical, lateral and yaw dampers, the
+traction rods, the anti-roll bars, and every equipment hanger in x, y, z (spring-dampers
+of the boxes on elastic hangers, :mod:`modal_twin.models.vehicle3d`). The stroke of a
+primary vertical element holds the track's vertical profile and cross level (``h != 0``):
+its device sees ``B x + E w`` and the rate ``B x' + Ed w`` with ``E = [h, 0]``, ``Ed = [0,
+h]`` on ``w = [u; u']`` (the input share, :meth:`Vehicle3DFactory.site_inputs`, as the
+vertical-plane car's primary suspensions). A device law placed at a site replaces the whole
+element (its track terms leave ``Gamma``); the registry's ``linear`` law at a spring site
+is the element itself (its :class:`~modal_twin.models.structure_yaml.DeviceSpec`
+carries the element's ``k`` and ``c``); at a Maxwell site the spec carries the series
+joint's ``k`` and the dashpot's ``c`` (the scale of the registry's relative laws), so a
+``linear`` law there is the two in parallel, not the Maxwell element (the model itself
+keeps the Maxwell element until a law replaces it). Parameters ``k_<element>`` and
+``c_<element>`` (a Maxwell element's ``k`` is its series stiffness) change one element's
+values.
 
 Channels: the floor accelerations ``floor_<label>_z`` / ``_y`` (m/s^2, absolute), then of
 each site its stroke ``<site>_d<axis>`` (role ``device_drift``) and force ``<site>_f<axis>``
-(``device_force``: ``k d + c d'``, ``k (d - p')`` of a Maxwell element, or its device's).
+(``device_force``: ``k d + c d'``, ``k (d - p')`` of a Maxwell element, or its device's);
+a primary vertical element's stroke and force take the track's share through ``D_out``.
 """
 
 from __future__ import annotations
@@ -63,6 +68,7 @@ from modal_twin.models.vehicle3d import (
     carbody_full,
     default_carbody,
     mass_matrix,
+    n_coordinates,
     suspension_elements,
 )
 from modal_twin.models.vehicle3d_spec import G_ACC, Vehicle3DSpec, load_vehicle3d
@@ -83,8 +89,13 @@ _BOUNDS: dict[str, tuple[Kind, str, float, float]] = {
 
 def _is_site(el: SuspensionElement) -> bool:
     # a Maxwell damper switched off (c = 0) is no element of the car (vehicle3d)
-    acts = el.c > 0.0 if el.kind == "maxwell" else (el.k > 0.0 or el.c > 0.0)
-    return acts and not np.any(el.h)
+    return el.c > 0.0 if el.kind == "maxwell" else (el.k > 0.0 or el.c > 0.0)
+
+
+def _input_share(el: SuspensionElement) -> tuple[FloatArray, FloatArray]:
+    """Return the track's share of an element's stroke and its rate, rows on ``[u; u']``."""
+    zero = np.zeros(N_U)
+    return np.concatenate([el.h, zero]), np.concatenate([zero, el.h])
 
 
 def _units(el: SuspensionElement) -> tuple[str, str]:
@@ -107,7 +118,7 @@ def _assemble(spec: Vehicle3DSpec, cb: ReducedCarbody, els: list[SuspensionEleme
               replaced: Iterable[str]) -> _Assembly:
     """M, C, K, Gamma of ``x = [q; p]`` with the elements of ``replaced`` left out."""
     skip = set(replaced)
-    nq = cb.n + 2 * 6 + 2 * N_AXLES
+    nq = n_coordinates(spec, cb)
     mx = [el for el in els if el.kind == "maxwell" and el.c > 0.0 and el.name not in skip]
     n = nq + len(mx)
     M, C, K = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
@@ -117,10 +128,10 @@ def _assemble(spec: Vehicle3DSpec, cb: ReducedCarbody, els: list[SuspensionEleme
     for el in els:
         if el.name in skip:
             continue
-        if el.kind == "damper":
+        if el.kind in ("damper", "spring_damper"):
             C[:nq, :nq] += el.c * np.outer(el.g, el.g)
             Gamma[:nq, N_U:] += el.c * np.outer(el.g, el.h)
-        elif el.kind == "spring" or (el.kind == "maxwell" and el.c > 0.0):
+        if el.kind in ("spring", "spring_damper") or (el.kind == "maxwell" and el.c > 0.0):
             K[:nq, :nq] += el.k * np.outer(el.g, el.g)
             Gamma[:nq, :N_U] += el.k * np.outer(el.g, el.h)
     index = {}
@@ -184,7 +195,12 @@ def build_vehicle3d_plant(spec: Vehicle3DSpec, *, carbody: ReducedCarbody | None
     for name, dev in given.items():
         B = np.zeros((dev.n_dir, n))
         B[0, :nq] = sites[name].g
-        atts.append(DeviceAttachment(device=dev, B=B))
+        if not np.any(sites[name].h):
+            atts.append(DeviceAttachment(device=dev, B=B))
+            continue
+        E, Ed = np.zeros((dev.n_dir, 2 * N_U)), np.zeros((dev.n_dir, 2 * N_U))
+        E[0], Ed[0] = _input_share(sites[name])
+        atts.append(DeviceAttachment(device=dev, B=B, E=E, Ed=Ed))
     rows, names, channels = [], [], []
     h = spec.v("carbody", "floor_height")
     for p in spec.floor_points:
@@ -196,6 +212,7 @@ def build_vehicle3d_plant(spec: Vehicle3DSpec, *, carbody: ReducedCarbody | None
             names.append(f"floor_{p.label}_{axis}")
             channels.append(ChannelSpec(names[-1], "acceleration", f"floor_{p.label}", axis,
                                         position_m=(p.x, p.y, h)))
+    feed = [np.zeros(2 * N_U) for _ in rows]
     sources: list[Source] = [("y", i) for i in range(len(rows))]
     f_row = {}
     r = 0
@@ -214,19 +231,24 @@ def build_vehicle3d_plant(spec: Vehicle3DSpec, *, carbody: ReducedCarbody | None
             if key == "f" and site in given:
                 sources.append(("force", f_row[site]))
                 continue
+            eu, ev = _input_share(el)
             if key == "d":
                 row = np.concatenate([g, np.zeros(2 * n)])
+                fed = eu
             elif el.kind == "maxwell":
                 row = np.concatenate([el.k * g, np.zeros(2 * n)])
                 row[n + asm.maxwell[site]] = -el.k
+                fed = el.k * eu
             else:
                 row = np.concatenate([el.k * g, el.c * g, np.zeros(n)])
+                fed = el.k * eu + el.c * ev
             sources.append(("y", len(rows)))
             rows.append(row)
+            feed.append(fed)
             names.append(channels[-1].name)
     C_out = np.array(rows)
     system = ReducedSystem(M=asm.M, C=asm.C, K=asm.K, Gamma=asm.Gamma, devices=tuple(atts),
-                           C_out=C_out, D_out=np.zeros((C_out.shape[0], 2 * N_U)),
+                           C_out=C_out, D_out=np.array(feed).reshape(C_out.shape[0], 2 * N_U),
                            output_names=tuple(names))
     label = ",".join(f"{k}:{type(d).__name__}" for k, d in given.items()) or "nominal"
     quantities = ("displacement",) * N_U + ("velocity",) * N_U
@@ -336,17 +358,50 @@ class Vehicle3DFactory:
                              "device")
 
     def attachments(self) -> tuple[str, ...]:
-        """No rigidly bolted items in the 3D car file (hangers are not modelled there)."""
+        """No ``elastic_mount`` candidates: a box of the file is hung or part of the carbody."""
         return ()
 
     def site_inputs(self, component: str) -> tuple[dict[str, float], dict[str, float]]:
-        """Return no input share: every site's drift here is the structure's own."""
-        return {}, {}
+        """Return the track's share of a site's stroke and of its rate (input -> coefficient).
+
+        A primary vertical element's stroke holds the vertical profile ``zt<a>`` and the
+        cross level ``phit<a>`` under its wheelset (its rate their rates ``dzt<a>``,
+        ``dphit<a>``); the other sites' strokes hold no input.
+
+        Raises
+        ------
+        OptionError
+            Not a site.
+        """
+        el = self._site_element(component)
+        eu, ev = _input_share(el)
+        return ({INPUT_NAMES_3D[i]: float(eu[i]) for i in np.flatnonzero(eu)},
+                {INPUT_NAMES_3D[i]: float(ev[i]) for i in np.flatnonzero(ev)})
+
+    def _site_element(self, component: str) -> SuspensionElement:
+        els = {el.name: el for el in self.elements() if _is_site(el)}
+        if component not in els:
+            msg = f"site: expected one of {list(els)[:4]} ... ({len(els)}), got {component!r}"
+            raise OptionError(msg)
+        return els[component]
 
     def weight(self, component: str) -> float:
-        """Weight on an air spring's vertical element (a quarter of the carbody), else 0, N."""
-        if component.startswith("air_spring_") and component.endswith("_z"):
-            return 0.25 * G_ACC * self.spec.v("carbody", "mass")
+        """Return the static load on a vertical element, N, else 0.
+
+        An air spring's vertical element carries a quarter of the carbody, a primary
+        vertical spring an eighth of the carbody and a quarter of its bogie, an equipment
+        hanger's vertical element a quarter of its box.
+        """
+        v = self.spec.v
+        if not component.endswith("_z"):
+            return 0.0
+        if component.startswith("air_spring_"):
+            return 0.25 * G_ACC * v("carbody", "mass")
+        if component.startswith("primary_"):
+            return G_ACC * (0.125 * v("carbody", "mass") + 0.25 * v("bogie", "mass"))
+        for box in self.spec.hung_equipment:
+            if component.startswith(f"{box.name}_hanger"):
+                return 0.25 * G_ACC * box.mass
         return 0.0
 
     def plant(self, effects: Iterable[EffectSpec] = ()) -> Plant:

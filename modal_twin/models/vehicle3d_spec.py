@@ -24,6 +24,17 @@ is per element, e.g. per axle box or per air spring):
 ``anti_roll_bar``  ``{k_roll}`` per bogie, N m/rad
 ``traction_rod``  ``{kx}`` per bogie
 ``floor_points``  ``[{label, x, y}]`` floor accelerometers (vertical and lateral)
+``equipment`` (optional)  ``[{name, x, mass, inertia: [Jxx, Jyy, Jzz], mount, hanger,
+  half_length, half_width, depth, f_mount_hz, lateral_ratio, zeta}]``: underframe or roof
+  boxes, rigid bodies on four hangers (:class:`~modal_twin.models.carbody3d.Equipment`,
+  same meaning and defaults). ``hanger: rigid``: the box is part of the carbody (its mass
+  and inertia are inside the ``carbody`` values, the shell's own equipment stands for it):
+  the car is the car without the entry. ``hanger: elastic``: the box has its own six DOFs
+  on four hangers, each a spring-damper in x, y, z (vertical ``k = m (2 pi f_mount)^2 /
+  4``, lateral and longitudinal ``lateral_ratio k``, ``c = 2 zeta sqrt(k m / 4)`` times the
+  same ratio, as the shell's mounts); the rigid carbody's values (the car in service) lose
+  the box's mass and inertia, the shell leaves out its own item of that name (:mod:`modal_
+  twin.models.vehicle3d`).
 ``speed_kmh``
 
 Missing keys and wrong types raise :class:`ConfigError`, non-positive physical values
@@ -39,7 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from modal_twin.errors import ConfigError
-from modal_twin.models.carbody3d import CarbodyParams
+from modal_twin.models.carbody3d import CarbodyParams, Equipment
 from modal_twin.models.carbody3d_file import carbody3d_params, config_section
 from modal_twin.models.vehicle_spec import _num as read_number
 from modal_twin.yaml_files import read_yaml
@@ -130,6 +141,9 @@ class Vehicle3DSpec:
     carbody_model : {"rigid", "shell"}
     shell : ShellSpec
         Used when ``carbody_model`` is ``"shell"``.
+    equipment : tuple of Equipment
+        The file's equipment boxes (module docstring); :attr:`hung_equipment` those on
+        elastic hangers.
     """
 
     name: str
@@ -139,6 +153,36 @@ class Vehicle3DSpec:
     source: str = "<spec>"
     carbody_model: str = "rigid"
     shell: ShellSpec = field(default_factory=ShellSpec)
+    equipment: tuple[Equipment, ...] = ()
+
+    @property
+    def hung_equipment(self) -> tuple[Equipment, ...]:
+        """The boxes on elastic hangers, with six DOFs of their own (module docstring)."""
+        return tuple(e for e in self.equipment if e.hanger == "elastic")
+
+    def with_equipment(self, name: str, **changes: Any) -> Vehicle3DSpec:
+        """Copy with one box's fields changed: ``spec.with_equipment("EQ1", hanger="elastic")``.
+
+        Raises
+        ------
+        ConfigError
+            Unknown box or field, or a value the file would refuse.
+        """
+        names = [e.name for e in self.equipment]
+        if name not in names:
+            msg = f"equipment: expected one of {names}, got {name!r}"
+            raise ConfigError(msg)
+        old = self.equipment[names.index(name)]
+        bad = sorted(set(changes) - set(_EQUIPMENT_KEYS))
+        if bad:
+            msg = f"equipment {name}: unknown fields {bad}; expected {list(_EQUIPMENT_KEYS)}"
+            raise ConfigError(msg)
+        new = replace(old, **changes)
+        _check_equipment(new, f"equipment {name}", self.source,
+                         0.5 * self.v("carbody", "length"))
+        boxes = list(self.equipment)
+        boxes[names.index(name)] = new
+        return replace(self, equipment=tuple(boxes))
 
     def with_carbody(self, model: str) -> Vehicle3DSpec:
         """Copy with another carbody model (:data:`CARBODY_MODELS`).
@@ -268,7 +312,67 @@ def load_vehicle3d(path: str | Path | None = None) -> Vehicle3DSpec:
     speed = _number(doc, "speed_kmh", "<top>", src, False) if "speed_kmh" in doc else 300.0
     return Vehicle3DSpec(name=str(doc.get("name", p.stem)), values=values,
                          floor_points=tuple(floor), speed_kmh=speed, source=src,
-                         carbody_model=str(model), shell=shell)
+                         carbody_model=str(model), shell=shell,
+                         equipment=_equipment(doc.get("equipment", []), src, half))
+
+
+_EQUIPMENT_KEYS = ("name", "x", "mass", "inertia", "mount", "hanger", "half_length",
+                   "half_width", "depth", "f_mount_hz", "lateral_ratio", "zeta")
+_CHOICES = {"mount": ("underframe", "roof"), "hanger": ("elastic", "rigid")}
+
+
+def _check_equipment(e: Equipment, where: str, src: str, half: float) -> None:
+    """Refuse a box off the car, a choice not known or a value out of range."""
+    for key, options in _CHOICES.items():
+        if getattr(e, key) not in options:
+            msg = f"{src}: {where}.{key}: expected one of {list(options)}, got {getattr(e, key)!r}"
+            raise ConfigError(msg)
+    nums = {"mass": e.mass, "half_length": e.half_length, "half_width": e.half_width,
+            "f_mount_hz": e.f_mount_hz, "lateral_ratio": e.lateral_ratio,
+            **{f"inertia[{i}]": v for i, v in enumerate(e.inertia)}}
+    for key, val in nums.items():
+        if isinstance(val, bool) or not isinstance(val, int | float) or not (
+                math.isfinite(val) and val > 0.0):
+            msg = f"{src}: {where}.{key}: expected a finite value > 0, got {val!r}"
+            raise ConfigError(msg)
+    for key, val, lo, hi in (("x", e.x, -half, half), ("depth", e.depth, 0.0, 2.0),
+                             ("zeta", e.zeta, 0.0, 0.999)):
+        if isinstance(val, bool) or not isinstance(val, int | float) or not lo <= val <= hi:
+            msg = f"{src}: {where}.{key}: expected a value in [{lo}, {hi}], got {val!r}"
+            raise ConfigError(msg)
+    if abs(e.x) + e.half_length > half:
+        msg = f"{src}: {where}: hangers at x = {e.x} +- {e.half_length} are off the car"
+        raise ConfigError(msg)
+
+
+def _equipment(items: object, src: str, half: float) -> tuple[Equipment, ...]:
+    """Read the ``equipment`` list (module docstring)."""
+    if not isinstance(items, list):
+        msg = f"{src}: equipment: expected a list, got {items!r}"
+        raise ConfigError(msg)
+    out: list[Equipment] = []
+    for i, item in enumerate(items):
+        where = f"equipment[{i}]"
+        if not isinstance(item, Mapping) or not isinstance(item.get("name"), str):
+            msg = f"{src}: {where}: expected a mapping with a name, got {item!r}"
+            raise ConfigError(msg)
+        bad = sorted(set(item) - set(_EQUIPMENT_KEYS))
+        missing = [k for k in ("x", "mass", "inertia") if k not in item]
+        if bad or missing:
+            msg = (f"{src}: {where}: unknown keys {bad}, missing {missing}; expected "
+                   f"{list(_EQUIPMENT_KEYS)}")
+            raise ConfigError(msg)
+        inertia = item["inertia"]
+        if not isinstance(inertia, list) or len(inertia) != 3:
+            msg = f"{src}: {where}.inertia: expected [Jxx, Jyy, Jzz], got {inertia!r}"
+            raise ConfigError(msg)
+        e = Equipment(**{**item, "inertia": tuple(inertia)})
+        if e.name in [o.name for o in out]:
+            msg = f"{src}: {where}: the name {e.name!r} is used twice"
+            raise ConfigError(msg)
+        _check_equipment(e, where, src, half)
+        out.append(e)
+    return tuple(out)
 
 
 _SHELL_KEYS = ("in_service", "mesh", "zones", "f_cut_hz", "f_keep_hz", "zeta")

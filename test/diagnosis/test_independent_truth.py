@@ -392,3 +392,41 @@ def test_reversed_creeping_and_crossed_readings() -> None:
     np.testing.assert_allclose(rec.data[0], clean[1] + 0.1 - 0.02 * t)  # S_y's, on S_x
     np.testing.assert_allclose(rec.data[1], clean[0])
     np.testing.assert_allclose(rec.data[2], -clean[2])
+
+
+def test_car3d_hung_box_truth_equals_library_plant_and_its_hanger_law_acts(
+        tmp_path: Path) -> None:
+    """The 3D truth with EQ1 on its hangers (session 8): its linear part, floor and hanger
+    strokes and forces, is the library plant of the file with EQ1 elastic; a linear law of
+    the hanger's own k at one hanger is the linear truth; the softening law's force channel
+    is ``k_r d + (k - k_r) u0 tanh(d / u0) + c d'``."""
+    from _truth.vehicle3d import INPUTS as V3_INPUTS
+    from _truth.vehicle3d import VEHICLE3D_YAML, Vehicle3DTruth, track_inputs_3d
+
+    hangers = tuple(f"EQ1_hanger{j}_z" for j in range(1, 5))
+    truth = Vehicle3DTruth(hung=("EQ1",), device_channels=hangers)
+    fs = 200.0
+    u = track_inputs_3d(truth.spec.axle_x, truth.spec.speed_kmh, 4.0, fs, 1.5e-3, seed=5)
+    y = truth.simulate(u, fs)
+    rec = Record(fs, V3_INPUTS, u, truth.channel_names(), y)
+    path = tmp_path / "car3d_eq1.yaml"
+    path.write_text(VEHICLE3D_YAML.read_text().replace("hanger: rigid ", "hanger: elastic ", 1))
+    lib = simulate_record(load_model(path).plant(), rec)
+    assert np.max(_nrmse(lib, y)) < 1e-2
+    k = truth.element_k("EQ1_hanger1_z")
+    same = Vehicle3DTruth(hung=("EQ1",), device_channels=hangers,
+                          hanger_law=("EQ1_hanger1_z", laws.LinearKC(k, 0.0)))
+    np.testing.assert_allclose(same.simulate(u, fs), y, rtol=0, atol=1e-9 * np.abs(y).max())
+    law = laws.TanhSoftening(k=k, k_r=0.35 * k, u0=8e-5, c=0.0)
+    soft = Vehicle3DTruth(hung=("EQ1",), device_channels=hangers,
+                          hanger_law=("EQ1_hanger1_z", law))
+    ys = soft.simulate(u, fs)
+    names = soft.channel_names()
+    d, f = ys[names.index("EQ1_hanger1_z_dz")], ys[names.index("EQ1_hanger1_z_fz")]
+    c = soft.elements["EQ1_hanger1_z"].c
+    spring = 0.35 * k * d + 0.65 * k * 8e-5 * np.tanh(d / 8e-5)
+    rate = np.gradient(d, 1.0 / fs)  # the rest is the dashpot's c d' (to the difference's error)
+    c_fit = float(np.dot(f - spring, rate) / np.dot(rate, rate))
+    assert c_fit == pytest.approx(c, rel=0.05)
+    assert np.max(np.abs(f - k * d)) > 0.1 * np.max(np.abs(f))  # not the linear spring
+    assert np.std(ys[0] - y[0]) > 0.05 * np.std(y[0])  # the floor sees it

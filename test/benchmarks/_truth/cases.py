@@ -26,6 +26,7 @@ from .building import BuildingTruth, add_masses, weaken_columns
 from .records import Noisy, measured, table_earthquake, table_random, track_inputs
 from .vehicle import INPUTS as V_INPUTS
 from .vehicle import VehicleTruth
+from .vehicle3d import Vehicle3DTruth
 from .vehicle3d_own import INPUTS as V3_INPUTS
 from .vehicle3d_own import Vehicle3DOwn, track_inputs_3d
 
@@ -68,7 +69,7 @@ class Case:
     """A truth, what it hides, its noise level and sensor gains."""
 
     name: str
-    model: str  # "building" | "vehicle" | "vehicle3d"
+    model: str  # "building" | "vehicle" | "vehicle3d" | "vehicle3d_eq1" (EQ1 hung)
     hidden: tuple[Hidden, ...]
     build: Callable[[], BuildingTruth | VehicleTruth | Vehicle3DOwn]
     noise_pct: float = 2.0
@@ -272,6 +273,13 @@ def _veh_mount_softening() -> VehicleTruth:
                         device_channels=True)
 
 
+def _veh3d_hanger_softening() -> Vehicle3DTruth:
+    hangers = tuple(f"EQ1_hanger{j}_z" for j in range(1, 5))
+    k = Vehicle3DTruth(hung=("EQ1",)).element_k("EQ1_hanger1_z")
+    return Vehicle3DTruth(hung=("EQ1",), device_channels=hangers, hanger_law=(
+        "EQ1_hanger1_z", laws.TanhSoftening(k=k, k_r=0.35 * k, u0=8e-5, c=0.0)))
+
+
 _SEC_FRONT = ("secondary", "c_secondary_front", "k_secondary_front", "c_secondary")
 _SEC_REAR = ("secondary", "c_secondary_rear", "k_secondary_rear", "c_secondary")
 _PRIMARY_FRONT = ("primary", "primary_front", "c_primary_front", "k_primary_front",
@@ -386,6 +394,14 @@ NEW_CASES: tuple[Case, ...] = (
              "yaw_damper_1L", "yaw_damper_1R", "yaw_damper_2L", "yaw_damper_2R",
              "lateral_damper_1", "lateral_damper_2")), 2.0, seed=72, new=True,
          quiet_pct=0.05),
+    # issue 23 item 4 / issue 20 item 6 (added in session 8 with the 3D car's equipment,
+    # run before the hangers were device sites and after): EQ1 (3 t) on elastic hangers
+    # (10 Hz), the vertical rubber of its first hanger softening (tangent 0.35 k beyond
+    # ~80 um; strokes about 0.13 mm rms), the four vertical hangers' strokes and forces
+    # recorded (0.05 % noise there); the model is the 3D car with EQ1 on its hangers
+    Case("new_veh3d_hanger_softening_EQ1", "vehicle3d_eq1",
+         (Hidden("softening", "EQ1_hanger1_z", aliases=("EQ1", "k_EQ1_hanger1_z")),),
+         lambda: _veh3d_hanger_softening(), 2.0, seed=73, new=True, quiet_pct=0.05),
     # issue 20, item 6 (added with the primary suspension sites and the Maxwell law, run on
     # main's 8a7814d before them): friction (1 kN) in the primary damper of wheelset 2 (front
     # bogie, trailing axle), the four primary strokes and forces recorded beside the
@@ -419,7 +435,7 @@ def records(case: Case, *, quick: bool = False) -> dict[str, Noisy]:
                "test": table_earthquake(T, fs, 3.5, s + 2),
                "low": table_random(T, fs, 0.05, s + 3)}
         inputs = B_INPUTS
-    elif case.model == "vehicle3d":  # one speed: the 3D car's contact depends on it
+    elif case.model.startswith("vehicle3d"):  # one speed: the contact depends on it
         fs, T = 200.0, (8.0 if quick else 12.0)
         ax, v = truth.axle_x, truth.speed_kmh
         ins = {"train": track_inputs_3d(ax, v, T, fs, 1.5e-3, s + 1),
