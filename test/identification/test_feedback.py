@@ -104,3 +104,14 @@ def test_an_exogenous_coherent_base_keeps_input_output() -> None:
     f_fixed = _f_hz(FLOORS, STOREYS)
     near = [int(np.argmin(np.abs(rec.modes.f_hz - f))) for f in f_fixed]
     np.testing.assert_allclose(rec.modes.f_hz[near], f_fixed, rtol=0.01)
+
+
+def test_polymax_on_a_short_exogenous_record_runs_output_only_for_its_coarse_h1_lines() -> None:
+    """40 s: coherent, not fed back, but H1 lines 0.2 Hz apart (>= 8 averages) do not
+    resolve a 1 %-damped mode at the band's centre (half-power width 0.15 Hz)."""
+    block, chans = _record(on_soil=False)
+    short = SignalBlock(block.channel_names, FS, 0, block.data[:, : int(40 * FS)])
+    pm = identify_record(short, chans, IdentifyOptions(method="polymax", f_max_hz=14.0))
+    assert pm.inputs == ()
+    assert any("PolyMAX output-only" in n and "do not resolve a 1 %-damped mode" in n
+               for n in pm.notes), pm.notes
