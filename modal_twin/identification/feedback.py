@@ -27,6 +27,13 @@ outputs' past removes,
 with each variance divided by its residual degrees of freedom (:math:`k` regressors),
 so an exogenous input gives :math:`F \approx 0` whatever the number of lags. The mean of
 :math:`F` over the inputs is returned.
+
+Limits: the input must be broadband at the test's rate. A band-limited input (a rig's
+drive, random with a flat spectrum in 0.5-5 Hz at 100 Hz, the structure's modes above
+it) is partly predictable from a long past only, and the outputs' past then seems to
+help: F up to 0.25 for an exogenous drive.
+:func:`~modal_twin.identification.record.identify_record` therefore runs the test on
+transient records only (earthquake ground motions).
 """
 
 from __future__ import annotations
@@ -42,8 +49,9 @@ FEEDBACK = 0.05
 from which the inputs are read as fed back (part of the vibrating system). An
 exogenous input gives 0 to within the estimate's scatter (0.000-0.006 for a white or a
 band-passed base acceleration under a simulated frame, also low-passed at 0.2-0.4 x the
-rate, causally or not, as by an instrument); a foundation on a soil spring, its only
-excitation the ground, 0.10; the real records' ground and basement channels 0.17-0.24
+rate, causally or not, as by an instrument; stationary or under an earthquake-like
+envelope); a foundation on a soil spring, its only excitation the ground, 0.10 (either);
+the real records' ground and basement channels 0.17-0.24
 (Rio Dell 0.17, Berkeley 0.20, Hayward 0.21-0.24), each at a rate of at least five
 times its band's upper edge (:func:`~modal_twin.identification.record.identify_record`)."""
 FEEDBACK_LAGS = 8

@@ -15,8 +15,10 @@ channel map and does, in this order and for every caller alike:
    the record has
    driven inputs whose mean multiple coherence with the outputs in the band (debiased for
    the number of averages: the share of the output power the inputs explain) is at least
-   :data:`COHERENT`, else ``ssi-cov``; PolyMAX uses the map's inputs by the same
-   coherence rule (named inputs always); the choice and its reason are said.
+   :data:`COHERENT` and, on a transient record, that the outputs do not feed back
+   (:mod:`~modal_twin.identification.feedback`), else ``ssi-cov``; PolyMAX uses the
+   map's inputs by the same rules (named inputs always); the choice and its reason are
+   said.
 3. **Settings** (:func:`~modal_twin.identification.auto.choose_settings`): band,
    decimation, block rows and orders from the record, each one replaced by a given
    option; a given option the record cannot support is an error naming the limit. The
@@ -490,8 +492,9 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
     The coherence is debiased (NaN: not needed).
 
     The default method and PolyMAX with the inputs of the channel map (not named) use the
-    inputs only when their debiased coherence is at least :data:`COHERENT` and the
-    outputs do not feed back into them
+    inputs only when their debiased coherence is at least :data:`COHERENT` and, on a
+    transient record (window RMS spread above :data:`NONSTATIONARY`: an earthquake's
+    ground motion), the outputs do not feed back into them
     (:func:`~modal_twin.identification.feedback.input_feedback` below
     :data:`~modal_twin.identification.feedback.FEEDBACK`: inputs that move with the
     structure, such as a foundation on soil, make the input-output model the fixed-base
@@ -509,12 +512,14 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
         yd = decimate(y, fs_hz, s0.factor).x
         ud = decimate(u, fs_hz, s0.factor).x
         coh = _coherence(ud, yd, s0.fs_hz, s0.band_hz)
-        # the feedback test at a rate whose anti-alias edge (0.8 x Nyquist) lies at twice
-        # the band or more: a decimation filter cutting close above the modes makes an
-        # exogenous input look fed back (its band edge unpredictable from its own past)
+        # the feedback test on transient records only (ground motions: broadband, and where
+        # a foundation on soil feeds back); a stationary drive is a rig's, prescribed, and
+        # often band-limited, which Granger's finite-lag test misreads as fed back. At a
+        # rate whose anti-alias edge (0.8 x Nyquist) lies at twice the band or more: a
+        # decimation filter cutting close above the modes misleads it the same way
         qf = max(1, int(fs_hz // (5 * s0.band_hz[1])))
         fb = (input_feedback(decimate(u, fs_hz, qf).x, decimate(y, fs_hz, qf).x)
-              if coh >= COHERENT else 0.0)
+              if coh >= COHERENT and rms_spread(y) > NONSTATIONARY else 0.0)
         why_not = (f"mean coherence {coh:.2f} with the outputs in the band (debiased) "
                    f"(< {COHERENT:g}: the inputs explain too little of the response)"
                    if coh < COHERENT else
