@@ -506,7 +506,7 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
     coh = math.nan
     n_in = u.shape[0]
     why_not = ""  # why the map's inputs are not used ('' when they are)
-    fb = 0.0
+    fb = math.nan  # NaN: not tested (a stationary record, or incoherent inputs)
     if n_in and (method is None or (method == "polymax" and opts.inputs is None)):
         s0 = _settings(y, fs_hz, n_in, opts, corners)
         yd = decimate(y, fs_hz, s0.factor).x
@@ -519,7 +519,7 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
         # decimation filter cutting close above the modes misleads it the same way
         qf = max(1, int(fs_hz // (5 * s0.band_hz[1])))
         fb = (input_feedback(decimate(u, fs_hz, qf).x, decimate(y, fs_hz, qf).x)
-              if coh >= COHERENT and rms_spread(y) > NONSTATIONARY else 0.0)
+              if coh >= COHERENT and rms_spread(y) > NONSTATIONARY else math.nan)
         why_not = (f"mean coherence {coh:.2f} with the outputs in the band (debiased) "
                    f"(< {COHERENT:g}: the inputs explain too little of the response)"
                    if coh < COHERENT else
@@ -545,8 +545,12 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
         notes.append(f"method {method}: {n_in} driven inputs, "
                      + (f"{why_not}; output-only" if why_not else
                         f"mean coherence {coh:.2f} with the outputs in the band (debiased) "
-                        f"(>= {COHERENT:g}: the inputs explain the response) and not fed "
-                        f"back by them; input-output"))
+                        f"(>= {COHERENT:g}: the inputs explain the response)"
+                        + ("" if math.isnan(fb) else
+                           f" and not fed back by them (the outputs' past explains "
+                           f"{100 * fb:.0f} % of their prediction error, < "
+                           f"{100 * FEEDBACK:g} %)")
+                        + "; input-output"))
     elif method is None:
         method = "ssi-cov"
         notes.append("method ssi-cov: no driven input, output-only")
