@@ -350,7 +350,9 @@ def test_berkeley_building_with_azimuths(shared_dir: Path, tmp_path: Path) -> No
     z = _real(shared_dir, "earthquakes", "nsmp1103_berkeley_building_2018-01-04.zip")
     assert main(["import", str(z), "--out", str(tmp_path / "b")]) == 0
     f = _first_modes(tmp_path / "b", tmp_path / "id", "--directions", "x,y")
-    np.testing.assert_allclose(f[:2], [1.045, 1.27], rtol=0.03)  # measured 1.045, 1.265
+    # output-only (the basement is fed back by the building): 1.023, 1.244 Hz; the plain
+    # SSI-cov reference 1.025, 1.237, FDD 1.055, 1.25 (N4SID, the fixed base: 1.044, 1.265)
+    np.testing.assert_allclose(f[:2], [1.03, 1.245], rtol=0.01)
 
 
 def test_uff58b_record_gives_modes(shared_dir: Path, tmp_path: Path,

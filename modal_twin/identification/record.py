@@ -15,8 +15,10 @@ channel map and does, in this order and for every caller alike:
    the record has
    driven inputs whose mean multiple coherence with the outputs in the band (debiased for
    the number of averages: the share of the output power the inputs explain) is at least
-   :data:`COHERENT`, else ``ssi-cov``; PolyMAX uses the map's inputs by the same
-   coherence rule (named inputs always); the choice and its reason are said.
+   :data:`COHERENT` and, on a transient record, that the outputs do not feed back
+   (:mod:`~modal_twin.identification.feedback`), else ``ssi-cov``; PolyMAX uses the
+   map's inputs by the same rules (named inputs always); the choice and its reason are
+   said.
 3. **Settings** (:func:`~modal_twin.identification.auto.choose_settings`): band,
    decimation, block rows and orders from the record, each one replaced by a given
    option; a given option the record cannot support is an error naming the limit. The
@@ -51,6 +53,7 @@ from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError, SignalError
 from modal_twin.identification.auto import AutoSettings, choose_settings, rms_spread
 from modal_twin.identification.clustering import ZETA_MIN, cluster_modes, is_harmonic
+from modal_twin.identification.feedback import FEEDBACK, input_feedback
 from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
 from modal_twin.identification.polymax import polymax
@@ -482,46 +485,76 @@ def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float],
 
 
 def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOptions,
-                   corners: tuple[float, float], notes: list[str]) -> tuple[str, float, bool]:
-    """Return the method, the debiased input coherence (NaN: not needed), whether to use inputs.
+                   corners: tuple[float, float], notes: list[str]
+                   ) -> tuple[str, float, bool, bool]:
+    """Return the method, the input coherence, whether to use inputs, whether fed back.
+
+    The coherence is debiased (NaN: not needed).
 
     The default method and PolyMAX with the inputs of the channel map (not named) use the
-    inputs only when their debiased coherence is at least :data:`COHERENT`; PolyMAX also
-    only when the H1 lines (:func:`welch_segment`) resolve a mode damped
-    :data:`H1_ZETA` at the band's centre.
+    inputs only when their debiased coherence is at least :data:`COHERENT` and, on a
+    transient record (window RMS spread above :data:`NONSTATIONARY`: an earthquake's
+    ground motion), the outputs do not feed back into them
+    (:func:`~modal_twin.identification.feedback.input_feedback` below
+    :data:`~modal_twin.identification.feedback.FEEDBACK`: inputs that move with the
+    structure, such as a foundation on soil, make the input-output model the fixed-base
+    structure, not the system whose modes the response shows); PolyMAX also only when
+    the H1 lines (:func:`welch_segment`) resolve a mode damped :data:`H1_ZETA` at the
+    band's centre.
     """
     method = opts.method
     coh = math.nan
     n_in = u.shape[0]
+    why_not = ""  # why the map's inputs are not used ('' when they are)
+    fb = math.nan  # NaN: not tested (a stationary record, or incoherent inputs)
     if n_in and (method is None or (method == "polymax" and opts.inputs is None)):
         s0 = _settings(y, fs_hz, n_in, opts, corners)
         yd = decimate(y, fs_hz, s0.factor).x
-        coh = _coherence(decimate(u, fs_hz, s0.factor).x, yd, s0.fs_hz, s0.band_hz)
+        ud = decimate(u, fs_hz, s0.factor).x
+        coh = _coherence(ud, yd, s0.fs_hz, s0.band_hz)
+        # the feedback test on transient records only (ground motions: broadband, and where
+        # a foundation on soil feeds back); a stationary drive is a rig's, prescribed, and
+        # often band-limited, which Granger's finite-lag test misreads as fed back. At a
+        # rate whose anti-alias edge (0.8 x Nyquist) lies at twice the band or more: a
+        # decimation filter cutting close above the modes misleads it the same way
+        qf = max(1, int(fs_hz // (5 * s0.band_hz[1])))
+        fb = (input_feedback(decimate(u, fs_hz, qf).x, decimate(y, fs_hz, qf).x)
+              if coh >= COHERENT and rms_spread(y) > NONSTATIONARY else math.nan)
+        why_not = (f"mean coherence {coh:.2f} with the outputs in the band (debiased) "
+                   f"(< {COHERENT:g}: the inputs explain too little of the response)"
+                   if coh < COHERENT else
+                   f"mean coherence {coh:.2f} with the outputs (debiased), but the outputs' "
+                   f"past explains {100 * fb:.0f} % of the inputs' prediction error (>= "
+                   f"{100 * FEEDBACK:g} %: the inputs move with the structure, fed back as a "
+                   f"foundation on soil; input-output would give the fixed-base system)"
+                   if fb >= FEEDBACK else "")
     if method == "polymax" and n_in and opts.inputs is None:
         df = s0.fs_hz / welch_segment(yd.shape[1], n_in)
         fc = 0.5 * (s0.band_hz[0] + s0.band_hz[1])
-        why = (f"mean coherence {coh:.2f} with the outputs in the band (debiased) "
-               f"(< {COHERENT:g}: the inputs explain too little of the response)"
-               if coh < COHERENT else
-               f"H1 lines {df:.3g} Hz apart (>= 2 x {n_in} + 2 averages) do not resolve "
-               f"a {100 * H1_ZETA:g} %-damped mode at the band's centre {fc:.3g} Hz "
-               f"(half-power width {2 * H1_ZETA * fc:.3g} Hz)"
-               if df > 2 * H1_ZETA * fc else "")
+        why = why_not or (
+            f"H1 lines {df:.3g} Hz apart (>= 2 x {n_in} + 2 averages) do not resolve "
+            f"a {100 * H1_ZETA:g} %-damped mode at the band's centre {fc:.3g} Hz "
+            f"(half-power width {2 * H1_ZETA * fc:.3g} Hz)"
+            if df > 2 * H1_ZETA * fc else "")
         if why:
             notes.append(f"PolyMAX output-only: {n_in} driven inputs, {why}; name them "
                          f"with --inputs to use them")
-            return method, coh, False
+            return method, coh, False, fb >= FEEDBACK
     if method is None and n_in:
-        method = "n4sid" if coh >= COHERENT else "ssi-cov"
-        notes.append(f"method {method}: {n_in} driven inputs, mean coherence "
-                     f"{coh:.2f} with the outputs in the band (debiased) "
-                     + ("(>= " if coh >= COHERENT else "(< ") + f"{COHERENT:g}: "
-                     + ("the inputs explain the response; input-output)" if coh >= COHERENT
-                        else "the inputs explain too little of the response; output-only)"))
+        method = "ssi-cov" if why_not else "n4sid"
+        notes.append(f"method {method}: {n_in} driven inputs, "
+                     + (f"{why_not}; output-only" if why_not else
+                        f"mean coherence {coh:.2f} with the outputs in the band (debiased) "
+                        f"(>= {COHERENT:g}: the inputs explain the response)"
+                        + ("" if math.isnan(fb) else
+                           f" and not fed back by them (the outputs' past explains "
+                           f"{100 * fb:.0f} % of their prediction error, < "
+                           f"{100 * FEEDBACK:g} %)")
+                        + "; input-output"))
     elif method is None:
         method = "ssi-cov"
         notes.append("method ssi-cov: no driven input, output-only")
-    return method, coh, method not in OUTPUT_ONLY
+    return method, coh, method not in OUTPUT_ONLY, fb >= FEEDBACK
 
 
 def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None = None,
@@ -566,7 +599,7 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     y = block.select(tuple(c.name for c in outs)).data
     u = block.select(tuple(c.name for c in ins)).data if ins else np.zeros((0, y.shape[1]))
     corners = _corners(outs + ins)
-    method, coh, io = _choose_method(u, y, block.fs_hz, opts, corners, notes)
+    method, coh, io, fed_back = _choose_method(u, y, block.fs_hz, opts, corners, notes)
     if not io:
         ins, u = [], np.zeros((0, y.shape[1]))
     if not ins and method == "n4sid":
@@ -579,6 +612,8 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     if not ins and (r := rms_spread(y)) > NONSTATIONARY:
         name = "SSI" if method == "ssi-cov" else "PolyMAX"
         hint = ("use n4sid with the measured inputs if there are any" if math.isnan(coh)
+                else "the measured inputs are fed back by the structure (--method n4sid "
+                     "would give the fixed-base system)" if fed_back
                 else f"the measured inputs explain {100 * coh:.0f} % of the response "
                      f"(--method n4sid uses them)")
         warn.append(f"output-only {name} on a non-stationary record: window RMS varies by "
