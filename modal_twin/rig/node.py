@@ -38,7 +38,8 @@ class RigNode(Node):
             rig = load_rig(resolve_config(self.cfg.rig_file))
             plant = load_model(rig.structure, theta=rig.theta or None).plant(rig.effects)
             self.truth = TruthRig(plant, 1.0 / self.cfg.fs_hz, noise_rms=rig.noise_rms,
-                                  sensitivity=rig.sensitivity, seed=rig.seed)
+                                  sensitivity=rig.sensitivity, seed=rig.seed,
+                                  channels=rig.channels)
         self.monitor = StreamMonitor()
         self.pub = self.create_publisher(SignalBlockMsg, "/rig/raw", qos_for("/rig/raw"))
         self.create_subscription(SignalBlockMsg, "/excitation/signal",
