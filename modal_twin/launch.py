@@ -5,9 +5,12 @@ Wait until they are up and matched, supervise them, stop them cleanly.
 - Every node runs as its own process with ``--ros-args -r __node:=<name>
   --params-file <run>/params/<name>.yaml`` and logs to ``<run>/logs/<name>.log``.
 - A run gets its own ``ROS_DOMAIN_ID`` (unless one is set), so parallel runs never meet.
-- Ready = every node visible in the graph and every topic that one launched node
-  publishes and another subscribes has both ends discovered. Only then are the
-  excitation nodes started (``~/start``), so the first sample reaches the bag.
+- Ready = every node visible in the graph, every node has said ``ready`` on
+  ``/diagnostics`` (a node says ``starting: ...`` while it builds its model and compiles its
+  kernels) and every topic that one launched node publishes and another subscribes has
+  both ends discovered. Only then are the excitation nodes started (``~/start``) and the
+  run's duration counted, so the first sample reaches the bag; a node still starting at
+  ``ready_timeout_s`` is named in one line (exit code NOT_READY).
 - Ctrl-C / SIGTERM are forwarded as SIGINT to the nodes (recorder last); the run then exits
   130 after Ctrl-C, 0 after SIGTERM. A node that dies stops the run, which exits 1 and names it.
 - The nodes die with the launcher even when it is killed (SIGKILL): each is started with
@@ -137,6 +140,27 @@ def _executable(name: str) -> list[str]:
     raise ConfigError(msg)
 
 
+class _StatusWatch:
+    """What the nodes say on ``/diagnostics``: last state, who was ready, matched readers."""
+
+    def __init__(self) -> None:
+        self.said: dict[str, str] = {}  # each node's last message
+        self.ready: set[str] = set()  # said ready once (a later busy state is work)
+        self.matched: dict[str, dict[str, int]] = {}  # node -> topic -> matched readers
+
+    def on_status(self, msg: Any) -> None:
+        """Take one DiagnosticArray."""
+        from modal_twin.io.status import MATCHED
+
+        for st in msg.status:
+            name = st.name.lstrip("/")
+            self.said[name] = st.message
+            if any(kv.key == "state" and kv.value == "ready" for kv in st.values):
+                self.ready.add(name)
+            self.matched[name] = {kv.key[len(MATCHED):]: int(kv.value)
+                                  for kv in st.values if kv.key.startswith(MATCHED)}
+
+
 class Launcher:
     """Start, watch and stop the processes of one scenario run."""
 
@@ -264,10 +288,33 @@ class Launcher:
         return set(subs), set(pubs)
 
     def wait_ready(self, timeout_s: float) -> str:
-        """'' when every node is up and its topics matched, else what is missing."""
+        """'' when every node is up, ready and its topics matched, else what is missing.
+
+        Ready is explicit: each node says ``ready`` on ``/diagnostics`` once it is built
+        (its model loaded or reduced, its kernels compiled: ``starting: compiling kernels``
+        until then), and the excitation is started only after every node has. What is
+        missing at ``timeout_s`` names the late nodes and what they said last.
+        """
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.executors import SingleThreadedExecutor
+
+        from modal_twin.io.ros import qos_for
+        from modal_twin.io.status import STATUS_TOPIC
+
         ctx = Context()
         rclpy.init(context=ctx, domain_id=self.domain_id)
         probe = rclpy.create_node("launch_probe", context=ctx, start_parameter_services=False)
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(probe)
+        watch = _StatusWatch()
+        sub = probe.create_subscription(DiagnosticArray, STATUS_TOPIC, watch.on_status,
+                                        qos_for(STATUS_TOPIC))
+
+        def pause(s: float) -> None:
+            until = time.monotonic() + s
+            while time.monotonic() < until:
+                ex.spin_once(timeout_sec=max(until - time.monotonic(), 0.0))
+
         want = set(self.procs)
         end = time.monotonic() + timeout_s
         missing = "nodes " + ", ".join(sorted(want))
@@ -279,7 +326,7 @@ class Launcher:
                 lacking = sorted(want - names)
                 if lacking:
                     missing = "nodes " + ", ".join(lacking)
-                    time.sleep(0.2)
+                    pause(0.2)
                     continue
                 pubs: set[str] = set()
                 subs: set[str] = set()
@@ -292,87 +339,82 @@ class Launcher:
                     pubs, subs = pubs | p, subs | s
                 if lacking:  # a node still being built (its model loading)
                     missing = "endpoints " + ", ".join(lacking)
-                    time.sleep(0.2)
+                    pause(0.2)
+                    continue
+                late = self._late(watch)
+                if late:
+                    missing = "ready from " + "; ".join(late)
+                    pause(0.2)
                     continue
                 unmatched = sorted(
                     t for t in (pubs & subs) - {"/rosout", "/parameter_events"}
                     if probe.count_publishers(t) == 0 or probe.count_subscribers(t) == 0
                 )
                 if not unmatched:
-                    return self._start_deferred(probe, ctx, end)
+                    return self._start_deferred(probe, ex, watch.matched, end)
                 missing = "topics " + ", ".join(unmatched)
-                time.sleep(0.2)
+                pause(0.2)
             return missing
         finally:
+            probe.destroy_subscription(sub)
+            ex.remove_node(probe)
+            ex.shutdown()
             probe.destroy_node()
             rclpy.try_shutdown(context=ctx)
 
-    def _wait_matched(self, probe: Any, ex: Any, end: float) -> str:
+    def _late(self, watch: _StatusWatch) -> list[str]:
+        """Return the nodes not yet ready, each with what it said last.
+
+        A one-shot node that ended cleanly counts as ready.
+        """
+        done = {n for n, p in self.procs.items() if p.poll() == 0}
+        return [f"{n} ({watch.said.get(n, 'no status yet')})" for n in sorted(self.procs)
+                if n not in watch.ready and n not in done]
+
+    def _wait_matched(self, ex: Any, matched: dict[str, dict[str, int]], end: float) -> str:
         """'' once every node's published topics matched their launched readers (SETTLE_S).
 
-        Else, at ``end``, which hop still lacks readers (``node:/topic m of n``).
+        Else, at ``end``, which hop still lacks readers (``node:/topic m of n``); the
+        counts are those the nodes report on ``/diagnostics`` (``matched``).
         """
-        from diagnostic_msgs.msg import DiagnosticArray
-
-        from modal_twin.io.ros import qos_for
-        from modal_twin.io.status import MATCHED, STATUS_TOPIC
-
-        seen: dict[str, dict[str, int]] = {}
-
-        def on_status(msg: DiagnosticArray) -> None:
-            for st in msg.status:
-                seen[st.name.lstrip("/")] = {kv.key[len(MATCHED):]: int(kv.value)
-                                             for kv in st.values if kv.key.startswith(MATCHED)}
-
-        sub = probe.create_subscription(DiagnosticArray, STATUS_TOPIC, on_status,
-                                        qos_for(STATUS_TOPIC))
         need = {(n, t): self._readers(t) for n in self.procs for t in self._endpoints(n)[1]}
         need = {k: r for k, r in need.items() if r > 0}
         settle = time.monotonic() + SETTLE_S
         lacking = [f"{n}:{t}" for n, t in need]
-        try:
-            while time.monotonic() < end:
-                ex.spin_once(timeout_sec=0.05)
-                lacking = [f"{n}:{t} {seen.get(n, {}).get(t, 0)} of {r}"
-                           for (n, t), r in need.items() if seen.get(n, {}).get(t, 0) < r]
-                if not lacking and time.monotonic() >= settle:
-                    return ""
-        finally:
-            probe.destroy_subscription(sub)
+        while time.monotonic() < end:
+            ex.spin_once(timeout_sec=0.05)
+            lacking = [f"{n}:{t} {matched.get(n, {}).get(t, 0)} of {r}"
+                       for (n, t), r in need.items() if matched.get(n, {}).get(t, 0) < r]
+            if not lacking and time.monotonic() >= settle:
+                return ""
         return "matched readers on " + ", ".join(lacking)
 
-    def _start_deferred(self, probe: Any, ctx: Context, end: float) -> str:
+    def _start_deferred(self, probe: Any, ex: Any, matched: dict[str, dict[str, int]],
+                        end: float) -> str:
         """Call ``~/start`` of each deferred excitation node.
 
-        Its first block goes out only after every recorder and reader of the graph has
-        matched.
+        Its first block goes out only after every node is ready and every recorder and
+        reader of the graph has matched.
         """
         from modal_twin_msgs.msg import ExcitationCommand
         from modal_twin_msgs.srv import StartExcitation
-        from rclpy.executors import SingleThreadedExecutor
 
-        ex = SingleThreadedExecutor(context=ctx)
-        ex.add_node(probe)
-        try:
-            if self.deferred:
-                unmatched = self._wait_matched(probe, ex, end)
-                if unmatched:
-                    return unmatched
-            for name in self.deferred:
-                client = probe.create_client(StartExcitation, f"/{name}/start")
-                fut = None
-                while time.monotonic() < end and not (fut and fut.done()):
-                    if fut is None and client.service_is_ready():
-                        fut = client.call_async(StartExcitation.Request(
-                            command=ExcitationCommand(kind="", reason="launcher: ready")))
-                    ex.spin_once(timeout_sec=0.05)
-                if fut is None or not fut.done():
-                    return f"a start answer from /{name}/start"
-                if not fut.result().accepted:
-                    return f"an accepted start of {name}: {fut.result().message}"
-        finally:
-            ex.remove_node(probe)
-            ex.shutdown()
+        if self.deferred:
+            unmatched = self._wait_matched(ex, matched, end)
+            if unmatched:
+                return unmatched
+        for name in self.deferred:
+            client = probe.create_client(StartExcitation, f"/{name}/start")
+            fut = None
+            while time.monotonic() < end and not (fut and fut.done()):
+                if fut is None and client.service_is_ready():
+                    fut = client.call_async(StartExcitation.Request(
+                        command=ExcitationCommand(kind="", reason="launcher: ready")))
+                ex.spin_once(timeout_sec=0.05)
+            if fut is None or not fut.done():
+                return f"a start answer from /{name}/start"
+            if not fut.result().accepted:
+                return f"an accepted start of {name}: {fut.result().message}"
         return ""
 
     # -- the whole run -----------------------------------------------------------------

@@ -24,7 +24,7 @@ from modal_twin.errors import OptionError
 from modal_twin.io.convert import block_from_msg, block_to_msg, channel_map_to_msg
 from modal_twin.io.impact_files import write_hammer_result
 from modal_twin.io.params import declare_config
-from modal_twin.io.ros import guarded, qos_for, report, run_node
+from modal_twin.io.ros import configuring, guarded, qos_for, report, run_node
 from modal_twin.models.rig_file import load_rig
 from modal_twin.models.sensors import rig_channels
 from modal_twin.paths import resolve_config
@@ -63,7 +63,8 @@ class AcquisitionNode(Node):
     def __init__(self) -> None:
         super().__init__("acquisition")
         self.cfg = declare_config(self, AcquisitionConfig)
-        channels = rig_channels(load_rig(resolve_config(self.cfg.rig_file)))
+        with configuring(self, "building the channel map"):  # the rig's model: seconds
+            channels = rig_channels(load_rig(resolve_config(self.cfg.rig_file)))
         self.channels = {c.name: c for c in channels}
         self.monitor = StreamMonitor(expected_channels=tuple(self.channels))
         self.pub = self.create_publisher(SignalBlockMsg, "/measurement/frames",

@@ -6,8 +6,12 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-__all__ = ["register", "run", "scenario_path"]
+if TYPE_CHECKING:
+    from modal_twin.scenario import Scenario
+
+__all__ = ["apply_sets", "register", "run", "scenario_path"]
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -37,7 +41,38 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="let the scenario start executables that are not this package's nodes")
     la.add_argument("--network", action="store_true",
                     help="discover nodes on the network, not only this host (see README)")
+    la.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                    help="override one node parameter (VALUE read as YAML, e.g. "
+                    "excitation.seed=32); repeatable")
     la.set_defaults(func=run)
+
+
+def apply_sets(sc: Scenario, sets: list[str]) -> Scenario:
+    """Return the scenario with each ``NODE.PARAM=VALUE`` of ``sets`` applied.
+
+    Raises
+    ------
+    ConfigError
+        A malformed item, a node the scenario does not launch or a value that is not YAML.
+    """
+    import yaml
+
+    from modal_twin.errors import ConfigError
+    from modal_twin.scenario import with_parameters
+
+    for item in sets:
+        key, eq, text = item.partition("=")
+        node, dot, param = key.partition(".")
+        if not (eq and dot and node and param.isidentifier()):
+            msg = f"--set {item!r}: expected NODE.PARAM=VALUE, e.g. excitation.seed=32"
+            raise ConfigError(msg)
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError as err:
+            msg = f"--set {item!r}: VALUE is not YAML: {str(err).splitlines()[0]}"
+            raise ConfigError(msg) from err
+        sc = with_parameters(sc, node, **{param: value})
+    return sc
 
 
 def run(a: argparse.Namespace) -> int:
@@ -50,6 +85,7 @@ def run(a: argparse.Namespace) -> int:
         from modal_twin.io.ros import dds_env
 
         dds_env(os.environ, network=True)
+    sc = apply_sets(sc, a.set)
     if a.duration is not None:
         from dataclasses import replace
 

@@ -6,7 +6,8 @@ import importlib
 import os
 import re
 import sys
-from collections.abc import Callable, MutableMapping
+from collections.abc import Callable, Iterator, MutableMapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,8 @@ from modal_twin.paths import private_files
 __all__ = [
     "BURST_LIMIT_BLOCKS",
     "FASTDDS_PROFILES",
+    "compile_kernels",
+    "configuring",
     "dds_env",
     "guarded",
     "guarded_service",
@@ -254,6 +257,60 @@ def report(logger: Any, verdict: Any, *, every_s: float = 1.0, node: Node | None
         logger.warning(verdict.message)
 
 
+@contextmanager
+def configuring(node: Node, what: str) -> Iterator[None]:
+    """Say on ``/diagnostics`` that ``node`` is still configuring (``starting: <what>``).
+
+    Within the block the status is published once a second from a thread (the node does
+    not spin while it builds), so the launcher can name a node that is late and why. The
+    launcher starts a run only once every node says ``ready``, which :func:`run_node` sets
+    when the node is built.
+    """
+    import threading
+
+    from modal_twin.io.status import status_of
+
+    status = status_of(node, initial="starting")
+    status.set("starting", what)
+    stop = threading.Event()
+
+    def beat() -> None:
+        while not stop.wait(1.0):
+            try:
+                status.publish()
+            except Exception:  # a report only: never in the way of the start
+                return
+
+    thread = threading.Thread(target=beat, name="status", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+
+
+def compile_kernels(node: Node, *warm: Callable[[], object]) -> float:
+    """Compile a node's numba kernels while it configures, before it reports ready.
+
+    Each of ``warm`` runs the kernels once (e.g.
+    :meth:`modal_twin.twin.simulator.Simulator.warm_up`). The node says ``starting:
+    compiling kernels`` on ``/diagnostics`` meanwhile and logs ``compiling kernels ... done
+    in X s`` (tens of seconds on a cold numba cache, about a second from the disk cache), so
+    that no block of the run waits for a compiler. Returns the seconds taken.
+    """
+    import time
+
+    node.get_logger().info("compiling kernels ...")
+    t0 = time.perf_counter()
+    with configuring(node, "compiling kernels"):
+        for fn in warm:
+            fn()
+    took = time.perf_counter() - t0
+    node.get_logger().info(f"compiling kernels ... done in {took:.1f} s")
+    return took
+
+
 def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """Create the node, spin it, shut down cleanly on Ctrl-C / SIGTERM / shutdown.
 
@@ -267,7 +324,7 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
         node = factory()
         from modal_twin.io.status import status_of
 
-        status_of(node)  # ready, on /diagnostics
+        status_of(node).set("ready")  # built and warmed: ready, on /diagnostics
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -1,7 +1,8 @@
 """Node state on ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, the ROS convention).
 
-Every node gets one :class:`NodeStatus` (:func:`status_of`): its state (``starting``,
-``ready``, ``busy: <what>``, ``error``), counters of what it refused or dropped, the
+Every node gets one :class:`NodeStatus` (:func:`status_of`): its state (``starting`` while
+it configures, e.g. ``starting: compiling kernels``; ``ready`` once built; ``busy: <what>``,
+``error``), counters of what it refused or dropped, the
 fraction done of long work, and for each topic it publishes how many subscriptions have
 matched it (``matched <topic>``: the launcher starts the excitation only when every hop of
 the graph has matched its readers). It publishes on every change of state and once a second, so
@@ -75,11 +76,16 @@ class NodeStatus:
         self._pub.publish(self.message())
 
 
-def status_of(node: Any) -> NodeStatus:
-    """Return the node's :class:`NodeStatus`, created (and set ready) on first use."""
+def status_of(node: Any, initial: str = "ready") -> NodeStatus:
+    """Return the node's :class:`NodeStatus`, created (and set to ``initial``) on first use.
+
+    A node that configures at length (a model reduction, compiled kernels) says
+    ``starting`` first; :func:`modal_twin.io.ros.run_node` sets it ``ready`` once the node
+    is built, and the launcher starts the run only when every node has said so.
+    """
     st = getattr(node, "_modal_twin_status", None)
     if st is None:
         st = NodeStatus(node)
         node._modal_twin_status = st
-        st.set("ready")
+        st.set(initial)
     return st

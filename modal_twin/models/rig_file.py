@@ -7,6 +7,8 @@
     sensitivity: {acceleration: 0.10197}     # raw units per SI unit (1 V/g)
     seed: 7
     theta: {E_Fc27: 2.4e10}                   # parameter values of the truth (optional)
+    channels: ["floor_*"]                     # the structure's channels measured (optional,
+                                              # fnmatch patterns; default all)
     effects:                                  # what the nominal model is not told
       - {component: ESB1, law: coulomb, params: {mu_s: 0.06, mu_k: 0.04}}
 """
@@ -35,6 +37,7 @@ class RigFile:
     effects: tuple[EffectSpec, ...]
     seed: int
     theta: dict[str, float] = field(default_factory=dict)  # parameter values of the truth
+    channels: tuple[str, ...] = ()  # patterns of the structure's channels measured; () = all
 
 
 def _num_map(path: Path, doc: dict[str, Any], key: str) -> dict[str, float]:
@@ -90,6 +93,10 @@ def load_rig(path: str | Path) -> RigFile:
             isinstance(v, int | float) and not isinstance(v, bool) for v in theta.values()):
         msg = f"{p}: key 'theta': expected a mapping parameter -> number"
         raise ConfigError(msg)
+    channels = doc.get("channels") or []
+    if not isinstance(channels, list) or not all(isinstance(c, str) for c in channels):
+        msg = f"{p}: key 'channels': expected a list of channel names or patterns (floor_*)"
+        raise ConfigError(msg)
     return RigFile(p, structure, _num_map(p, doc, "noise_rms"),
                    _num_map(p, doc, "sensitivity"), tuple(effects), seed,
-                   {str(k): float(v) for k, v in theta.items()})
+                   {str(k): float(v) for k, v in theta.items()}, tuple(channels))

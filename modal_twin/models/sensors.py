@@ -16,8 +16,8 @@ from modal_twin.errors import ConfigError
 from modal_twin.models.plant import Plant
 from modal_twin.models.rig_file import RigFile
 
-__all__ = ["ChannelRoute", "match_outputs", "model_input_of", "rig_channels", "route_channels",
-           "table_channels", "with_sensitivity"]
+__all__ = ["ChannelRoute", "match_outputs", "measured_channels", "model_input_of",
+           "rig_channels", "route_channels", "table_channels", "with_sensitivity"]
 
 INPUT_PREFIX = "table_"
 """Name prefix of the measured inputs of the shipped scenarios (``table_ax`` drives ``ax``)."""
@@ -31,8 +31,30 @@ def rig_channels(rig: RigFile) -> tuple[ChannelSpec, ...]:
     from modal_twin.models.loading import load_model
 
     plant = load_model(rig.structure).plant()
-    return with_sensitivity(table_channels(plant) + plant.channels,
+    return with_sensitivity(table_channels(plant) + measured_channels(plant, rig.channels),
                             rig.sensitivity)
+
+
+def measured_channels(plant: Plant, patterns: Sequence[str]) -> tuple[ChannelSpec, ...]:
+    """Return the plant's channels a rig measures: those matching ``patterns`` (fnmatch).
+
+    No patterns: every channel, in the plant's order.
+
+    Raises
+    ------
+    ConfigError
+        If a pattern matches none of the plant's channels (it names the first few).
+    """
+    from fnmatch import fnmatchcase
+
+    if not patterns:
+        return plant.channels
+    for pat in patterns:
+        if not any(fnmatchcase(c.name, pat) for c in plant.channels):
+            msg = (f"rig channels: {pat!r} matches none of {plant.name}'s channels "
+                   f"(they start {list(plant.channel_names[:4])})")
+            raise ConfigError(msg)
+    return tuple(c for c in plant.channels if any(fnmatchcase(c.name, p) for p in patterns))
 
 
 def table_channels(plant: Plant) -> tuple[ChannelSpec, ...]:

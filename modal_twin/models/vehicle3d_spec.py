@@ -36,6 +36,8 @@ is per element, e.g. per axle box or per air spring):
   the box's mass and inertia, the shell leaves out its own item of that name (:mod:`modal_
   twin.models.vehicle3d`).
 ``speed_kmh``
+``extends`` (optional)  another vehicle file of the same folder this one changes: its
+  sections are updated key by key (``config/vehicles/trailer_car_3d_shell.yaml``)
 
 Missing keys and wrong types raise :class:`ConfigError`, non-positive physical values
 :class:`ModelError`; both name the file and the entry.
@@ -266,6 +268,31 @@ def is_vehicle3d_file(path: str | Path) -> bool:
     return isinstance(doc, Mapping) and doc.get("kind") == "vehicle3d"
 
 
+def _read_extended(p: Path, depth: int = 0) -> dict[str, Any]:
+    """Read a vehicle file over the one it ``extends`` (a file of the same folder).
+
+    A section (a mapping) updates the base's section key by key; any other value replaces
+    the base's; the name is the file's own (or its stem). E.g. ``extends:
+    trailer_car_3d.yaml`` with ``carbody: {model: shell}``.
+    """
+    doc = dict(read_yaml(p, "vehicle file"))
+    base = doc.pop("extends", None)
+    if base is None:
+        return doc
+    bp = (p.parent / str(base)).resolve()
+    if not isinstance(base, str) or bp.parent != p.parent.resolve() or depth >= 4:
+        msg = (f"{p}: extends: expected the name of a vehicle file in the same folder "
+               f"(at most 4 deep), got {base!r}")
+        raise ConfigError(msg)
+    merged = _read_extended(bp, depth + 1)
+    merged.pop("name", None)  # the file's own name, else its stem
+    for key, value in doc.items():
+        old = merged.get(key)
+        merged[key] = ({**old, **value} if isinstance(old, Mapping)
+                       and isinstance(value, Mapping) else value)
+    return merged
+
+
 def load_vehicle3d(path: str | Path | None = None) -> Vehicle3DSpec:
     """Read a 3D vehicle file (default :data:`DEFAULT_VEHICLE3D_YAML`).
 
@@ -277,7 +304,7 @@ def load_vehicle3d(path: str | Path | None = None) -> Vehicle3DSpec:
         A mass, stiffness or length that is not positive (a damping may be 0).
     """
     p = Path(DEFAULT_VEHICLE3D_YAML if path is None else path)
-    doc = read_yaml(p, "vehicle file")
+    doc = _read_extended(p)
     src = str(p)
     if doc.get("kind") != "vehicle3d":
         msg = f"{src}: kind: expected 'vehicle3d', got {doc.get('kind')!r}"

@@ -10,7 +10,7 @@ from rclpy.node import Node
 from modal_twin.acquisition.continuity import StreamMonitor, Verdict
 from modal_twin.io.convert import block_from_msg, block_to_msg
 from modal_twin.io.params import declare_config
-from modal_twin.io.ros import guarded, qos_for, report, run_node
+from modal_twin.io.ros import compile_kernels, configuring, guarded, qos_for, report, run_node
 from modal_twin.models.loading import load_model
 from modal_twin.models.rig_file import load_rig
 from modal_twin.paths import resolve_config
@@ -34,15 +34,18 @@ class RigNode(Node):
     def __init__(self) -> None:
         super().__init__("rig")
         self.cfg = declare_config(self, RigConfig)
-        rig = load_rig(resolve_config(self.cfg.rig_file))
-        plant = load_model(rig.structure, theta=rig.theta or None).plant(rig.effects)
-        self.truth = TruthRig(plant, 1.0 / self.cfg.fs_hz, noise_rms=rig.noise_rms,
-                              sensitivity=rig.sensitivity, seed=rig.seed)
+        with configuring(self, "building the truth model"):
+            rig = load_rig(resolve_config(self.cfg.rig_file))
+            plant = load_model(rig.structure, theta=rig.theta or None).plant(rig.effects)
+            self.truth = TruthRig(plant, 1.0 / self.cfg.fs_hz, noise_rms=rig.noise_rms,
+                                  sensitivity=rig.sensitivity, seed=rig.seed,
+                                  channels=rig.channels)
         self.monitor = StreamMonitor()
         self.pub = self.create_publisher(SignalBlockMsg, "/rig/raw", qos_for("/rig/raw"))
         self.create_subscription(SignalBlockMsg, "/excitation/signal",
                                  guarded(self, "drive block", self._on_drive),
                                  qos_for("/excitation/signal"))
+        compile_kernels(self, self.truth.sim.warm_up)  # before ready: no block waits for it
         self.get_logger().info(
             f"rig {rig.path.name}: {plant.name}, {len(self.truth.names)} channels, "
             f"{len(rig.effects)} effect(s) beyond the structure file")

@@ -8,6 +8,7 @@ it spans (``header.frame_id`` = ``samples <first>..<last>``).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import rclpy.logging
@@ -19,7 +20,7 @@ from modal_twin.acquisition.continuity import Verdict
 from modal_twin.io import convert as cv
 from modal_twin.io.channel_map import read_channel_map
 from modal_twin.io.params import declare_config
-from modal_twin.io.ros import guarded, qos_for, report, run_node
+from modal_twin.io.ros import compile_kernels, configuring, guarded, qos_for, report, run_node
 from modal_twin.twin.session import TwinSession
 from modal_twin.validation import check_request_path
 
@@ -50,8 +51,12 @@ class TwinNode(Node):
     def __init__(self) -> None:
         super().__init__("twin")
         self.cfg = declare_config(self, TwinConfig)
-        self.twin = TwinSession(self.cfg.model_file, self.cfg.fs_hz, self.cfg.window_s,
-                                self.cfg.versions_dir)
+        t0 = time.perf_counter()
+        with configuring(self, "building the model"):  # a shell carbody's reduction: seconds
+            self.twin = TwinSession(self.cfg.model_file, self.cfg.fs_hz, self.cfg.window_s,
+                                    self.cfg.versions_dir)
+        self.get_logger().info(f"model {self.twin.plant.name} built in "
+                               f"{time.perf_counter() - t0:.1f} s")
         self.fixed_map = bool(self.cfg.channel_map)  # a given map wins over the stream's
         if self.fixed_map:
             self.twin.set_channels(read_channel_map(check_request_path(
@@ -74,6 +79,7 @@ class TwinNode(Node):
                                  qos_for("/measurement/frames"))
         self.create_timer(self.cfg.metrics_period_s,
                           guarded(self, "metrics", self._publish_metrics))
+        compile_kernels(self, self.twin.runner.sim.warm_up)  # before ready
         plant = self.twin.plant
         self.get_logger().info(f"twin of {plant.name}: {len(plant.channels)} channels, "
                                f"{plant.system.n} coordinates")

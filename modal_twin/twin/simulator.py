@@ -78,6 +78,7 @@ device stiffness).
 from __future__ import annotations
 
 import logging
+import time
 from contextlib import nullcontext
 from typing import Literal
 
@@ -360,6 +361,19 @@ class Simulator:
             flags=np.zeros(3, dtype=np.int64),  # started, Jinv valid, refreshes
             states=states)
         self._k0 = 0
+
+    def warm_up(self) -> float:
+        """Compile the kernels for this model's arrays now; return the seconds it took.
+
+        Numba compiles :func:`~modal_twin.twin.kernels.run_block` and the device laws at
+        their first call (tens of seconds on a cold cache, then loaded from its disk cache):
+        a node calls this while it configures, so that its first block is not held up. Two
+        samples at rest are stepped, then the simulator is :meth:`reset`.
+        """
+        t0 = time.perf_counter()
+        self.step_block(np.zeros((self.system.n_in, 2)))
+        self.reset()
+        return time.perf_counter() - t0
 
     def _unknown_kind(self, d: int) -> str:
         """Message for a device whose kind code the kernel has no branch for."""

@@ -1,13 +1,17 @@
 """The 3D car through the node graph (issue 23, item 7): launched, recorded, replayed.
 
-Known answer: the rig (``config/rigs/vehicle3d_nominal.yaml``) is the twin's own car with
-sensor noise of known RMS on the floor accelerations (0.005 m/s^2) and the suspension
-forces (50 N) and none on the track inputs and the strokes. The twin of the same file
-leaves exactly that noise: per channel, residual RMS = NRMSE x RMS(measured) equals the
-noise RMS (within the sampling spread of an RMS over ~1600 samples, 1 / sqrt(2 n) ~ 2 %),
-and a stroke's residual is zero to round-off. Replayed into a twin node (``residual
---live``), the figures are the offline ones to round-off (as the building's, README
-"replay").
+Both carbodies: the rigid one (``vehicle3d_ride.yaml``) and the Craig-Bampton shell
+(``vehicle3d_shell_ride.yaml``, ``carbody.model: shell``; the rig and twin nodes build the
+reduction while they start, before they say ready).
+
+Known answer: the rig (``config/rigs/vehicle3d_nominal.yaml``, ``vehicle3d_shell_nominal``)
+is the twin's own car with sensor noise of known RMS on the floor accelerations (0.005
+m/s^2) and the suspension forces (50 N) and none on the track inputs and the strokes. The
+twin of the same file leaves exactly that noise: per channel, residual RMS = NRMSE x
+RMS(measured) equals the noise RMS (within the sampling spread of an RMS over ~1600
+samples, 1 / sqrt(2 n) ~ 2 %), and a stroke's residual is zero to round-off. Replayed into
+a twin node (``residual --live``), the figures are the offline ones to round-off (as the
+building's, README "replay").
 """
 
 from __future__ import annotations
@@ -22,32 +26,28 @@ import pytest
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 ROOT = Path(__file__).resolve().parents[2]
-CAR3D = ROOT / "config" / "vehicles" / "trailer_car_3d.yaml"
+CARS = {"vehicle3d_ride": ROOT / "config" / "vehicles" / "trailer_car_3d.yaml",
+        "vehicle3d_shell_ride": ROOT / "config" / "vehicles" / "trailer_car_3d_shell.yaml"}
 NOISE = {"acceleration": 0.005, "force": 50.0}
 LIVE_TOLERANCE_PP = 1e-9  # as test/diagnosis/test_imported_records.py
 
 
-@pytest.fixture(scope="module")
-def run_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The shipped 3D-car scenario, 8 s of track at 200 Hz, launched and recorded.
+@pytest.fixture(scope="module", params=sorted(CARS))
+def run_bag(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+            ) -> tuple[Path, Path]:
+    """A shipped 3D-car scenario, 8 s of track at 200 Hz, launched and recorded; its car.
 
-    The twin's compiled kernels are built here first (numba's cache on disk), so that the
-    rig and twin nodes of a fresh checkout do not spend the run compiling.
+    The rig and twin nodes compile their kernels before they say ready, and the launcher
+    starts the track only then (test_launch_cold_start.py), so a fresh checkout records
+    the whole run too.
     """
     from modal_twin.launch import Launcher, free_domain_id
-    from modal_twin.models.loading import load_model
-    from modal_twin.rig.truth import TruthRig
     from modal_twin.scenario import load_scenario, with_parameters
-    from modal_twin.signal_block import SignalBlock
-
-    plant = load_model(CAR3D).plant()
-    TruthRig(plant, 1 / 200.0).process(SignalBlock(plant.input_names, 200.0, 0,
-                                                   np.zeros((len(plant.input_names), 10))))
 
     mp = pytest.MonkeyPatch()
     mp.setenv("ROS_DOMAIN_ID", str(free_domain_id()))
     try:
-        sc = load_scenario(ROOT / "config" / "scenarios" / "vehicle3d_ride.yaml")
+        sc = load_scenario(ROOT / "config" / "scenarios" / f"{request.param}.yaml")
         sc = with_parameters(replace(sc, duration_s=16.0), "excitation", duration_s=8.0)
         res = Launcher(sc, run_dir=tmp_path_factory.mktemp("v3d") / "run",
                        say=lambda s: None).run()
@@ -55,14 +55,15 @@ def run_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
         mp.undo()
     assert res.exit_code == 0, res.message
     assert res.bag is not None
-    return res.bag
+    return res.bag, CARS[request.param]
 
 
 def test_the_launched_3d_car_is_recorded_whole_and_its_twin_sees_only_the_noise(
-        run_bag: Path) -> None:
+        run_bag: tuple[Path, Path]) -> None:
     from modal_twin.demo import last_metrics
     from modal_twin.io.bag import read_blocks
 
+    run_bag, _ = run_bag
     frames = read_blocks(run_bag, "/measurement/frames")
     assert sum(b.n_samples for b in frames) == 1601  # 8 s at 200 Hz, nothing lost
     names = frames[0].channel_names
@@ -77,13 +78,15 @@ def test_the_launched_3d_car_is_recorded_whole_and_its_twin_sees_only_the_noise(
 
 
 def test_the_replayed_3d_car_run_live_equals_offline_at_the_noise_floor(
-        run_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture, domain_id: int) -> None:
+        run_bag: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture,
+        domain_id: int) -> None:
     from modal_twin.cli import main
     from modal_twin.io.bag import read_blocks
     from modal_twin.signal_block import concatenate_blocks
 
+    run_bag, car = run_bag
     offline_json, live_json = tmp_path / "offline.json", tmp_path / "live.json"
-    assert main(["residual", str(CAR3D), str(run_bag), "--json", str(offline_json)]) == 0
+    assert main(["residual", str(car), str(run_bag), "--json", str(offline_json)]) == 0
     out = capsys.readouterr().out
     offline = json.loads(offline_json.read_text())
     whole = concatenate_blocks(read_blocks(run_bag, "/measurement/frames"))
@@ -98,8 +101,8 @@ def test_the_replayed_3d_car_run_live_equals_offline_at_the_noise_floor(
     got_f = np.array([offline[c]["nrmse"] * rms[c] / NOISE["force"] for c in forces])
     assert np.median(np.abs(got_f - 1.0)) < 0.03 and np.all(np.abs(got_f - 1.0) < 0.08)
     assert max(offline[c]["nrmse"] for c in strokes) < 1e-9  # no noise there: no residual
-    assert "trailer_car_3d@nominal" in out
-    assert main(["residual", str(CAR3D), str(run_bag), "--live", "--rate", "20",
+    assert f"{car.stem}@nominal" in out
+    assert main(["residual", str(car), str(run_bag), "--live", "--rate", "20",
                  "--run-dir", str(tmp_path / "live"), "--json", str(live_json)]) == 0
     out = capsys.readouterr().out
     assert "1601 of the record's 1601 samples (0..1600) compared -- the whole record" in out

@@ -169,3 +169,23 @@ def test_a_launcher_draws_a_domain_no_process_here_uses() -> None:
     finally:
         for s in held:
             s.close()
+
+
+def test_launch_set_overrides_one_node_parameter_and_refuses_a_bad_one() -> None:
+    from modal_twin.commands.launch import apply_sets
+
+    sc = load_scenario(ROOT / "config" / "scenarios" / "vehicle3d_worn_yaw_damper.yaml")
+    got = apply_sets(sc, ["excitation.seed=32", "twin.window_s=5.5"])
+    params = {n.name: n.parameters for n in got.nodes}
+    assert params["excitation"]["seed"] == 32 and params["twin"]["window_s"] == 5.5
+    assert params["excitation"]["speed_kmh"] == 300.0  # the others as the file says
+    assert {n.name: n.parameters for n in sc.nodes}["excitation"]["seed"] == 31
+    with pytest.raises(ConfigError, match=r"expected NODE\.PARAM=VALUE"):
+        apply_sets(sc, ["seed=32"])
+    with pytest.raises(ConfigError, match="no node 'exitation'"):
+        apply_sets(sc, ["exitation.seed=32"])
+    out = subprocess.run([sys.executable, "-m", "modal_twin.cli", "launch",
+                          "vehicle3d_worn_yaw_damper", "--set", "seed"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and "--set 'seed'" in out.stderr
