@@ -46,7 +46,7 @@ __all__ = ["DEVICE", "FAMILY_LAWS", "DeviceCandidate", "DeviceKind", "behaviour_
 FAMILY_LAWS: Mapping[str, tuple[str, ...]] = {
     "friction": ("stick_slip", "regularised_friction", "bilinear_hysteretic"),
     "hysteresis": ("bouc_wen", "bilinear_hysteretic", "stick_slip"),
-    "softening": ("bilinear", "cubic"),
+    "softening": ("bilinear", "smooth_bilinear", "cubic"),
     "hardening": ("cubic", "bilinear", "gap"),
     "gap": ("gap", "cubic"),
     "stiffness": ("linear",),
@@ -124,6 +124,8 @@ def _linear(p: Mapping[str, float], facts: Facts) -> str:
 _FAMILY_RULES: Mapping[str, Callable[[Mapping[str, float], Facts], str]] = {
     "bilinear_hysteretic": _bilinear_hysteretic,
     "bilinear": lambda p, f: "softening" if float(p.get("ratio", 0.75)) < 1.0 else "hardening",
+    "smooth_bilinear": lambda p, f: ("softening" if float(p.get("ratio", 0.75)) < 1.0
+                                     else "hardening"),
     "cubic": lambda p, f: "hardening" if float(p.get("k3", 0.0)) > 0 else "softening",
     "linear": _linear,
 }
@@ -132,13 +134,13 @@ _FAMILY_RULES: Mapping[str, Callable[[Mapping[str, float], Facts], str]] = {
 def family_of(effect: EffectSpec, facts: Facts | None = None) -> str:
     """Return the family of what a fitted device law does.
 
-    A bilinear law with a post-yield ratio below 1 softens, above 1 hardens; a cubic one
-    hardens for ``k3 > 0``; a linear one changes the stiffness or the damping, whichever
-    moved more from the nominal. A bilinear hysteretic law whose elastic range ``ub`` is
-    below 5 % of the drift it sees (``facts.drift_scale``) is a slider that sticks and
-    slips beside a spring (friction), otherwise it yields (hysteresis), unless the evidence
-    at its place named one of the two. Any other law reports the first family of its
-    registry entry.
+    A bilinear law (sharp or smooth) with a post-yield ratio below 1 softens, above 1
+    hardens; a cubic one hardens for ``k3 > 0``; a linear one changes the stiffness or the
+    damping, whichever moved more from the nominal. A bilinear hysteretic law whose elastic
+    range ``ub`` is below 5 % of the drift it sees (``facts.drift_scale``) is a slider that
+    sticks and slips beside a spring (friction), otherwise it yields (hysteresis), unless
+    the evidence at its place named one of the two. Any other law reports the first family
+    of its registry entry.
     """
     rule = _FAMILY_RULES.get(effect.law)
     if rule is not None:

@@ -193,7 +193,8 @@ EXTENSIONS: dict[str, tuple[str, ...]] = {"stick_slip": ("kp", "v_s"),
 # it, so a local fit started there stays there (:func:`threshold_start`)
 THRESHOLDS: dict[str, tuple[str, ...]] = {
     "stick_slip": ("Fk",), "regularised_friction": ("Fk",), "bilinear": ("ub",),
-    "bilinear_hysteretic": ("ub",), "bouc_wen": ("uy",), "gap": ("g", "g_neg"),
+    "smooth_bilinear": ("ub",), "bilinear_hysteretic": ("ub",), "bouc_wen": ("uy",),
+    "gap": ("g", "g_neg"),
 }
 N_THRESHOLD_STARTS = 6  # grid points over each threshold's bounded range
 
@@ -257,6 +258,20 @@ def _t_bilinear(start: dict[str, float], k: float) -> Transform:
             lambda x: {"ub": float(np.exp(x[0])), "ratio": float(x[1]), "k": k * float(x[2])},
             lambda p: np.array([np.log(p["ub"]), p["ratio"], p.get("k", k) / k]),
             np.array([lu - 3, 0.02, 0.7]), np.array([lu + 3, 3.0, 1.3]))
+
+
+def _t_smooth_bilinear(start: dict[str, float], k: float) -> Transform:
+    """Fitted parameters of ``smooth_bilinear``: those of ``bilinear`` and the sharpness.
+
+    log n from 0 (n = 1, the softest knee) to log 30 (all but the sharp bilinear).
+    """
+    lu = np.log(start["ub"])
+    return (["ub", "ratio", "k", "n"],
+            lambda x: {"ub": float(np.exp(x[0])), "ratio": float(x[1]), "k": k * float(x[2]),
+                       "n": float(np.exp(x[3]))},
+            lambda p: np.array([np.log(p["ub"]), p["ratio"], p.get("k", k) / k,
+                                np.log(p.get("n", 2.0))]),
+            np.array([lu - 3, 0.02, 0.7, 0.0]), np.array([lu + 3, 3.0, 1.3, np.log(30.0)]))
 
 
 def _t_bilinear_hysteretic(start: dict[str, float], k: float) -> Transform:
@@ -339,6 +354,7 @@ _TRANSFORMS: dict[str, Callable[[dict[str, float], float], Transform]] = {
     "stick_slip": _t_stick_slip,
     "regularised_friction": _t_regularised_friction,
     "bilinear": _t_bilinear,
+    "smooth_bilinear": _t_smooth_bilinear,
     "bilinear_hysteretic": _t_bilinear_hysteretic,
     "bouc_wen": _t_bouc_wen,
     "cubic": _t_cubic,

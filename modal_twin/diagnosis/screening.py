@@ -62,6 +62,9 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
                 for r in (1.0, 1.5) for kp in (0.0, 0.3)]
     if law == "bilinear":
         return [{"ub": g * u_max, "ratio": r} for g in (0.2, 0.4, 0.6) for r in (0.5, 0.75)]
+    if law == "smooth_bilinear":  # a rounded knee (n = 2), nearer the origin than a sharp one
+        return [{"ub": g * u_max, "ratio": r, "n": 2.0} for g in (0.1, 0.2, 0.4)
+                for r in (0.3, 0.6)]
     if law == "bilinear_hysteretic":  # yielding, and a stiff slider beside a soft spring
         return ([{"ub": g * u_max, "ratio": r} for g in (0.2, 0.4, 0.6) for r in (0.5, 0.75)]
                 + [{"k": 10.0 * k, "ratio": r, "ub": g * u_max} for g in (0.005, 0.02)

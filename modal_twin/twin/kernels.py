@@ -43,6 +43,7 @@ from modal_twin.models.devices.base import (
     KIND_LINEAR,
     KIND_MAXWELL,
     KIND_PRANDTL,
+    KIND_SMOOTH_BILINEAR,
 )
 from modal_twin.models.devices.bilinear import law_bilinear_elastic, law_bilinear_hysteretic
 from modal_twin.models.devices.bouc_wen import bw_advance_many, bw_esb_force, bw_sdp_force
@@ -52,6 +53,7 @@ from modal_twin.models.devices.gap import law_gap
 from modal_twin.models.devices.linear import law_linear
 from modal_twin.models.devices.maxwell import law_maxwell
 from modal_twin.models.devices.prandtl import law_prandtl
+from modal_twin.models.devices.smooth_bilinear import law_smooth_bilinear
 
 __all__ = [
     "FLAG_JINV",
@@ -516,6 +518,8 @@ def run_block(  # noqa: C901 (one loop on purpose, see above)
                     law_gap(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 elif kind == KIND_MAXWELL:
                     law_maxwell(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                elif kind == KIND_SMOOTH_BILINEAR:
+                    law_smooth_bilinear(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 else:
                     return STATUS_UNKNOWN_KIND, d
                 for a in range(2):

@@ -188,3 +188,17 @@ def test_a_relaxing_linear_law_is_told_from_a_softening_spring_by_homogeneity() 
     spring = BilinearElastic(1.0e6, 0.3e6, 0.005, [0.0])
     fb = spring.respond(u, v).f
     assert not _homogeneous(spring, u, v, fb, 1 / fs)
+
+
+@pytest.mark.parametrize(("ratio", "family"), [(0.35, "softening"), (3.0, "hardening")])
+def test_a_smooth_bilinear_spring_reports_softening_or_hardening_by_its_ratio(
+        ratio: float, family: str) -> None:
+    """Richard-Abbott curve with its knee at 2 cm of a 5 cm RMS drift (n = 2): elastic
+    (loads and unloads on one curve), its secant falling with amplitude for kb = 0.35 k,
+    rising for kb = 3 k; the behaviour agrees with the law's own rule on ``ratio``."""
+    eff = EffectSpec("RB2", "smooth_bilinear", {"ub": 0.02, "ratio": ratio, "n": 2.0})
+    assert family_of(eff) == family
+    f = _labelled(eff)
+    assert f.family == family, f.behaviour
+    assert f"behaves as a {family} spring" in f.behaviour
+    assert "the behaviour wins" not in f.behaviour

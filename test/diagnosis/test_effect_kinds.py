@@ -45,6 +45,7 @@ def test_every_law_has_exactly_one_kind() -> None:
 _SHOWS = {
     "linear": [({"k": 2.0, "c": 1.0}, "stiffness"), ({"k": 1.0, "c": 3.0}, "damping")],
     "bilinear": [({"ratio": 0.5}, "softening"), ({"ratio": 1.5}, "hardening")],
+    "smooth_bilinear": [({"ratio": 0.5}, "softening"), ({"ratio": 1.5}, "hardening")],
     "cubic": [({"k3": -1.0}, "softening"), ({"k3": 1.0}, "hardening")],
     "bilinear_hysteretic": [({"ub": 0.03}, "hysteresis"), ({"ub": 1e-4}, "friction")],
 }

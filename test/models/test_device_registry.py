@@ -43,6 +43,7 @@ ABSOLUTE = {
     # the relative forms keep the nominal anisotropy (k_y / k_x = 1.5) about the mean k
     "bilinear": {"k": 2e6, "kb": 0.75 * 2e6, "ub": 0.03, "y_scale": 1.5},
     "bilinear_hysteretic": {"k": 2e6, "kb": 0.75 * 2e6, "ub": 0.03, "y_scale": 1.5},
+    "smooth_bilinear": {"k": 2e6, "kb": 0.75 * 2e6, "ub": 0.03, "n": 2.0, "y_scale": 1.5},
     "bouc_wen": {"A": 1.0, "beta": 0.5 / 0.03**2, "gamma": 0.5 / 0.03**2,
                  "K": [[2.0e6, 0.0], [0.0, 3.0e6]], "alpha": 0.3},
     "bouc_wen_esb": {"A": 47.13, "beta": 10.41, "gamma": 36.72},
@@ -187,11 +188,11 @@ def test_kind_codes_equal_the_dispatch() -> None:
 
 def test_law_names_by_family_and_form() -> None:
     assert law_names(relative=True) == EFFECT_LAWS == (
-        "linear", "stick_slip", "regularised_friction", "bilinear", "bilinear_hysteretic",
-        "bouc_wen", "cubic", "gap", "maxwell")
+        "linear", "stick_slip", "regularised_friction", "bilinear", "smooth_bilinear",
+        "bilinear_hysteretic", "bouc_wen", "cubic", "gap", "maxwell")
     assert law_names(family="friction") == ("stick_slip", "regularised_friction",
                                             "bilinear_hysteretic", "bouc_wen_esb", "prandtl")
-    assert law_names(family="hardening") == ("bilinear", "cubic")
+    assert law_names(family="hardening") == ("bilinear", "smooth_bilinear", "cubic")
     assert law_names(family="damping") == ("linear", "maxwell")
     assert set(law_names(family="hysteresis")) == {
         "bilinear_hysteretic", "bouc_wen", "bouc_wen_esb", "prandtl"}

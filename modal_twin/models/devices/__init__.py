@@ -18,6 +18,7 @@ from modal_twin.models.devices.gap import GapSpring
 from modal_twin.models.devices.linear import LinearDevice, table6_updated
 from modal_twin.models.devices.maxwell import MaxwellDamper
 from modal_twin.models.devices.prandtl import PrandtlJoint, table2_mode_bay
+from modal_twin.models.devices.smooth_bilinear import SmoothBilinearSpring
 
 __all__ = [
     "BilinearElastic",
@@ -32,6 +33,7 @@ __all__ = [
     "LinearDevice",
     "MaxwellDamper",
     "PrandtlJoint",
+    "SmoothBilinearSpring",
     "table2_mode_bay",
     "table6_updated",
     "table10_esb",

@@ -16,6 +16,7 @@ from modal_twin.models.devices.base import (
     KIND_LINEAR,
     KIND_MAXWELL,
     KIND_PRANDTL,
+    KIND_SMOOTH_BILINEAR,
 )
 from modal_twin.models.devices.bilinear import law_bilinear_elastic, law_bilinear_hysteretic
 from modal_twin.models.devices.bouc_wen import law_bw_esb, law_bw_sdp
@@ -25,6 +26,7 @@ from modal_twin.models.devices.gap import law_gap
 from modal_twin.models.devices.linear import law_linear
 from modal_twin.models.devices.maxwell import law_maxwell
 from modal_twin.models.devices.prandtl import law_prandtl
+from modal_twin.models.devices.smooth_bilinear import law_smooth_bilinear
 
 __all__ = ["drive_law", "evaluate_law"]
 
@@ -57,6 +59,8 @@ def evaluate_law(kind, p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitt
         law_gap(p, s, u, v, f, Kt, Ct, s_new)
     elif kind == KIND_MAXWELL:
         law_maxwell(p, s, u, v, f, Kt, Ct, s_new)
+    elif kind == KIND_SMOOTH_BILINEAR:
+        law_smooth_bilinear(p, s, u, v, f, Kt, Ct, s_new)
     else:
         msg = "unknown device kind"
         raise ValueError(msg)

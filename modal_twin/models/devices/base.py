@@ -34,6 +34,7 @@ __all__ = [
     "KIND_LINEAR",
     "KIND_MAXWELL",
     "KIND_PRANDTL",
+    "KIND_SMOOTH_BILINEAR",
     "N_PARAM",
     "N_STATE",
     "Device",
@@ -84,6 +85,7 @@ KIND_CUBIC = 6
 KIND_COULOMB = 7
 KIND_GAP = 8
 KIND_MAXWELL = 9
+KIND_SMOOTH_BILINEAR = 10
 
 N_PARAM = 12
 N_STATE = 8

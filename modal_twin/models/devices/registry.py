@@ -43,6 +43,7 @@ from modal_twin.models.devices.gap import GapSpring, law_gap
 from modal_twin.models.devices.linear import LinearDevice, law_linear
 from modal_twin.models.devices.maxwell import MaxwellDamper, law_maxwell
 from modal_twin.models.devices.prandtl import PrandtlJoint, law_prandtl
+from modal_twin.models.devices.smooth_bilinear import SmoothBilinearSpring, law_smooth_bilinear
 
 __all__ = [
     "ALIASES",
@@ -173,6 +174,12 @@ def _abs_bilinear(cls: type[BilinearElastic]) -> Builder:
     return build
 
 
+def _abs_smooth_bilinear(p: dict[str, Any], site: Site) -> Device:
+    c = _c(p, site)
+    return SmoothBilinearSpring(float(p.pop("k")), float(p.pop("kb")), float(p.pop("ub")), c,
+                                name=site.name, **p)
+
+
 def _abs_bw_esb(p: dict[str, Any], site: Site) -> Device:
     c = _c(p, site)
     W = p.pop("W", "auto")
@@ -226,6 +233,7 @@ def _abs_prandtl(p: dict[str, Any], site: Site) -> Device:
 # ---------------------------------------------------------------- relative forms (effects)
 _STICK_SLIP = {"mu_s": 0.09, "mu_k": 0.06, "kt_factor": 1.0}
 _BILINEAR = {"ratio": 0.75, "ub": 0.03}
+_SMOOTH_BILINEAR = {"ratio": 0.75, "ub": 0.03, "n": 2.0}
 _BOUC_WEN = {"alpha": 0.3, "uy": 0.03, "c_factor": 1.0}
 _CUBIC = {"k3": 0.0}
 _GAP = {"g": 0.01, "kp": 0.0}
@@ -288,6 +296,20 @@ def _rel_bilinear(cls: type[BilinearElastic]) -> Builder:
                    _take(p, "ub", _BILINEAR["ub"]), [float(v) for v in site.c], name=site.name,
                    y_scale=ky / kx if aniso else 1.0)
     return build
+
+
+def _rel_smooth_bilinear(p: dict[str, Any], site: Site) -> Device:
+    """Build the relative form: kb = ratio k, ub and the sharpness n as given.
+
+    k: the mean initial stiffness; each direction keeps the nominal anisotropy.
+    """
+    kx, ky = float(site.k[0]), float(site.k[1])
+    aniso = kx > 0 and ky > 0
+    k1 = _take(p, "k", _kmean(site)) * (kx / _kmean(site) if aniso else 1.0)
+    return SmoothBilinearSpring(
+        k1, _take(p, "ratio", _SMOOTH_BILINEAR["ratio"]) * k1,
+        _take(p, "ub", _SMOOTH_BILINEAR["ub"]), [float(v) for v in site.c], name=site.name,
+        n=_take(p, "n", _SMOOTH_BILINEAR["n"]), y_scale=ky / kx if aniso else 1.0)
 
 
 def _rel_bouc_wen(p: dict[str, Any], site: Site) -> Device:
@@ -358,6 +380,12 @@ _ENTRIES = (
              ("softening", "hardening"), ("k", "kb", "ub", "c"), _NOM_C, "Eq. (9) of [004]",
              _abs_bilinear(BilinearElastic), ("k", "ratio", "ub"), _BILINEAR,
              aliases=("bilinear_elastic",), build_relative=_rel_bilinear(BilinearElastic)),
+    LawEntry("smooth_bilinear", SmoothBilinearSpring, law_smooth_bilinear,
+             ("softening", "hardening"), ("k", "kb", "ub", "c", "n"), {**_NOM_C, "n": 2.0},
+             "Eq. (1) of Richard & Abbott (1975), the Menegotto-Pinto backbone without "
+             "memory (elastic); n -> inf: Eq. (9) of [004]", _abs_smooth_bilinear,
+             ("k", "ratio", "ub", "n"), _SMOOTH_BILINEAR,
+             build_relative=_rel_smooth_bilinear),
     LawEntry("bilinear_hysteretic", BilinearHysteretic,
              law_bilinear_hysteretic, ("hysteresis", "friction"), ("k", "kb", "ub", "c"), _NOM_C,
              "Eq. (9) of [004], kinematic hardening", _abs_bilinear(BilinearHysteretic),
