@@ -68,6 +68,14 @@ secondary damper behind a bushing), run on main's 8a7814d before the primary sit
 Maxwell law: both wrong (nothing named, after / noise 14.2; three false claims, 8.9); see
 ``results/hidden_effects_issue20_item6_vehicle.txt`` for the runs after.
 
+Five noise-form cases added for issue 20, item 1 (``NOISE_FORM_CASES``: 3 % white noise,
+accelerometers at 0.3 % beside others at 3 %, 1/f noise, noise low-passed at 15 Hz on a
+control, every reading through a 16-bit ADC over 20x its training RMS), run on main
+5106fbf at seed offsets 0 and 100 before any change for them: 5 of 5 and 4 of 5 right (a
+damping change at SDP2 beside the friction at ESB2 at 3 %), the coloured noise read far
+too low by the flat-top floor (``results/hidden_effects_noise_forms_before_session8.txt``;
+after: ``results/hidden_effects_noise_forms_session8_noise.txt``).
+
 Run::
 
     PYTHONPATH=. OMP_NUM_THREADS=1 .venv/bin/python test/benchmarks/bench_hidden_effects.py
