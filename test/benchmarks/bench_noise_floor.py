@@ -15,7 +15,7 @@ The last line is a JSON object: per case the median over its records of the medi
 Run::
 
     PYTHONPATH=. OMP_NUM_THREADS=1 .venv/bin/python test/benchmarks/bench_noise_floor.py
-        [--cases NAME,...] [--quick] [--seed-offset N]
+        [--cases NAME,...] [--quick] [--seed-offset N] [--changed]
 """
 
 from __future__ import annotations
@@ -33,7 +33,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _truth.cases import CASES, NEW_CASES, NOISE_FORM_CASES, records
 
+from modal_twin.diagnosis.fitting import simulate_record
 from modal_twin.diagnosis.judge import record_noise_floors
+from modal_twin.diagnosis.noise import coloured_noise_sd, noise_sd
 from modal_twin.diagnosis.record import Record
 from modal_twin.models.loading import load_model
 
@@ -50,14 +52,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", default="", help="comma-separated case names")
     ap.add_argument("--quick", action="store_true", help="shorter records")
     ap.add_argument("--seed-offset", type=int, default=0, metavar="N")
+    ap.add_argument("--changed", action="store_true",
+                    help="whether the coloured-noise test changes any level (all cases)")
     args = ap.parse_args(argv)
     known = {c.name: c for c in (*CASES, *NEW_CASES)}
-    want = [s for s in args.cases.split(",") if s] or [
-        *(c.name for c in NOISE_FORM_CASES), *WHITE]
+    want = [s for s in args.cases.split(",") if s] or (list(known) if args.changed else [
+        *(c.name for c in NOISE_FORM_CASES), *WHITE])
     bad = [s for s in want if s not in known]
     if bad:
         print(f"--cases: unknown {bad}", file=sys.stderr)
         return 2
+    if args.changed:
+        return _changed(want, known, args)
     out = {}
     for name in want:
         t0 = time.perf_counter()
@@ -83,6 +89,32 @@ def main(argv: list[str] | None = None) -> int:
                      "wall_time_s": round(time.perf_counter() - t0, 1)}
     print(json.dumps({"per_case": out, "seed_offset": args.seed_offset,
                       "quick": args.quick}))
+    return 0
+
+
+def _changed(want: list[str], known: dict, args: argparse.Namespace) -> int:
+    """Per case and record: does the coloured-noise test change the flat-top levels?"""
+    changed: dict[str, list[str]] = {}
+    for name in want:
+        case = replace(known[name], seed=known[name].seed + args.seed_offset)
+        plant = load_model(MODEL_FILES[case.model]).plant()
+        recs = records(case, quick=args.quick)
+        have = set(plant.channel_names)
+        keep = [c for c in next(iter(recs.values())).channel_names if c in have]
+        words = []
+        for key, nz in recs.items():
+            r = Record(nz.fs_hz, nz.input_names, nz.inputs, nz.channel_names, nz.data,
+                       nz.source).with_channels(keep)
+            resid = r.scored - simulate_record(plant, r)[:, r.skip:]
+            flat, col = noise_sd(r.scored, r.fs_hz), coloured_noise_sd(r.scored, resid, r.fs_hz)
+            if np.array_equal(flat, col):
+                words.append(f"{key}: same")
+            else:
+                words.append(f"{key}: raised x{float(np.median(col / flat)):.2f}")
+                changed.setdefault(name, []).append(key)
+        print(f"{name:<40} {'; '.join(words)}", flush=True)
+    print(json.dumps({"records_changed": changed, "n_cases": len(want),
+                      "seed_offset": args.seed_offset, "quick": args.quick}))
     return 0
 
 
