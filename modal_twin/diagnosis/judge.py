@@ -35,6 +35,7 @@ from modal_twin.diagnosis.noise import (
     RESOLUTION,
     ErrorFigures,
     channel_noise,
+    coloured_noise_sd,
     error_figures,
     noise_floor,
 )
@@ -97,15 +98,31 @@ def record_noise_floors(plant: Plant, records: Sequence[Record], *, seed: int = 
     stretches (:func:`.noise.noise_sd`: robust to a response that fills the top of the band
     only while it is strong), then turned into a floor by :func:`record_noise_floor`. Each
     record keeps its own: a sensor's noise need not be the same at another level (a
-    conditioner's range set for the level, noise stated relative to the signal).
+    conditioner's range set for the level, noise stated relative to the signal). Noise
+    that is not white is told by its independence between sensors in the residual of
+    ``plant`` (:func:`.noise.coloured_noise_sd`).
     """
     out = []
     for r in records:
-        sensors = channel_noise([(r.channel_names, r.scored, r.fs_hz)])
+        sensors = _sensor_noise(plant, r)
         inputs = channel_noise([(r.input_names, r.inputs, r.fs_hz)])
         out.append(record_noise_floor(plant, r, seed=seed, sensor_sd=sensors,
                                       input_sd=inputs))
     return out
+
+
+def _sensor_noise(plant: Plant, rec: Record) -> dict[str, float]:
+    """Noise standard deviation of each channel of ``rec``.
+
+    The flat top of its quiet stretches, raised where the residual of ``plant`` shows the
+    noise coloured (:func:`.noise.coloured_noise_sd`).
+    """
+    try:
+        resid = rec.scored - simulate_record(plant, rec)[:, rec.skip:]
+    except ModalTwinError:
+        return channel_noise([(rec.channel_names, rec.scored, rec.fs_hz)])
+    sd = coloured_noise_sd(rec.scored, resid, rec.fs_hz)
+    return {c: float(v) for c, v in zip(rec.channel_names, sd, strict=True)}
 
 
 def figures_on(plant: Plant, records: Sequence[Record], noises: Sequence[np.ndarray]

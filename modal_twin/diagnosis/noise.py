@@ -25,6 +25,16 @@ lowest over the records would make the strong records' floors far too low. A cha
 shows no noise at all (a simulated drift or force, a load cell far above its resolution)
 gets the floor of its resolution, :data:`RESOLUTION` of its RMS.
 
+The flat top sees white noise only: noise that is coloured (1/f, or low-passed by a
+conditioner or an anti-aliasing filter) has little or nothing at the top of the band, and
+its estimate is far too low (a low-passed 2 % noise read as 0.001 %). Coloured noise is
+told from a model error by its independence between sensors (:func:`redundancy_sd`): what
+the other channels of the model's residual cannot predict, in phase or in quadrature, is
+each channel's own noise, whatever its spectrum, while a missing effect moves many channels
+together. Where that exceeds the flat-top levels on most channels (the median ratio above
+:data:`COLOURED_RATIO`: the noise is not white), each channel's level is raised towards it
+(:func:`coloured_noise_sd`); for white noise the flat top stands.
+
 Every decision is made on residuals whitened by that model: a channel's error counts in
 units of ``sigma = sqrt(noise^2 + MODEL_FORM^2)`` (:attr:`ErrorFigures.sigma`), where
 :data:`MODEL_FORM` is the stated model-form tolerance (what an integrator, a discretisation
@@ -46,8 +56,9 @@ from scipy import signal
 from modal_twin._types import FloatArray
 from modal_twin.twin.metrics import channel_metrics
 
-__all__ = ["MODEL_FORM", "RESOLUTION", "ErrorFigures", "channel_noise", "error_figures",
-           "noise_floor", "noise_sd", "nrmse"]
+__all__ = ["COLOURED_RATIO", "MODEL_FORM", "REDUNDANT_CHANNELS", "RESOLUTION", "ErrorFigures",
+           "channel_noise", "coloured_noise_sd", "effective_samples", "error_figures",
+           "noise_floor", "noise_sd", "nrmse", "redundancy_sd"]
 
 # a model error counts when the NRMSE exceeds the noise floor by this factor: an error
 # beyond the noise of sqrt(ratio^2 - 1) = 1.7 x the noise itself (a model that differs from
@@ -59,6 +70,12 @@ MODEL_FORM = 0.002
 # the floor of a channel that shows no noise: a 16-bit converter whose full scale is a few
 # times the channel's RMS resolves about 1e-4 of it
 RESOLUTION = 1e-4
+# the noise is taken as coloured when the unpredictable part of the residuals exceeds the
+# flat-top levels by this median factor (white noise with a model error left: 1.0-1.2)
+COLOURED_RATIO = 1.5
+# channels needed for that test: with fewer, the others' noise lets a shared model error
+# through (about +60 % with 10 channels, +20 % with 30) and the flat top stands
+REDUNDANT_CHANNELS = 20
 
 
 def nrmse(predicted: FloatArray, measured: FloatArray) -> FloatArray:
@@ -142,6 +159,87 @@ def noise_sd(measured: FloatArray, fs_hz: float, *, top_fraction: float = 0.3,
                     for a, b in itertools.pairwise(edges)])
     s2 = np.quantile(var, quantile, axis=0) if n > 1 else var[0]
     return np.sqrt(np.where(np.isfinite(s2), s2, np.inf))
+
+
+def redundancy_sd(residual: FloatArray) -> FloatArray:
+    """Per row, the standard deviation of what the other rows cannot predict.
+
+    Each row of ``residual`` (a model's residual, channels by samples) is regressed on the
+    other rows and on their Hilbert transforms (a part shifted by a quarter period: modes
+    that are not in phase between channels), and the variance left is corrected for the
+    regressors fitted, ``N_eff / (N_eff - p)``, with ``N_eff`` the independent samples of
+    what is left (:func:`effective_samples`: fewer than ``N`` for coloured noise, whose
+    spurious fit to ``p`` regressors of the same colour takes a share ``p / N_eff`` of its
+    variance). Noise independent between sensors is left whole, at any spectrum; a model
+    error shared by several channels is predicted and removed, but not wholly: the other
+    rows' noise lets some of it through, so the estimate errs high, the more so the fewer
+    the rows.
+
+    Returns ``inf`` for every row when there are too few samples (fewer than four per
+    regressor).
+    """
+    x = np.atleast_2d(np.asarray(residual, float))
+    n, nt = x.shape
+    p = 2 * (n - 1)
+    if n < 2 or nt < 4 * p:
+        return np.full(n, np.inf)
+    x = x - x.mean(axis=1, keepdims=True)
+    s = x.std(axis=1)
+    z = x / np.where(s > 0, s, 1.0)[:, None]
+    regs = np.vstack([z, np.imag(signal.hilbert(z, axis=1))])
+    cov = regs @ regs.T / nt
+    out = np.empty(n)
+    for i in range(n):
+        idx = np.array([j for j in range(2 * n) if j not in (i, n + i)])
+        b = cov[idx, i]
+        w = np.linalg.lstsq(cov[np.ix_(idx, idx)], b, rcond=1e-10)[0]
+        n_eff = effective_samples(z[i] - w @ regs[idx])
+        keep = max(1.0 - p / n_eff, 0.2)  # a spurious fit takes at most 80 %
+        out[i] = np.sqrt(max(float(cov[i, i] - b @ w), 0.0) / keep) * s[i]
+    return out
+
+
+def effective_samples(x: FloatArray) -> float:
+    """Independent samples of a stationary series for the fit of regressors of its colour.
+
+    ``N / sum_k rho_k^2`` over all lags ``k`` (``rho`` its autocorrelation), from its Welch
+    spectrum ``S``: ``sum_k rho_k^2 = (fs / 2) int S^2 df / (int S df)^2`` (one-sided,
+    Parseval), which is 1 for white noise (``N_eff = N``) and ``(1 + a^2) / (1 - a^2)``
+    for an AR(1) series of coefficient ``a``.
+    """
+    x = np.asarray(x, float)
+    nt = x.size
+    nper = int(min(nt, 256))
+    _, psd = signal.welch(x - x.mean(), nperseg=nper)
+    s1 = float(np.sum(psd))
+    if not s1 > 0:
+        return float(nt)
+    rho2 = 0.5 * nper * float(np.sum(psd**2)) / s1**2  # df = fs / nper
+    return float(nt / max(rho2, 1.0))
+
+
+def coloured_noise_sd(measured: FloatArray, residual: FloatArray, fs_hz: float
+                      ) -> FloatArray:
+    """Sensor-noise standard deviation per row, white or coloured.
+
+    The flat-top levels (:func:`noise_sd`) stand unless the noise is coloured: the median
+    over the rows of :func:`redundancy_sd` of ``residual`` (the model's residual on
+    ``measured``) over the flat-top level above :data:`COLOURED_RATIO`, with at least
+    :data:`REDUNDANT_CHANNELS` rows. Then each row takes
+    its flat-top level times that median ratio (a spectrum shared by the sensors), but no
+    more than its own unpredictable part, and no less than its flat top.
+    """
+    flat = noise_sd(measured, fs_hz)
+    if flat.size < REDUNDANT_CHANNELS:
+        return flat
+    red = redundancy_sd(residual)
+    ok = np.isfinite(flat) & np.isfinite(red) & (flat > 0)
+    if not np.any(ok):
+        return flat
+    ratio = float(np.median(red[ok] / flat[ok]))
+    if not ratio > COLOURED_RATIO:
+        return flat
+    return np.where(ok, np.maximum(flat, np.minimum(red, ratio * flat)), flat)
 
 
 def channel_noise(records: Iterable[tuple[Sequence[str], FloatArray, float]]

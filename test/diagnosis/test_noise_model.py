@@ -11,8 +11,11 @@ from modal_twin.diagnosis.noise import (
     MODEL_FORM,
     ErrorFigures,
     channel_noise,
+    coloured_noise_sd,
+    effective_samples,
     noise_floor,
     noise_sd,
+    redundancy_sd,
 )
 
 FS = 200.0
@@ -94,3 +97,75 @@ def test_verdict_takes_an_effect_that_helps_the_precise_channels() -> None:
     # one that does not lower the held-out figure by 1 % is rejected too
     same = [after[0], before[1], after[2]]
     assert verdict(before, same, [0.01] * 3).startswith("does not lower the error on test")
+
+
+# issue 20, item 1: noise in other forms than white (simulators and sensors written apart)
+
+
+def test_noise_sd_of_a_quantised_record_is_its_rounding() -> None:
+    # a band-limited response read by a converter of step q over a span 20x its RMS (16
+    # bits: q = 20 / 2^16 of the RMS) and nothing else: the rounding error is white of
+    # variance q^2 / 12 (a pure sine's rounding error is a line spectrum instead, whose
+    # median level reads about 12 % low)
+    rng = np.random.default_rng(23)
+    x = _band_limited(rng, 1, 40000)
+    q = 20.0 / 2**16
+    assert noise_sd(np.round(x / q) * q, FS)[0] == pytest.approx(q / np.sqrt(12.0), rel=0.05)
+
+
+def test_effective_samples_of_white_and_ar1_series() -> None:
+    # sum_k rho_k^2 of AR(1) of coefficient a is (1 + a^2) / (1 - a^2)
+    rng = np.random.default_rng(3)
+    nt = 40000
+    assert effective_samples(rng.standard_normal(nt)) == pytest.approx(nt, rel=0.05)
+    a = 0.5
+    x = signal.lfilter([1.0], [1.0, -a], rng.standard_normal(nt))
+    assert effective_samples(x) == pytest.approx(nt * (1 - a**2) / (1 + a**2), rel=0.05)
+
+
+def _shared_error(rng: np.random.Generator, n_ch: int, nt: int) -> np.ndarray:
+    """A model error moving every channel: three modes (narrow-band sources at 2, 5 and
+    9 Hz), each seen by the channels with its own gain and phase (complex modes)."""
+    out = np.zeros((n_ch, nt))
+    for f0 in (2.0, 5.0, 9.0):
+        sos = signal.butter(2, [0.9 * f0, 1.1 * f0], btype="band", fs=FS, output="sos")
+        src = signal.sosfiltfilt(sos, rng.standard_normal(nt))
+        src /= src.std()
+        quad = np.imag(signal.hilbert(src))
+        phase = rng.uniform(-np.pi, np.pi, n_ch)
+        gain = rng.normal(size=n_ch)
+        out += (gain * np.cos(phase))[:, None] * src + (gain * np.sin(phase))[:, None] * quad
+    return out
+
+
+def _ar1(rng: np.random.Generator, sd: np.ndarray, nt: int, a: float) -> np.ndarray:
+    x = signal.lfilter([1.0], [1.0, -a], rng.standard_normal((sd.size, nt)), axis=1)
+    return sd[:, None] * x / x.std(axis=1, keepdims=True)
+
+
+def test_coloured_noise_is_told_from_a_shared_model_error() -> None:
+    # AR(1) noise (a = 0.95: almost nothing of it at the top of the band) of known standard
+    # deviations, independent between 30 sensors, beside a model error 10x larger that
+    # moves them all: the flat top reads the noise far too low, the part no other channel
+    # predicts reads it to 25 % (high: the others' noise lets some of the shared error through)
+    rng = np.random.default_rng(13)
+    nt, n_ch = 20000, 30
+    sd = np.linspace(0.01, 0.03, n_ch)
+    resid = 0.2 * _shared_error(rng, n_ch, nt) + _ar1(rng, sd, nt, 0.95)
+    measured = _band_limited(rng, n_ch, nt) + resid
+    assert np.all(noise_sd(measured, FS) < 0.5 * sd)
+    np.testing.assert_allclose(redundancy_sd(resid), sd, rtol=0.25)
+    np.testing.assert_allclose(coloured_noise_sd(measured, resid, FS), sd, rtol=0.25)
+
+
+def test_white_noise_keeps_its_flat_top_level() -> None:
+    # white noise beside the same shared model error: the noise is not coloured, the
+    # flat-top levels stand unchanged
+    rng = np.random.default_rng(17)
+    nt, n_ch = 20000, 30
+    sd = np.linspace(0.01, 0.03, n_ch)
+    resid = 0.2 * _shared_error(rng, n_ch, nt) + sd[:, None] * rng.standard_normal((n_ch, nt))
+    measured = _band_limited(rng, n_ch, nt) + resid
+    np.testing.assert_allclose(redundancy_sd(resid), sd, rtol=0.25)
+    np.testing.assert_array_equal(coloured_noise_sd(measured, resid, FS),
+                                  noise_sd(measured, FS))

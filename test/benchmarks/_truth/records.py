@@ -12,6 +12,10 @@ a time delay (:func:`delayed`), the two horizontal axes of a sensor turned
 an offset plus a constant rate from the start of each record, as a charge amplifier's
 output drifts with its input's leakage current after each reset), two channels' cables
 exchanged (``swaps``).
+Other noise forms (issue 20, item 1: simulators written apart add noise in forms we do not
+control): coloured noise (:func:`coloured`: 1/f "pink" above 0.05 Hz, or white noise
+low-passed by a 2nd-order Butterworth filter) of the same RMS, and an ADC (:func:`adc`)
+that rounds each reading to its least significant bit.
 """
 
 from __future__ import annotations
@@ -104,6 +108,37 @@ def creeping(nt: int, fs_hz: float, offset: float, rate: float) -> FloatArray:
     return offset + rate * (np.arange(nt) / fs_hz)
 
 
+def coloured(white: FloatArray, fs_hz: float, colour: str) -> FloatArray:
+    """Rows of ``white`` given a spectral shape, each scaled back to unit variance.
+
+    ``"white"`` returns the rows unchanged; ``"pink"``: PSD ``1 / f`` above 0.05 Hz (flat
+    below), shaped in the frequency domain; ``"lowpass:F"``: a 2nd-order Butterworth low-pass
+    at ``F`` Hz run forwards and backwards.
+    """
+    if colour == "white":
+        return white
+    if colour == "pink":
+        f = np.fft.rfftfreq(white.shape[-1], 1.0 / fs_hz)
+        z = np.fft.irfft(np.fft.rfft(white, axis=-1) / np.sqrt(np.maximum(f, 0.05)),
+                         n=white.shape[-1], axis=-1)
+    elif colour.startswith("lowpass:"):
+        sos = signal.butter(2, float(colour.partition(":")[2]), fs=fs_hz, output="sos")
+        z = signal.sosfiltfilt(sos, white, axis=-1)
+    else:
+        msg = f"unknown noise colour {colour!r}"
+        raise ValueError(msg)
+    return z / z.std(axis=-1, keepdims=True)
+
+
+def adc(x: FloatArray, span: FloatArray, bits: int) -> FloatArray:
+    """Readings of an ADC of ``bits`` bits whose full scale per row is ``span`` (from
+    ``-span / 2`` to ``+span / 2``): each value rounded to its step ``span / 2**bits`` and
+    clipped to the range."""
+    q = (np.asarray(span, float) / 2.0**bits)[:, None]
+    half = np.asarray(span, float)[:, None] / 2.0
+    return np.clip(np.round(x / q) * q, -half, half)
+
+
 def measured(inputs: tuple[str, ...], u: FloatArray, names: tuple[str, ...],
              clean: FloatArray, fs_hz: float, pct: float, seed: int, source: str,
              gains: dict[str, float] | None = None, *,
@@ -111,7 +146,8 @@ def measured(inputs: tuple[str, ...], u: FloatArray, names: tuple[str, ...],
              delays: dict[str, float] | None = None,
              turns: dict[str, float] | None = None,
              drifts: dict[str, tuple[float, float]] | None = None,
-             swaps: tuple[tuple[str, str], ...] = ()) -> Noisy:
+             swaps: tuple[tuple[str, str], ...] = (), colour: str = "white",
+             adc_bits: int = 0, adc_span: FloatArray | None = None) -> Noisy:
     """Add a sensor gain error (``gains``: channel -> factor) and white noise of ``pct`` %
     of each channel's clean RMS.
 
@@ -122,6 +158,9 @@ def measured(inputs: tuple[str, ...], u: FloatArray, names: tuple[str, ...],
     creeping zero (:func:`creeping`); ``swaps`` exchanges the readings of two channels
     (their cables crossed). Delays, turns and drifts act on the clean signal, before the
     noise (the noise of a sensor is its own); a swap exchanges the noisy readings.
+    ``colour`` shapes the noise's spectrum (:func:`coloured`, same RMS); with ``adc_bits``
+    every reading then passes an ADC of that many bits over ``adc_span`` per channel
+    (:func:`adc`); the floor returned counts the rounding with the noise.
     """
     y = clean.copy()
     for ch, g in (gains or {}).items():
@@ -137,10 +176,13 @@ def measured(inputs: tuple[str, ...], u: FloatArray, names: tuple[str, ...],
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
     if pct_of:
         level = np.array([pct_of.get(n, pct) for n in names])[:, None]
-        noise = rng.standard_normal(y.shape) * rms * level / 100.0
+        noise = coloured(rng.standard_normal(y.shape), fs_hz, colour) * rms * level / 100.0
     else:
-        noise = rng.standard_normal(y.shape) * rms * pct / 100.0
+        noise = coloured(rng.standard_normal(y.shape), fs_hz, colour) * rms * pct / 100.0
     meas = y + noise
+    if adc_bits:
+        meas = adc(meas, np.asarray(adc_span), adc_bits)
+        noise = meas - y
     for a, b in swaps:
         ia, ib = names.index(a), names.index(b)
         meas[[ia, ib]] = meas[[ib, ia]]
