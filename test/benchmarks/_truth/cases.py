@@ -29,6 +29,7 @@ from .vehicle import VehicleTruth
 from .vehicle3d import Vehicle3DTruth
 from .vehicle3d_own import INPUTS as V3_INPUTS
 from .vehicle3d_own import Vehicle3DOwn, track_inputs_3d
+from .vehicle_own import VehicleOwn
 
 # words one of which a law's name must contain to be of a kind (Hidden.kind)
 KIND_WORDS = {"gain": ("gain",), "delay": ("delay", "lag", "time", "shift"),
@@ -71,7 +72,7 @@ class Case:
     name: str
     model: str  # "building" | "vehicle" | "vehicle3d" | "vehicle3d_eq1" (EQ1 hung)
     hidden: tuple[Hidden, ...]
-    build: Callable[[], BuildingTruth | VehicleTruth | Vehicle3DOwn]
+    build: Callable[[], BuildingTruth | VehicleTruth | VehicleOwn | Vehicle3DOwn]
     noise_pct: float = 2.0
     gains: dict[str, float] = field(default_factory=dict)
     seed: int = 0
@@ -269,12 +270,12 @@ def _damper_friction(dev: str, f_s: float, f_k: float) -> laws.Law:
     return laws.StribeckFriction(W=1.0, mu_s=f_s, mu_k=f_k, v_s=0.02, k=k, c=0.5 * c)
 
 
-def _veh_mount_softening() -> VehicleTruth:
-    probe = VehicleTruth(mount=("EQ1", 10.0, 0.05, laws.LinearKC(0.0, 0.0)))
+def _veh_mount_softening() -> VehicleOwn:
+    probe = VehicleOwn(mount=("EQ1", 10.0, 0.05, laws.LinearKC(0.0, 0.0)))
     k = probe.mount_k()
-    return VehicleTruth(mount=("EQ1", 10.0, 0.05, laws.TanhSoftening(k=k, k_r=0.35 * k,
-                                                                     u0=4e-5, c=0.0)),
-                        device_channels=True)
+    return VehicleOwn(mount=("EQ1", 10.0, 0.05, laws.TanhSoftening(k=k, k_r=0.35 * k,
+                                                                   u0=4e-5, c=0.0)),
+                      device_channels=True)
 
 
 def _veh3d_hanger_softening() -> Vehicle3DTruth:
@@ -349,8 +350,8 @@ NEW_CASES: tuple[Case, ...] = (
     # channels recorded (channels the library's car lacks)
     Case("new_veh_damper_friction_front", "vehicle",
          (Hidden("friction", "secondary_front", aliases=_SEC_FRONT),),
-         lambda: VehicleTruth(damper_law=(0, laws.ArctanFriction(800.0, 0.003)),
-                              device_channels=True), 1.0, seed=64, new=True, quiet_pct=0.05),
+         lambda: VehicleOwn(damper_law=(0, laws.ArctanFriction(800.0, 0.003)),
+                            device_channels=True), 1.0, seed=64, new=True, quiet_pct=0.05),
     # (j) a softening equipment mount (tangent 0.35 k beyond ~40 um)
     Case("new_veh_mount_softening_EQ1", "vehicle",
          (Hidden("softening", "EQ1", aliases=("m_EQ1", "f_EQ1")),),
@@ -358,7 +359,7 @@ NEW_CASES: tuple[Case, ...] = (
     # (k) the carbody's first bending mode damped at 5 % (the model: 2 %)
     Case("new_veh_carbody_bending_damping", "vehicle",
          (Hidden("damping", "carbody", aliases=_CARBODY),),
-         lambda: VehicleTruth(bending_zeta_add=0.03, device_channels=True), 2.0, seed=66,
+         lambda: VehicleOwn(bending_zeta_add=0.03, device_channels=True), 2.0, seed=66,
          new=True, quiet_pct=0.05),
     # the two-effect case above with the table's accelerations recorded too (channels the
     # model lacks): the crash of issue 20, item 9 (added after the first run of the others;
@@ -370,7 +371,7 @@ NEW_CASES: tuple[Case, ...] = (
          quiet_pct=0.02, table_channels=True),
     # control of the car with its device channels
     Case("new_veh_control_devices", "vehicle", (),
-         lambda: VehicleTruth(device_channels=True), 1.0, seed=67, new=True, quiet_pct=0.05),
+         lambda: VehicleOwn(device_channels=True), 1.0, seed=67, new=True, quiet_pct=0.05),
     # issue 20, item 2 (added 2026-11-26, run on main's head 8a7814d before any mechanism
     # for them): the y axis of one accelerometer reads with reversed polarity ...
     Case("new_sensor_polarity_F1_C2_y", "building", (_sensor("F1_C2", "polarity"),),
@@ -412,14 +413,14 @@ NEW_CASES: tuple[Case, ...] = (
     # secondary ones
     Case("new_veh_primary_friction_w2", "vehicle",
          (Hidden("friction", "primary_2", aliases=_PRIMARY_FRONT),),
-         lambda: VehicleTruth(primary_law=(1, laws.ArctanFriction(1000.0, 0.01)),
-                              device_channels=True, primary_channels=True), 1.0, seed=68,
+         lambda: VehicleOwn(primary_law=(1, laws.ArctanFriction(1000.0, 0.01)),
+                            device_channels=True, primary_channels=True), 1.0, seed=68,
          new=True, quiet_pct=0.05),
     # the rear secondary damper behind a 0.8 MN/m bushing (relaxation 0.05 s: a dashpot at
     # the bounce, stiffer above ~3 Hz), its stroke and force recorded
     Case("new_veh_damper_bushing_rear", "vehicle",
          (Hidden("damping", "secondary_rear", aliases=_SEC_REAR),),
-         lambda: VehicleTruth(damper_bushing=(1, 8.0e5), device_channels=True), 2.0, seed=69,
+         lambda: VehicleOwn(damper_bushing=(1, 8.0e5), device_channels=True), 2.0, seed=69,
          new=True, quiet_pct=0.05),
 )
 
@@ -479,7 +480,7 @@ def records(case: Case, *, quick: bool = False) -> dict[str, Noisy]:
         inputs = V3_INPUTS
     else:
         fs, T = 200.0, (8.0 if quick else 12.0)
-        ax = truth.spec.axle_x
+        ax = truth.axle_x
         ins = {"train": track_inputs(ax, 300.0, T, fs, 1.5e-3, s + 1),
                "test": track_inputs(ax, 350.0, T, fs, 1.5e-3, s + 2),
                "low": track_inputs(ax, 300.0, T, fs, 1.5e-3 / 20.0, s + 3)}

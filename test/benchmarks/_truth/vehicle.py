@@ -83,6 +83,11 @@ class VehicleTruth:
         self.spec = spec
         self.vm = assemble_vehicle(spec)
 
+    @property
+    def axle_x(self) -> tuple[float, float, float, float]:
+        """Wheelset positions 1 (leading) .. 4, m from the carbody centre."""
+        return self.spec.axle_x
+
     def mount_k(self) -> float:
         """Linear stiffness of the truth mount, N/m."""
         assert self.mount is not None
