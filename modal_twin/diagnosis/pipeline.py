@@ -229,11 +229,11 @@ def _significant(figs: Sequence[ErrorFigures]) -> tuple[str, ...]:
 def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: int = 3,
                    gain_threshold: float = 0.01, n_families: int = 2,
                    progress: Callable[[str], None] | None = None, mapper: Mapper = map,
-                   exclude: Iterable[tuple[str, str]] = ()) -> Diagnosis:
+                   exclude: Iterable[tuple[str, str]] = (), only: str = "") -> Diagnosis:
     """One round on ``factory``'s model.
 
     ``records[0]`` trains, ``records[1]`` is held out, the rest are other levels the result
-    must not be worse on (module docstring).
+    must not be worse on (module docstring). ``only``: fit the laws at that device site only.
     """
     say = progress or (lambda s: None)
     records, skipped = _common_channels(factory, records)
@@ -258,6 +258,8 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     for name, kind in KINDS.items():  # screened in registry order, fitted in one batch
         candidates[name] = kind.screen(rnd)
         jobs += kind.jobs(rnd, candidates[name])
+    if only:
+        jobs = [j for j in jobs if j[0].endswith(f" at {only}")]
     fitted = [f for f in _run_jobs(jobs, mapper, skipped, say)
               if (f.effect.component, f.effect.law) not in set(exclude)]
     # a later round must earn its effect: 5 % lower, not 1 %
@@ -411,6 +413,42 @@ def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Seq
     return keep, dropped
 
 
+def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
+                rec_c: Sequence[Record], noises: Sequence[np.ndarray],
+                say: Callable[[str], None], **round_kw: Any) -> list[FittedEffect]:
+    """``found`` with the law of each device effect found before the last chosen again.
+
+    A law chosen in an early round was fitted while the effects found later were missing,
+    and its fit bent to stand in for them (a friction law fitted as a stiff spring at one
+    isolator while the other's friction was not yet in the model); the joint refit moves
+    only its parameters. So each such site's laws are fitted again on the model with every
+    other effect found (:func:`diagnose_round` with ``only`` that site, judged and ranked as
+    in a round), and the best replaces the effect when the whitened information criterion
+    over every record (:func:`.judge.information_criterion`) is lower with it.
+    """
+    out = list(found)
+
+    def ic(effects: Sequence[FittedEffect]) -> float:
+        figs = figures_on(_apply_all(factory, effects).plant(), rec_c, noises)
+        return information_criterion(figs, sum(g.n_params for g in effects), rec_c)
+
+    for i, f in enumerate(found[:-1]):
+        if kind_of(f.effect.law) is not KINDS["device"]:
+            continue
+        others = out[:i] + out[i + 1:]
+        d = diagnose_round(_apply_all(factory, others), records, only=f.effect.component,
+                           **round_kw)
+        best = d.best
+        if best is None or best.effect.law == f.effect.law:
+            continue
+        trial = [*out[:i], best, *out[i + 1:]]
+        if ic(trial) < ic(out):
+            say(f"{f.family} at {f.place}: with the other effects in place "
+                f"{best.effect.law} fits better than {f.effect.law}; taken instead")
+            out = trial
+    return out
+
+
 def _refitted_trial(factory: ModelFactory, trials: Sequence[_Trial],
                     records: Sequence[Record],
                     criterion: Callable[[Sequence[FittedEffect]], tuple[float, Any]],
@@ -480,6 +518,8 @@ def diagnose(
     rec_c, _ = _common_channels(factory, records)
     noises = [f.noise for f in first.before]  # the floors of the model as given
     if joint and len(found) > 1:
+        found = _reselected(factory, found, records, rec_c, noises, say, n_fit=n_fit,
+                            gain_threshold=gain_threshold, mapper=mapper)
         say("refitting all effects found jointly")
         found = _relabelled(factory, first, rec_c, noises,
                             refit_jointly(factory, found, (records[0], *records[2:])))
