@@ -22,7 +22,8 @@ One round (:func:`diagnose_round`) on a model (any version: its effects stay in 
    record (:mod:`.behaviour`), its name beside it.
 
 :func:`diagnose` repeats rounds while the model still fails and a candidate is accepted
-(several effects at once), then refits all effects found jointly and drops, by backward
+(several effects at once), chooses again the law of each device effect found before the
+last with the others in place, then refits all effects found jointly and drops, by backward
 elimination on the whitened information criterion, those the data do not demand.
 """
 
