@@ -33,12 +33,14 @@ def _pieces(factory: ModelFactory, f: FittedEffect) -> Piece | None:
 
 def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
                   train: Record | Sequence[Record], *,
-                  decimate: int = 5, max_nfev: int = 30) -> list[FittedEffect]:
+                  decimate: int = 5, max_nfev: int = 30, min_free: int = 2
+                  ) -> list[FittedEffect]:
     """``found`` with the parameters of its device-law and parameter effects refitted together.
 
     On ``train`` (on the channels the model has: a record may carry others, e.g. device
     strokes and forces the model has no site for); unchanged when the joint fit does not
-    lower the training error.
+    lower the training error, or when fewer than ``min_free`` effects can be refitted (the
+    backward elimination refits what is left after a drop, one effect too: ``min_free=1``).
     """
     have = set(factory.plant().channel_names)
     train = [r if set(r.channel_names) <= have else
@@ -47,7 +49,7 @@ def refit_jointly(factory: ModelFactory, found: Sequence[FittedEffect],
     parts = [(_pieces(factory, f), f) for f in found]
     free = [(p, f) for p, f in parts if p is not None]
     fixed = [f.effect for p, f in parts if p is None]
-    if len(free) < 2:
+    if len(free) < max(min_free, 1):
         return list(found)
     sizes = [p[0] for p, _ in free]
     cuts = np.cumsum([0, *sizes])

@@ -22,7 +22,8 @@ One round (:func:`diagnose_round`) on a model (any version: its effects stay in 
    record (:mod:`.behaviour`), its name beside it.
 
 :func:`diagnose` repeats rounds while the model still fails and a candidate is accepted
-(several effects at once), then refits all effects found jointly and drops, by backward
+(several effects at once), chooses again the law of each device effect found before the
+last with the others in place, then refits all effects found jointly and drops, by backward
 elimination on the whitened information criterion, those the data do not demand.
 """
 
@@ -41,6 +42,7 @@ from modal_twin.diagnosis.evidence import DeviceEvidence
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
 from modal_twin.diagnosis.judge import (
+    effective_samples,
     figures_on,
     information_criterion,
     judge,
@@ -228,11 +230,11 @@ def _significant(figs: Sequence[ErrorFigures]) -> tuple[str, ...]:
 def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: int = 3,
                    gain_threshold: float = 0.01, n_families: int = 2,
                    progress: Callable[[str], None] | None = None, mapper: Mapper = map,
-                   exclude: Iterable[tuple[str, str]] = ()) -> Diagnosis:
+                   exclude: Iterable[tuple[str, str]] = (), only: str = "") -> Diagnosis:
     """One round on ``factory``'s model.
 
     ``records[0]`` trains, ``records[1]`` is held out, the rest are other levels the result
-    must not be worse on (module docstring).
+    must not be worse on (module docstring). ``only``: fit the laws at that device site only.
     """
     say = progress or (lambda s: None)
     records, skipped = _common_channels(factory, records)
@@ -257,6 +259,8 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     for name, kind in KINDS.items():  # screened in registry order, fitted in one batch
         candidates[name] = kind.screen(rnd)
         jobs += kind.jobs(rnd, candidates[name])
+    if only:
+        jobs = [j for j in jobs if j[0].endswith(f" at {only}")]
     fitted = [f for f in _run_jobs(jobs, mapper, skipped, say)
               if (f.effect.component, f.effect.law) not in set(exclude)]
     # a later round must earn its effect: 5 % lower, not 1 %
@@ -331,9 +335,21 @@ def _apply_all(factory: ModelFactory, found: Sequence[FittedEffect]) -> ModelFac
     return factory
 
 
+_Trial = tuple[float, FittedEffect, list[FittedEffect], Any]
+
+
+def _effective_samples(plant: Plant, records: Sequence[Record]) -> list[float]:
+    """Return what each record's residual under ``plant`` is worth in independent samples.
+
+    :func:`.judge.effective_samples` of the residual on the scored part of each record.
+    """
+    return [effective_samples(r.scored - simulate_record(plant, r)[:, r.skip:])
+            for r in records]
+
+
 def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
-                  noises: Sequence[np.ndarray], say: Callable[[str], None]
-                  ) -> tuple[list[FittedEffect], list[str]]:
+                  noises: Sequence[np.ndarray], say: Callable[[str], None], *,
+                  refit: bool = True) -> tuple[list[FittedEffect], list[str]]:
     """Backward elimination after the joint refit: (effects kept, why each other was dropped).
 
     Each effect in turn is set back to its nominal (the others keep their joint fit) and the
@@ -342,38 +358,115 @@ def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Seq
     penalty per parameter). The effect whose removal worsens it least is dropped when that
     is no more than the sampling tolerance of an RMS (``ln(1 + tol)``: one record's figure
     ``tol`` higher, ``tol`` the mean over the records of :func:`.judge.worse_tolerance`,
-    three standard errors, at least 1 %);
+    three standard errors, at least 1 %). Both count each record's samples by what the
+    residual of the model with every effect found is worth
+    (:func:`.judge.effective_samples`): as many as it has when that residual is the noise,
+    fewer when it is smooth model error (then small gains are within what another record
+    of the same test would change, and an extra effect riding on them is dropped);
     the search repeats on the rest. An effect found early can stand in for one found later
     (a column line for the storey it belongs to), and a small change that helped the
     training record only can ride along with the real ones: after the joint refit either is
     dropped, and the reason said.
+
+    The others' joint fit may lean on the effect under trial (an extra one soaks up what a
+    law fitted beside it left, e.g. a dashpot elsewhere taking over the viscous part of a
+    friction law, which the joint refit then moved to it): when even the weakest effect
+    seems needed, the rest without each in turn (weakest first) is refitted jointly
+    (:func:`_refitted_trial`, from their values in the joint fit) and compared again
+    (``refit``); the first one whose rest so refitted is back within the tolerance is
+    dropped, the rest kept at its refitted values.
     """
     keep = list(found)
     dropped: list[str] = []
-    tol = float(np.log1p(np.mean([worse_tolerance(r) for r in records])))
+    n_eff = _effective_samples(_apply_all(factory, found).plant(), records)
+    tol = float(np.log1p(np.mean([worse_tolerance(r, n)
+                                  for r, n in zip(records, n_eff, strict=True)])))
 
     def criterion(effects: Sequence[FittedEffect]) -> tuple[float, tuple[ErrorFigures, ...]]:
         figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
-        return information_criterion(figs, sum(f.n_params for f in effects), records), figs
+        return information_criterion(figs, sum(f.n_params for f in effects), records,
+                                     n_eff), figs
 
     while len(keep) > 1:
         ic_all, figs_all = criterion(keep)
         trials = []
         for f in keep:
-            ic_rest, figs_rest = criterion([g for g in keep if g is not f])
-            trials.append((ic_rest - ic_all, f, figs_rest))
-        delta, f, figs_rest = min(trials, key=lambda t: t[0])
+            rest = [g for g in keep if g is not f]
+            ic_rest, figs_rest = criterion(rest)
+            trials.append((ic_rest - ic_all, f, rest, figs_rest))
+        trials.sort(key=lambda t: t[0])
+        delta, f, rest, figs_rest = trials[0]
+        refitted = ""
+        if delta > tol and refit:
+            delta, f, rest, figs_rest = _refitted_trial(factory, trials, records, criterion,
+                                                        ic_all, tol)
+            refitted = ", the rest refitted"
         if delta > tol:
             break
         rms = ", ".join(f"{a.record or 'record'} x{a.score:.2f} -> x{b.score:.2f}"
                         for a, b in zip(figs_all, figs_rest, strict=True))
-        why = (f"{f.family} at {f.place} ({f.effect.law}): without it the information "
-               f"criterion changes by {delta:+.4f} (drop at <= {tol:.4f}; whitened RMS "
-               f"{rms})")
+        why = (f"{f.family} at {f.place} ({f.effect.law}): without it{refitted} the "
+               f"information criterion changes by {delta:+.4f} (drop at <= {tol:.4f}; "
+               f"whitened RMS {rms})")
         say(f"dropped {why}")
         dropped.append(why)
-        keep = [g for g in keep if g is not f]
+        keep = rest
     return keep, dropped
+
+
+def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
+                rec_c: Sequence[Record], noises: Sequence[np.ndarray],
+                say: Callable[[str], None], **round_kw: Any) -> list[FittedEffect]:
+    """``found`` with the law of each device effect found before the last chosen again.
+
+    A law chosen in an early round was fitted while the effects found later were missing,
+    and its fit bent to stand in for them (a friction law fitted as a stiff spring at one
+    isolator while the other's friction was not yet in the model); the joint refit moves
+    only its parameters. So each such site's laws are fitted again on the model with every
+    other effect found (:func:`diagnose_round` with ``only`` that site, judged and ranked as
+    in a round), and the best replaces the effect when the whitened information criterion
+    over every record (:func:`.judge.information_criterion`) is lower with it.
+    """
+    out = list(found)
+
+    def ic(effects: Sequence[FittedEffect]) -> float:
+        figs = figures_on(_apply_all(factory, effects).plant(), rec_c, noises)
+        return information_criterion(figs, sum(g.n_params for g in effects), rec_c)
+
+    for i, f in enumerate(found[:-1]):
+        if kind_of(f.effect.law) is not KINDS["device"]:
+            continue
+        others = out[:i] + out[i + 1:]
+        d = diagnose_round(_apply_all(factory, others), records, only=f.effect.component,
+                           **round_kw)
+        best = d.best
+        if best is None or best.effect.law == f.effect.law:
+            continue
+        trial = [*out[:i], best, *out[i + 1:]]
+        if ic(trial) < ic(out):
+            say(f"{f.family} at {f.place}: with the other effects in place "
+                f"{best.effect.law} fits better than {f.effect.law}; taken instead")
+            out = trial
+    return out
+
+
+def _refitted_trial(factory: ModelFactory, trials: Sequence[_Trial],
+                    records: Sequence[Record],
+                    criterion: Callable[[Sequence[FittedEffect]], tuple[float, Any]],
+                    ic_all: float, tol: float) -> _Trial:
+    """Return the first trial (weakest first) whose rest refitted without it is within tol.
+
+    Each rest is refitted jointly (:func:`.joint.refit_jointly`) on the training record and
+    the other levels; the last trial refitted when none is within ``tol``.
+    """
+    out = trials[0]
+    for _, f, rest, _ in trials:
+        rest = refit_jointly(factory, rest, (records[0], *records[2:]), min_free=1)
+        ic_rest, figs_rest = criterion(rest)
+        out = (ic_rest - ic_all, f, rest, figs_rest)
+        if out[0] <= tol:
+            break
+    return out
 
 
 def diagnose(
@@ -426,12 +519,16 @@ def diagnose(
     rec_c, _ = _common_channels(factory, records)
     noises = [f.noise for f in first.before]  # the floors of the model as given
     if joint and len(found) > 1:
+        found = _reselected(factory, found, records, rec_c, noises, say, n_fit=n_fit,
+                            gain_threshold=gain_threshold, mapper=mapper)
         say("refitting all effects found jointly")
         found = _relabelled(factory, first, rec_c, noises,
                             refit_jointly(factory, found, (records[0], *records[2:])))
     dropped: list[str] = []
     if len(found) > 1:
-        found, dropped = _without_idle(factory, found, rec_c, noises, say)
+        found, dropped = _without_idle(factory, found, rec_c, noises, say, refit=joint)
+        if dropped and joint:  # the rest may have been refitted without the dropped
+            found = _relabelled(factory, first, rec_c, noises, found)
     after = figures_on(_apply_all(factory, found).plant(), rec_c, noises)
     names = ", ".join(f"{f.family_text()} at {f.place}" for f in found)
     b, a = first.before[1], after[1]

@@ -164,3 +164,30 @@ def test_own_bouc_wen_hysteresis_at_rb1(factory: BuildingFactory) -> None:
     assert d.best.effect.component == "RB1"
     assert d.best.effect.law in ("bouc_wen", "bilinear_hysteretic")  # a missing internal state
     assert error_fall(factory, d, test, ["RB1_fx", "RB1_fy", *BASE_H]) >= 3.0
+
+
+def test_a_law_chosen_before_a_later_effect_is_chosen_again(factory: BuildingFactory) -> None:
+    # issue 20, seed robustness: two isolator effects (friction at ESB2, Bouc-Wen hysteresis
+    # at RB1); the first round, with the friction still missing, named a stick-slip law at
+    # RB1 that acts as a spring, and the joint refit moves only its parameters. Its law is
+    # fitted again with the friction in place: a law with an internal state is taken
+    from modal_twin.diagnosis.fitting import FittedEffect
+    from modal_twin.diagnosis.judge import record_noise_floors
+    from modal_twin.diagnosis.pipeline import _reselected
+
+    friction = EffectSpec("ESB2", "stick_slip", {"mu_s": 0.05, "mu_k": 0.035})
+    eff = [friction, EffectSpec("RB1", "bouc_wen", {"uy": 0.02, "alpha": 0.3})]
+    recs = [make_record(eff, kind="random", level=1.0, seed=17, seconds=8.0),
+            make_record(eff, kind="earthquake", level=3.5, seed=18, seconds=8.0)]
+    noises = record_noise_floors(factory.plant(), recs)
+    spring = EffectSpec("RB1", "stick_slip", {"Fk": 800.0, "Fs": 800.0})
+
+    def found(e: EffectSpec, n: int, family: str) -> FittedEffect:
+        return FittedEffect(e, n, 1.0, 1.0, 1.0, 0.0, 1, 0.0, family=family, place=e.component)
+
+    out = _reselected(factory, [found(spring, 2, "stiffness"), found(friction, 2, "friction")],
+                      recs, recs, noises, print, n_fit=1)
+    assert out[0].effect.component == "RB1"
+    assert out[0].effect.law in ("bouc_wen", "bilinear_hysteretic")
+    assert out[0].family == "hysteresis"
+    assert out[1].effect is friction
