@@ -269,7 +269,7 @@ def damaged_figures(tmp: Path) -> dict[str, object]:
     from conftest import write_frames_bag
     from test_damaged_records import _blocks, _chunks, _metrics, _write
 
-    from modal_twin.commands.report import _metrics as report_metrics
+    from modal_twin.commands.report import twin_metrics as report_metrics
     from modal_twin.io.bag import BagWriter, read_raw, salvage, scan_mcap
     from modal_twin.io.typestore import typestore
     from modal_twin.models.loading import load_model

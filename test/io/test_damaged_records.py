@@ -109,7 +109,7 @@ def _metrics(st, names: list[str], err: list[float]):
 
 
 def test_a_malformed_metrics_message_does_not_break_the_report(tmp_path: Path) -> None:
-    from modal_twin.commands.report import _metrics as report_metrics
+    from modal_twin.commands.report import twin_metrics as report_metrics
     from modal_twin.commands.residual import last_metrics
 
     st = typestore()
