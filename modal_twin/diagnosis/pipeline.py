@@ -433,6 +433,7 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
         figs = figures_on(_apply_all(factory, effects).plant(), rec_c, noises)
         return information_criterion(figs, sum(g.n_params for g in effects), rec_c)
 
+    ic_out: float | None = None  # of ``out``, simulated once and again only when it changes
     for i, f in enumerate(found[:-1]):
         if kind_of(f.effect.law) is not KINDS["device"]:
             continue
@@ -443,7 +444,10 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
         if best is None or best.effect.law == f.effect.law:
             continue
         trial = [*out[:i], best, *out[i + 1:]]
-        if ic(trial) < ic(out):
+        ic_out = ic(out) if ic_out is None else ic_out
+        ic_trial = ic(trial)
+        if ic_trial < ic_out:
+            ic_out = ic_trial
             say(f"{f.family} at {f.place}: with the other effects in place "
                 f"{best.effect.law} fits better than {f.effect.law}; taken instead")
             out = trial
