@@ -116,8 +116,11 @@ class AcquisitionNode(Node):
             log.error(f"impact: no FRFs written: {err}")
             self.exit_code = 1
             return
-        for line in res.lines():
-            (log.warning if line.lstrip().startswith("rejected") else log.info)(line)
+        for line in res.lines():  # one call site per severity (rclpy's loggers ask it)
+            if line.lstrip().startswith("rejected"):
+                log.warning(line)
+            else:
+                log.info(line)
         log.info(f"impact: FRF matrix {frf}, hits {hits}")
 
 

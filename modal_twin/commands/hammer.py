@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -45,33 +44,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs")
     p.set_defaults(func=run)
-
-
-def _number(v: object) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
-def _fields(cls: type, given: dict[str, Any], where: str) -> dict[str, Any]:
-    names = {f.name for f in fields(cls)}
-    bad = sorted(set(given) - names)
-    if bad:
-        msg = f"{where}: unknown keys {bad}; expected some of {sorted(names)}"
-        raise ConfigError(msg)
-    defaults: dict[str, Any] = {f.name: f.default for f in fields(cls)}
-    out: dict[str, Any] = {}
-    for k, v in given.items():
-        want = defaults[k]
-        if isinstance(want, tuple):
-            ok = (isinstance(v, list) and len(v) == len(want)
-                  and all(_number(x) for x in v))
-        else:
-            ok = _number(v) and (isinstance(want, float) or float(v).is_integer())
-        if not ok:
-            msg = f"{where}.{k}: expected a value like {want!r}, got {v!r}"
-            raise ConfigError(msg)
-        out[k] = (tuple(float(x) for x in v) if isinstance(want, tuple)
-                  else float(v) if isinstance(want, float) else int(v))
-    return out
 
 
 def _read(path: Path) -> dict[str, Any]:
@@ -104,16 +76,6 @@ def _channels(labels: list[str], quantity: str, dofs: list[str], where: str) -> 
     return out
 
 
-def _modes_json(mm: Any, outputs: list[Any]) -> dict[str, Any]:
-    return {"method": "polymax", "source": "modal-twin hammer",
-            "dofs": [{"channel": c.name, "node": int(c.node), "node_label": c.node,
-                      "direction": c.direction} for c in outputs],
-            "modes": [{"f_hz": float(mm.f_hz[k]), "zeta": float(mm.zeta[k]),
-                       "std_f_hz": None, "shape_re": mm.shapes[:, k].real.tolist(),
-                       "shape_im": mm.shapes[:, k].imag.tolist()}
-                      for k in range(mm.f_hz.size)]}
-
-
 def _fom_mac(pairing: Any, f_id: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """FOM of Eq. (1) of [000] over the matched modes, and each mode's df and MAC."""
     from modal_twin.updating.objectives import frequency_figure_of_merit
@@ -128,8 +90,9 @@ def run(a: argparse.Namespace) -> int:
     """Run the scenario (module docstring)."""
     from modal_twin.acquisition.hammer_test import HammerTest
     from modal_twin.identification.frf_modes import modes_from_frf
-    from modal_twin.io.impact_files import write_hammer_result
+    from modal_twin.io.impact_files import frf_modes_document, write_hammer_result
     from modal_twin.io.uff import write_uff58_time
+    from modal_twin.models.frame_file import spec_fields
     from modal_twin.models.tracking_frame import JOINTS, FrameSpec, frame_matrices
     from modal_twin.paths import check_new_in
     from modal_twin.rig.hammer_sim import HammerTestPlan, simulate_roving_hammer
@@ -139,13 +102,14 @@ def run(a: argparse.Namespace) -> int:
 
     doc = _read(a.scenario)
     check_new_in(a.out, OUTPUTS, a.force)
-    spec = FrameSpec(**_fields(FrameSpec, dict(doc.get("frame") or {}), f"{a.scenario}: frame"))
+    spec = FrameSpec(**spec_fields(FrameSpec, dict(doc.get("frame") or {}),
+                                   f"{a.scenario}: frame"))
     theta_true = dict(doc["truth"].get("theta") or {})
     truth, nominal = frame_matrices(spec, theta_true), frame_matrices(spec)
     dofs = [str(v) for v in nominal["dofs"]]
     test = dict(doc["test"])
     hit, resp = list(test.pop("hit", [])), list(test.pop("responses", []))
-    plan = HammerTestPlan(**_fields(HammerTestPlan, test, f"{a.scenario}: test"))
+    plan = HammerTestPlan(**spec_fields(HammerTestPlan, test, f"{a.scenario}: test"))
     forces = _channels(hit, "force", dofs, f"{a.scenario}: test.hit")
     outputs = _channels(resp, "acceleration", dofs, f"{a.scenario}: test.responses")
     if not forces or not outputs:
@@ -170,7 +134,10 @@ def run(a: argparse.Namespace) -> int:
     band = tuple(float(v) for v in ident.get("band_hz", (1.0, 0.4 * plan.fs_hz)))
     mm = modes_from_frf(res.H, res.f_hz, band_hz=(band[0], band[1]),
                         order_max=int(ident.get("order_max", 30)))
-    (a.out / "modes.json").write_text(json.dumps(_modes_json(mm, outputs), indent=1))
+    doc_modes = frf_modes_document(mm.f_hz, mm.zeta, mm.shapes,
+                                   [(c.name, c.node, c.direction) for c in outputs],
+                                   "modal-twin hammer")
+    (a.out / "modes.json").write_text(json.dumps(doc_modes, indent=1))
     print(f"PolyMAX + LSFD: {mm.f_hz.size} modes in {band[0]:g}-{band[1]:g} Hz: "
           + ", ".join(f"{f:.2f}" for f in mm.f_hz) + " Hz")
     arrays: dict[str, Any] = {k: nominal[k] for k in ("M", "K0", "dofs")}

@@ -10,6 +10,13 @@ reason. Writes ``modes.json`` and ``modes.uff`` (UFF 55,
 :mod:`modal_twin.io.modes_file`), ``stabilization.png`` and ``mac.png`` into ``--out``
 (each to a temporary name, then renamed; an existing one refused before the work unless
 ``--force``).
+
+A UFF file of FRFs (a hammer test's ``impact/frf.uff``, UFF 58 function type 4) is
+identified by PolyMAX + LSFD on the FRF matrix itself
+(:func:`~modal_twin.identification.frf_modes.modes_from_frf`): the band from the second
+line to 40 % of the last (the anti-alias rule), or to ``--f-max``, printed; the damping
+corrected for the exponential window the ``hits.yaml`` beside the file names; ``--out``
+receives ``modes.json`` (``update --modes`` reads it).
 """
 
 from __future__ import annotations
@@ -28,12 +35,17 @@ __all__ = ["OUTPUTS", "register", "run"]
 
 OUTPUTS = ("modes.json", "modes.uff", "stabilization.png", "mac.png")
 """The files ``--out`` gets; an existing one is kept unless ``--force``."""
+FRF_SUFFIXES = (".uff", ".unv")
+"""A file of these kinds is a FRF matrix (module docstring)."""
+FRF_TOP = 0.4
+"""Default upper band edge of a FRF file, as a share of its last line."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add ``identify`` to the sub-commands."""
     p = sub.add_parser("identify", help="modes of a bag (N4SID, SSI-cov, PolyMAX)")
-    p.add_argument("bag", type=Path, help="bag written by `modal-twin import` (or a run)")
+    p.add_argument("bag", type=Path, help="bag written by `modal-twin import` (or a run), or "
+                                          "a UFF file of FRFs (a hammer test's frf.uff)")
     p.add_argument("--method", choices=METHODS, default=None,
                    help="default: n4sid when the bag has driven inputs, else ssi-cov")
     p.add_argument("--selection", choices=SELECTIONS, default=None,
@@ -59,6 +71,8 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.identification.record import IdentifyOptions, identify_record
     from modal_twin.io.imported import read_imported
 
+    if a.bag.suffix.lower() in FRF_SUFFIXES and a.bag.is_file():
+        return _identify_frf(a)
     if a.out is not None:
         check_new_in(a.out, OUTPUTS, a.force)  # before the work
     block, channels = read_imported(a.bag)
@@ -137,3 +151,56 @@ def _files(out: Path, rec: Any, bag: Path, force: bool) -> None:
     labels = [f"{f:.2f} Hz" for f in mm.f_hz]
     save_figure(plot_mac(automac(mm.shapes), labels, labels, title="auto-MAC"),
                 out / "mac.png", force=force)
+
+
+def _identify_frf(a: argparse.Namespace) -> int:
+    """PolyMAX + LSFD on a UFF file's FRF matrix (module docstring)."""
+    import json
+
+    from modal_twin.acquisition.impact import exponential_damping
+    from modal_twin.errors import OptionError
+    from modal_twin.identification.frf_modes import modes_from_frf
+    from modal_twin.io.impact_files import frf_modes_document, read_frf_matrix, read_window_tau
+    from modal_twin.paths import atomic_file
+
+    unused = [o for o in ("inputs", "outputs", "directions", "selection")
+              if getattr(a, o) is not None]
+    if a.method not in (None, "polymax") or unused:
+        msg = (f"{a.bag}: a FRF file is identified by PolyMAX + LSFD on its FRFs; "
+               f"--method {a.method} / {['--' + o for o in unused]} do not apply")
+        raise OptionError(msg)
+    if a.out is not None:
+        check_new_in(a.out, ("modes.json",), a.force)
+    f, H, outs, _ = read_frf_matrix(a.bag)
+    lo, top = float(f[1]), float(f[-1])
+    hi = FRF_TOP * top if a.f_max is None else float(a.f_max)
+    if not lo < hi <= top:
+        msg = (f"--f-max {a.f_max}: expected above {lo:.4g} Hz (the second line) and at most "
+               f"{top:.4g} Hz (the last line of the FRFs)")
+        raise OptionError(msg)
+    rule = "--f-max" if a.f_max is not None else f"{100 * FRF_TOP:.0f} % of the last line"
+    print(f"identify: PolyMAX + LSFD on {H.shape[0]} responses x {H.shape[1]} references, "
+          f"lines every {f[1] - f[0]:.4g} Hz; band {lo:.4g}-{hi:.4g} Hz ({rule})")
+    with step(f"identify: {a.bag.name}, PolyMAX"):
+        mm = modes_from_frf(H, f, band_hz=(lo, hi))
+    zeta = mm.zeta
+    tau = read_window_tau(a.bag)
+    if tau is not None:
+        zeta = exponential_damping(mm.zeta, mm.f_hz, tau)
+        print(f"identify: damping corrected for the exponential window of {tau:g} s "
+              f"(hits.yaml): zeta - 1 / (tau w)")
+    if mm.f_hz.size == 0:
+        print(f"warning: no mode found in {lo:.4g}-{hi:.4g} Hz; try another band (--f-max)",
+              file=sys.stderr)
+        return ExitCode.FAILED
+    print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>8}")
+    for k in range(mm.f_hz.size):
+        print(f"{k + 1:>4} {mm.f_hz[k]:9.4f} {100 * zeta[k]:8.2f}")
+    if a.out is not None:
+        doc = frf_modes_document(mm.f_hz, zeta, mm.shapes,
+                                 [(f"{n}_{d}", n, d) for n, d in outs], str(a.bag))
+        a.out.mkdir(parents=True, exist_ok=True)
+        with atomic_file(a.out / "modes.json") as tmp:
+            tmp.write_text(json.dumps(doc, indent=1))
+        print(f"identify: wrote {a.out / 'modes.json'}")
+    return ExitCode.OK

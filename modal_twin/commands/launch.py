@@ -93,4 +93,8 @@ def run(a: argparse.Namespace) -> int:
     res = Launcher(sc, run_dir=a.run_dir, domain_id=a.domain_id, record=not a.no_record).run()
     if res.bag is not None and res.exit_code == 0:
         print(f"launch: bag {res.bag}")
+    from modal_twin.io.impact_files import hit_summary_lines
+
+    for line in hit_summary_lines(res.run_dir / "impact"):  # an impact test's verdicts
+        print(f"launch: {line}")
     return res.exit_code

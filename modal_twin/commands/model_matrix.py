@@ -22,7 +22,7 @@ YAML_SUFFIXES = (".yaml", ".yml")
 
 
 def check_model_kind(path: Path) -> str:
-    """``"matrix"`` or ``"yaml"``; a ConfigError naming the file for anything else."""
+    """``"matrix"`` (a frame file too) or ``"yaml"``; a ConfigError naming anything else."""
     if not path.is_file():
         msg = f"{path}: no such model file"
         raise ConfigError(msg)
@@ -35,7 +35,9 @@ def check_model_kind(path: Path) -> str:
         except UnicodeDecodeError as err:
             msg = f"{path}: expected a YAML text file, got binary data ({err.reason})"
             raise ConfigError(msg) from err
-        return "yaml"
+        from modal_twin.models.frame_file import is_frame_file
+
+        return "matrix" if is_frame_file(path) else "yaml"
     msg = (f"{path}: unknown model file kind {suf!r}; expected a structure / vehicle YAML "
            f"{YAML_SUFFIXES} or matrices {MATRIX_SUFFIXES}")
     raise ConfigError(msg)

@@ -135,8 +135,14 @@ def _pairs(pairing: ModePairing, f_id: np.ndarray, shapes: np.ndarray, f_fem: np
     return idx, df, mc, near
 
 
-def _table(res: object, pr: object) -> tuple[float, float]:
-    """Print df / MAC before and after for every mode; return max |df| before, min MAC."""
+def _table(res: object, pr: object) -> tuple[float, float, float, float]:
+    """Print df / MAC before and after for every mode.
+
+    Return max |df| before, min MAC before and the FOM of Eq. (1) of [000] before and
+    after, over every mode at its partner.
+    """
+    from modal_twin.updating.objectives import frequency_figure_of_merit
+
     f_id = np.asarray(res.f_id)  # type: ignore[attr-defined]
     shapes = pr.targets.shapes  # type: ignore[attr-defined]
     cols = []
@@ -158,7 +164,8 @@ def _table(res: object, pr: object) -> tuple[float, float]:
         print("  * unmatched (no model mode within the pairing windows of Eq. (4) of [004]): "
               "its nearest partner, the cheapest model mode no pair uses")
     b = cols[0]
-    return float(100 * np.nanmax(np.abs(b[1]))), float(np.nanmin(b[2]))
+    fom = [frequency_figure_of_merit(f_id * (1 + c[1]), f_id) for c in cols]
+    return float(100 * np.nanmax(np.abs(b[1]))), float(np.nanmin(b[2])), fom[0], fom[1]
 
 
 def run(a: argparse.Namespace) -> int:
@@ -195,12 +202,14 @@ def run(a: argparse.Namespace) -> int:
           file=sys.stderr, flush=True)
     with step("update: Gauss-Newton"):
         res = update(pr, global_stage=False, max_nfev=a.max_nfev)
-    df0, mac0 = _table(res, pr)
+    df0, mac0, fom0, fom1 = _table(res, pr)
     print(f"before: max |df| {df0:.3f} %, min MAC {mac0:.3f} (every mode, unmatched ones at "
           f"their nearest model mode); after: max |df| {res.max_abs_df_pct:.3f} %, "
           f"min MAC {res.min_mac:.3f}, "
           f"{res.n_eigen_solves} eigen-solves, {res.seconds:.1f} s, at bounds "
           f"{list(res.at_bounds)}")
+    print(f"FOM (Eq. (1) of [000], every mode at its partner): before {fom0:.4g}, after "
+          f"{fom1:.4g}")
     u = res.uncertainty
     if u is not None:
         det = [n for n, d in zip(u.names, u.determined, strict=True) if d]

@@ -62,6 +62,8 @@ class ExcitationConfig:
         "doc": "every n-th hit bounces (a second pulse of half the peak; 0 = never)"})
     overload_n: float = field(default=0.0, metadata={
         "doc": "force range the hammer clips at (0 = no clipping)"})
+    overload_every: int = field(default=0, metadata={
+        "doc": "every n-th hit is struck at twice its peak, clipped at overload_n (0 = never)"})
     autostart: bool = field(default=True, metadata={"doc": "start once a reader is matched"})
     rate: float = field(default=1.0, metadata={"doc": "pace: 1 = real time, 0 = flat out"})
     wait_subscribers: int = field(default=1, metadata={"doc": "readers to wait for"})
@@ -87,9 +89,15 @@ class ExcitationConfig:
                                           and self.tip_stiffness_n_m > 0
                                           and self.hammer_mass_kg > 0
                                           and self.double_hit_every >= 0
-                                          and self.overload_n >= 0):
+                                          and self.overload_n >= 0
+                                          and self.overload_every >= 0):
             msg = ("impact: expected impact_spacing_s, tip_stiffness_n_m, hammer_mass_kg > 0, "
-                   "hits_per_point >= 1, double_hit_every >= 0, overload_n >= 0")
+                   "hits_per_point >= 1, double_hit_every >= 0, overload_n >= 0, "
+                   "overload_every >= 0")
+            raise OptionError(msg)
+        if self.kind == "impact" and self.overload_every and not self.overload_n > 0:
+            msg = (f"overload_every: {self.overload_every} needs the range the hammer clips "
+                   "at, overload_n > 0")
             raise OptionError(msg)
         if self.kind not in ("record", "track") and len(self.rms) not in (1, len(self.channels)):
             msg = (f"rms: expected 1 or {len(self.channels)} values (one per channel), "
@@ -134,8 +142,9 @@ def _impact_drive(cfg: ExcitationConfig, peak: FloatArray) -> FloatArray:
 
     Hit ``i`` lands on channel ``(i // hits_per_point) % n_channels`` with that channel's
     ``rms`` entry as its peak force; every ``double_hit_every``-th hit bounces (a second
-    pulse of half the peak three contact times later) and ``overload_n`` clips the force
-    (the acquisition's impact checks must reject both).
+    pulse of half the peak three contact times later), every ``overload_every``-th hit is
+    struck twice as hard and ``overload_n`` clips the force (the acquisition's impact
+    checks must reject both).
     """
     n_ch = len(cfg.channels)
     n = max(1, round(cfg.duration_s * cfg.fs_hz))
@@ -146,7 +155,9 @@ def _impact_drive(cfg: ExcitationConfig, peak: FloatArray) -> FloatArray:
         ch = (i // cfg.hits_per_point) % n_ch
         at = 0.5 + i * cfg.impact_spacing_s
         kw = {"tip_stiffness_n_m": cfg.tip_stiffness_n_m, "hammer_mass_kg": cfg.hammer_mass_kg}
-        out[ch] += signals.hammer_pulse(n, cfg.fs_hz, peak_n=float(peak[ch]), at_s=at, **kw)
+        hard = 2.0 if cfg.overload_every and (i + 1) % cfg.overload_every == 0 else 1.0
+        out[ch] += signals.hammer_pulse(n, cfg.fs_hz, peak_n=hard * float(peak[ch]), at_s=at,
+                                        **kw)
         if cfg.double_hit_every and (i + 1) % cfg.double_hit_every == 0:
             out[ch] += signals.hammer_pulse(n, cfg.fs_hz, peak_n=0.5 * float(peak[ch]),
                                     at_s=at + 3 * tc, **kw)

@@ -1,23 +1,31 @@
 """A hammer test's result on disk: the FRF matrix as UFF 58 and the hits' verdicts as YAML.
 
 Written into a folder (a run's ``impact/``) under fixed names, each to a temporary path
-and renamed, so a reader never sees half a file.
+and renamed, so a reader never sees half a file; :func:`read_frf_matrix` reads the FRF
+matrix back (any UFF 58 file of FRFs, function type 4), :func:`read_window_tau` the
+exponential window the FRFs were taken with, and :func:`frf_modes_document` writes the
+modes identified from them as a ``modes.json`` that ``update`` reads.
 """
 
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
 
+from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.acquisition.hammer_test import HammerResult
 from modal_twin.channels import ChannelSpec
-from modal_twin.io.uff import AXIS_CODES, write_uff58_frf
+from modal_twin.errors import ConfigError, SignalError
+from modal_twin.io.uff import AXIS_CODES, read_uff, write_uff58_frf
 
-__all__ = ["FRF_FILE", "SUMMARY_FILE", "dof_codes", "write_hammer_result"]
+__all__ = ["FRF_FILE", "SUMMARY_FILE", "dof_codes", "frf_modes_document", "hit_summary_lines",
+           "read_frf_matrix", "read_window_tau", "write_hammer_result"]
 
 FRF_FILE = "frf.uff"
 SUMMARY_FILE = "hits.yaml"
@@ -48,6 +56,7 @@ def write_hammer_result(folder: str | Path, res: HammerResult) -> tuple[Path, Pa
     os.replace(tmp, frf_path)
     summary = {
         "estimator": res.estimator, "block_s": res.block_s,
+        "tau_s": res.per_point[0].tau_s if res.per_point else None,
         "hits_averaged": res.n_accepted, "hits_rejected": res.n_rejected,
         "outputs": [{"name": c.name, "node": n, "dir": d}
                     for c, (n, d) in zip(res.outputs, rsp, strict=True)],
@@ -63,3 +72,111 @@ def write_hammer_result(folder: str | Path, res: HammerResult) -> tuple[Path, Pa
     tmp2.write_text(yaml.safe_dump(summary, sort_keys=False))
     os.replace(tmp2, sum_path)
     return frf_path, sum_path
+
+
+_PLACE = re.compile(r"^(?P<node>\d+)(?P<dir>-?r?[xyz])$")
+
+
+def _place(text: str, where: str) -> tuple[str, str]:
+    m = _PLACE.match(text)
+    if m is None:
+        msg = f"{where}: a FRF at {text!r}, expected a node and direction (like 402z)"
+        raise ConfigError(msg)
+    return m["node"], m["dir"]
+
+
+def read_frf_matrix(path: str | Path) -> tuple[FloatArray, ComplexArray, list[tuple[str, str]],
+                                               list[tuple[str, str]]]:
+    """FRF matrix of a UFF 58 file (function type 4): ``f_hz, H (n_out, n_in, n_f)``.
+
+    With the (node, direction) of each response and of each reference (hit point), in the
+    order of first appearance.
+
+    Raises
+    ------
+    ConfigError
+        No FRF in the file, a FRF without node and direction, or an incomplete matrix
+        (a response / reference pair missing, repeated, or on other frequency lines).
+    """
+    frfs = [s for s in read_uff(path).spectra if s["func_type"] == 4]
+    if not frfs:
+        msg = f"{path}: no FRF (UFF 58 function type 4) in the file"
+        raise ConfigError(msg)
+    outs: list[tuple[str, str]] = []
+    ins: list[tuple[str, str]] = []
+    cells: dict[tuple[int, int], Any] = {}
+    f = np.asarray(frfs[0]["f_hz"], dtype=float)
+    for s in frfs:
+        o, i = _place(s["rsp"], str(path)), _place(s["ref"], str(path))
+        for lst, v in ((outs, o), (ins, i)):
+            if v not in lst:
+                lst.append(v)
+        key = (outs.index(o), ins.index(i))
+        if key in cells or s["f_hz"].shape != f.shape or not np.allclose(s["f_hz"], f):
+            msg = (f"{path}: FRF {s['rsp']}/{s['ref']} repeated or on other frequency lines "
+                   "than the first")
+            raise ConfigError(msg)
+        cells[key] = s["data"]
+    if len(cells) != len(outs) * len(ins):
+        msg = (f"{path}: {len(cells)} FRFs, expected every one of {len(outs)} responses x "
+               f"{len(ins)} references")
+        raise ConfigError(msg)
+    H = np.zeros((len(outs), len(ins), f.size), dtype=complex)
+    for (ko, ki), d in cells.items():
+        H[ko, ki] = d
+    if not np.all(np.isfinite(H)):
+        msg = f"{path}: FRFs with NaN or inf values"
+        raise SignalError(msg)
+    return f, H, outs, ins
+
+
+def read_window_tau(frf_file: str | Path) -> float | None:
+    """Time constant of the exponential window of a hammer test's FRFs, from ``hits.yaml``.
+
+    The summary written beside ``frf.uff`` (:func:`write_hammer_result`); None when there is
+    none or it names no window.
+    """
+    p = Path(frf_file).parent / SUMMARY_FILE
+    if not p.is_file():
+        return None
+    from modal_twin.yaml_files import read_yaml
+
+    tau = read_yaml(p, "hits summary").get("tau_s")
+    return float(tau) if isinstance(tau, (int, float)) and tau > 0 else None
+
+
+def frf_modes_document(f_hz: FloatArray, zeta: FloatArray, shapes: ComplexArray,
+                       outputs: Sequence[tuple[str, str, str]], source: str) -> dict[str, Any]:
+    """Return modes identified from FRFs as a ``modes.json`` document (``update`` reads it).
+
+    ``outputs``: (channel name, node, direction) of each shape entry.
+    """
+    return {"method": "polymax", "source": source,
+            "dofs": [{"channel": name, "node": int(node) if node.isdigit() else None,
+                      "node_label": node, "direction": d} for name, node, d in outputs],
+            "modes": [{"f_hz": float(f_hz[k]), "zeta": float(zeta[k]), "std_f_hz": None,
+                       "shape_re": shapes[:, k].real.tolist(),
+                       "shape_im": shapes[:, k].imag.tolist()}
+                      for k in range(np.size(f_hz))]}
+
+
+def hit_summary_lines(folder: str | Path) -> list[str]:
+    """Return the counts of a hammer test in ``folder`` and one line per rejected hit.
+
+    Empty when the folder holds no ``hits.yaml`` (not an impact test); a summary that does
+    not read is said in one line.
+    """
+    p = Path(folder) / SUMMARY_FILE
+    if not p.is_file():
+        return []
+    from modal_twin.yaml_files import read_yaml
+
+    try:
+        doc = read_yaml(p, "hits summary")
+        out = [f"impact: {doc['hits_averaged']} hits averaged, {doc['hits_rejected']} "
+               f"rejected; FRF matrix {Path(folder) / FRF_FILE}, every hit's verdict {p}"]
+        out += [f"  rejected at {pt['name']}, sample {h['start_sample']}: {h['reason']}"
+                for pt in doc["points"] for h in pt["hits"] if not h["accepted"]]
+    except (ConfigError, KeyError, TypeError) as err:
+        return [f"impact: {p} does not read ({type(err).__name__}: {err})"]
+    return out

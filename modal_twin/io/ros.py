@@ -336,10 +336,14 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
         code = 1
     finally:
         if node is not None:
-            code = code or int(getattr(node, "exit_code", 0))
             close = getattr(node, "close", None)
-            if callable(close):
-                close()
+            if callable(close):  # what it writes at the end may set its exit code
+                try:
+                    close()
+                except Exception as err:  # said in one line, never a traceback
+                    node.get_logger().error(f"closing: {type(err).__name__}: {err}")
+                    code = 1
+            code = code or int(getattr(node, "exit_code", 0))
             node.destroy_node()
         rclpy.try_shutdown()
     return code

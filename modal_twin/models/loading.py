@@ -2,7 +2,8 @@
 
 A model file is a building structure file (``config/structures/*.yaml``), a vehicle file
 (``config/vehicles/*.yaml``), a matrix model of the user's FE tool (``.mat`` / ``.npz``:
-:mod:`modal_twin.models.matrix_factory`) or a model version file
+:mod:`modal_twin.models.matrix_factory`) or a frame file read as one
+(:mod:`modal_twin.models.frame_file`) or a model version file
 (:mod:`modal_twin.models.versions`: a structure with parameter values and the effects
 added so far). Every kind gives a factory with one protocol, so the twin, updating and
 the diagnosis never ask which kind they hold::
@@ -114,10 +115,11 @@ def with_effects(factory: ModelFactory, effects: Iterable[EffectSpec]) -> ModelF
 
 def _factory_of(structure: str | Path, theta: Mapping[str, float] | None,
                 n_modes: int | None) -> ModelFactory:
+    from modal_twin.models.frame_file import is_frame_file
     from modal_twin.models.matrix_model import MATRIX_SUFFIXES
     from modal_twin.models.vehicle_spec import is_vehicle_file
 
-    if Path(structure).suffix.lower() in MATRIX_SUFFIXES:
+    if Path(structure).suffix.lower() in MATRIX_SUFFIXES or is_frame_file(structure):
         from modal_twin.models.matrix_factory import MatrixFactory
 
         return MatrixFactory(structure, theta=theta, n_modes=n_modes)

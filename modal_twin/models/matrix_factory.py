@@ -1,4 +1,4 @@
-"""A model given as matrices by the user's FE tool, as a factory of plants for the twin.
+r"""A model given as matrices by the user's FE tool, as a factory of plants for the twin.
 
 M, K, substructures K_j, C and a DOF map (:mod:`modal_twin.models.matrix_model`) become a
 :class:`~modal_twin.models.loading.ModelFactory`: the twin and the diagnosis then treat
@@ -15,6 +15,15 @@ none), each with its node and direction, so a measured channel at the same node 
 direction meets it (:func:`~modal_twin.models.sensors.match_outputs`). The DOF labels
 ``"<node>:<direction>"`` give node and direction (:mod:`modal_twin.models.matrix_model`).
 A matrix model has no devices: effects that need one are refused by name.
+
+A model whose file names ``force_dofs`` (the points a hammer or a shaker hits; a frame file's
+``forces``) is driven by measured point forces there instead,
+
+.. math::
+   \ddot q + C \dot q + \Omega^2 q = \Phi_f^T f(t), \qquad \ddot x_s = \Phi_s \ddot q,
+
+its inputs named ``force_<node>_<direction>`` (quantity ``force``, each with its node and
+direction) and its channels the accelerations of the measured DOFs.
 """
 
 from __future__ import annotations
@@ -107,24 +116,21 @@ class MatrixFactory:
 
     @cached_property
     def _plant(self) -> Plant:
-        from modal_twin.models.fe.eigen import solve_modes
-
         mm = self.mm
         th = np.array([self.parameters()[n] for n in mm.names])
         K, M = mm.K(th), mm.M
         places = [dof_place(d) for d in mm.dofs]
         P = np.array([[1.0 if d == a else 0.0 for a in _AXES] for _, d in places])
         keep = np.flatnonzero(P.any(axis=0))
+        if mm.force_dofs:
+            return self._force_plant(K, M, places)
         if keep.size == 0:
             msg = (f"{self.structure_file}: no DOF label names a direction x / y / z "
                    "('<node>:<direction>'), so no base input can drive the model")
             raise ModelError(msg)
         P = P[:, keep]
-        r = self.n_modes or min(mm.n_dof, 30)
-        sol = solve_modes(K, M, r)
-        Phi, omega = sol.Phi, sol.omega
-        C = (Phi.T @ (mm.C @ Phi) if mm.C is not None
-             else np.diag(2.0 * self.zeta * omega))
+        Phi, omega, C = self._modes(K, M)
+        r = omega.size
         rows = (mm.measured_dofs if mm.measured_dofs.size
                 else np.flatnonzero(P.any(axis=1)))[:int(LIMITS["n_channels"].hi)]
         n_out = rows.size
@@ -140,6 +146,38 @@ class MatrixFactory:
         return Plant(system, tuple(f"a{_AXES[k]}" for k in keep),
                      ("acceleration",) * keep.size, tuple(chans),
                      tuple(("y", k) for k in range(n_out)), self.label)
+
+    def _modes(self, K: object, M: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Mass-normalised modes, natural frequencies (rad/s) and modal damping matrix."""
+        from modal_twin.models.fe.eigen import solve_modes
+
+        mm = self.mm
+        sol = solve_modes(K, M, self.n_modes or min(mm.n_dof, 30))
+        C = (sol.Phi.T @ (mm.C @ sol.Phi) if mm.C is not None
+             else np.diag(2.0 * self.zeta * sol.omega))
+        return sol.Phi, sol.omega, C
+
+    def _force_plant(self, K: object, M: object, places: list[tuple[str, str]]) -> Plant:
+        """Return the plant driven by point forces at ``force_dofs`` (module docstring)."""
+        mm = self.mm
+        Phi, omega, C = self._modes(K, M)
+        r = omega.size
+        rows = (mm.measured_dofs if mm.measured_dofs.size
+                else np.arange(mm.n_dof))[:int(LIMITS["n_channels"].hi)]
+        C_out = np.zeros((rows.size, 3 * r))
+        C_out[:, 2 * r:] = Phi[rows]
+        f = list(mm.force_dofs)
+        # the simulator's M q'' + C q' + K q = -Gamma u: a force enters as +Phi_f^T f
+        system = ReducedSystem(M=np.eye(r), C=C, K=np.diag(omega ** 2), Gamma=-Phi[f].T,
+                               devices=(), C_out=C_out, D_out=np.zeros((rows.size, len(f))))
+        chans = tuple(ChannelSpec(f"{places[i][0]}_{places[i][1]}" if places[i][1]
+                                  else f"dof{i}", "acceleration", places[i][0],
+                                  places[i][1], node=places[i][0]) for i in rows)
+        names = tuple(f"force_{places[i][0]}_{places[i][1]}" if places[i][1] else f"force_{i}"
+                      for i in f)
+        return Plant(system, names, ("force",) * len(f), chans,
+                     tuple(("y", k) for k in range(rows.size)), self.label,
+                     input_places=tuple(places[i] for i in f))
 
     def parameter_info(self, name: str) -> ParameterInfo:
         """Return what a substructure factor is: a stiffness of that substructure.

@@ -13,6 +13,9 @@ the one reader of matrix files, or any mapping of names to arrays):
   default ``"0".."n-1"``;
 - ``measDOFs`` / ``measured_dofs``: the DOFs of the sensors (``measDOFs`` is MATLAB's
   1-based; ``measured_dofs`` is 0-based);
+- ``force_dofs``: 0-based DOFs where a measured point force (a hammer, a shaker) drives
+  the structure (optional; a model with force DOFs is driven by those forces, one without
+  by uniform base motion: :class:`~modal_twin.models.matrix_factory.MatrixFactory`);
 - ``lower`` / ``upper``: bounds of ``theta`` (optional); ``parameter_names``: the order of
   the ``theta_j`` (optional; what :meth:`MatrixModel.to_arrays` writes).
 
@@ -83,6 +86,8 @@ class MatrixModel:
     lower, upper : (p,) float arrays or None
         Bounds of theta when the file gives them.
     source : str
+    force_dofs : tuple of int
+        0-based DOFs driven by measured point forces (empty: base motion drives it).
     """
 
     M: sp.csr_array
@@ -95,6 +100,7 @@ class MatrixModel:
     lower: FloatArray | None
     upper: FloatArray | None
     source: str = ""
+    force_dofs: tuple[int, ...] = ()
 
     @property
     def n_dof(self) -> int:
@@ -121,6 +127,8 @@ class MatrixModel:
                                "measured_dofs": self.measured_dofs}
         if self.C is not None:
             out["C"] = self.C
+        if self.force_dofs:
+            out["force_dofs"] = np.array(self.force_dofs, dtype=np.int64)
         for n, Kj in zip(self.names, self.K_j, strict=True):
             out[f"K_{n}"] = Kj
         if self.lower is not None and self.upper is not None:
@@ -220,9 +228,15 @@ def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
     if meas.size and (meas.min() < 0 or meas.max() >= n):
         msg = f"{source}: measured DOFs expected in [0, {n}), got [{meas.min()}, {meas.max()}]"
         raise ShapeError(msg)
+    force = np.asarray(a.get("force_dofs", np.zeros(0)), dtype=np.int64).ravel()
+    if force.size and (force.min() < 0 or force.max() >= n or np.unique(force).size
+                       != force.size):
+        msg = f"{source}: force_dofs expected distinct DOFs in [0, {n}), got {force.tolist()}"
+        raise ShapeError(msg)
     lo = np.asarray(a["lower"], dtype=float).ravel() if "lower" in a else None
     hi = np.asarray(a["upper"], dtype=float).ravel() if "upper" in a else None
-    return MatrixModel(M, K0, C, K_j, names, _dofs(a, n, source), meas, lo, hi, source)
+    return MatrixModel(M, K0, C, K_j, names, _dofs(a, n, source), meas, lo, hi, source,
+                       tuple(int(i) for i in force))
 
 
 def sparse_members(arrays: Mapping[str, Any]) -> dict[str, Any]:
@@ -374,7 +388,10 @@ def read_matrix_rules(path: str | Path) -> MatrixRules:
 
 def load_matrix_model(path: str | Path, *, rules: str | Path | MatrixRules | None = None
                       ) -> MatrixModel:
-    """Read a ``.mat`` / ``.npz`` matrix model: the one reader of matrix files.
+    """Read a ``.mat`` / ``.npz`` matrix model or a frame file: the one reader of matrix files.
+
+    A frame file (``kind: frame``, :mod:`modal_twin.models.frame_file`) gives the arrays of
+    its nominal frame.
 
     ``rules`` (a file, :func:`read_matrix_rules`) give the parameters' order and bounds a
     data set's file does not hold; its bounds replace any the file has.
@@ -388,7 +405,9 @@ def load_matrix_model(path: str | Path, *, rules: str | Path | MatrixRules | Non
     """
     from dataclasses import replace
 
-    arrays = read_matrix_arrays(path)
+    from modal_twin.models.frame_file import frame_arrays, is_frame_file
+
+    arrays = frame_arrays(path) if is_frame_file(path) else read_matrix_arrays(path)
     r = rules if isinstance(rules, MatrixRules) or rules is None else read_matrix_rules(rules)
     mm = matrix_model_from_arrays(arrays, str(path), r.parameters if r is not None else None)
     if r is not None and r.lower is not None and r.upper is not None:

@@ -56,6 +56,8 @@ class Plant:
     zeros : tuple of (channel index, offset, rate per s)
         Channels whose zero is off and creeps, ``offset + rate t`` (``t`` from the first
         sample the :class:`DelayLine` sees), added after the delays by the same line.
+    input_places : tuple of (node, direction)
+        Where each input acts, when it acts at a node (a point force); empty otherwise.
     """
 
     system: ReducedSystem
@@ -67,6 +69,7 @@ class Plant:
     readout: FloatArray | None = None
     delays_s: tuple[tuple[int, float], ...] = ()
     zeros: tuple[tuple[int, float, float], ...] = ()
+    input_places: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if len(self.sources) != len(self.channels):
@@ -80,6 +83,10 @@ class Plant:
         if len(self.input_names) != self.system.n_in:
             msg = (f"input_names: expected {self.system.n_in} (columns of Gamma), got "
                    f"{len(self.input_names)}")
+            raise ShapeError(msg)
+        if self.input_places and len(self.input_places) != len(self.input_names):
+            msg = (f"input_places: expected one per input ({len(self.input_names)}) or none, "
+                   f"got {len(self.input_places)}")
             raise ShapeError(msg)
 
     @property

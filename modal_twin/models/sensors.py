@@ -60,8 +60,13 @@ def measured_channels(plant: Plant, patterns: Sequence[str]) -> tuple[ChannelSpe
 def table_channels(plant: Plant) -> tuple[ChannelSpec, ...]:
     """Measured input channels ``table_<input>`` of a plant.
 
-    (table motion, track irregularity), each with the plant's quantity for it.
+    (table motion, track irregularity, a hammer's force), each with the plant's quantity
+    for it; an input acting at a node (``plant.input_places``) has its node and direction.
     """
+    if plant.input_places:
+        return tuple(ChannelSpec(f"table_{n}", q, "", d, node=node) for n, q, (node, d) in
+                     zip(plant.input_names, plant.input_quantities, plant.input_places,
+                         strict=True))
     return tuple(ChannelSpec(f"table_{n}", q, "table", n.removeprefix("a"))
                  for n, q in zip(plant.input_names, plant.input_quantities, strict=True))
 
