@@ -100,7 +100,8 @@ def read_frf_matrix(path: str | Path) -> tuple[FloatArray, ComplexArray, list[tu
     """
     frfs = [s for s in read_uff(path).spectra if s["func_type"] == 4]
     if not frfs:
-        msg = f"{path}: no FRF (UFF 58 function type 4) in the file"
+        msg = (f"{path}: no FRF (UFF 58 function type 4) in the file; time records of a "
+               "hammer test go through `modal-twin import` and `modal-twin impact` first")
         raise ConfigError(msg)
     outs: list[tuple[str, str]] = []
     ins: list[tuple[str, str]] = []

@@ -159,6 +159,20 @@ def test_the_excitation_drives_roving_hits_with_bounces_and_clipping() -> None:
     assert float(drive[1].max()) == pytest.approx(50.0, rel=1e-3)
 
 
+def test_every_nth_hit_struck_too_hard_is_the_one_overload() -> None:
+    cfg = ExcitationConfig(kind="impact", channels=("F1",), fs_hz=FS, duration_s=12.0,
+                           rms=(60.0,), impact_spacing_s=4.0, hits_per_point=3,
+                           overload_every=2, overload_n=90.0, tip_stiffness_n_m=2e4)
+    drive = make_drive(cfg)
+    starts = find_hits(drive[0], FS, block_s=3.0)
+    verdicts = [check_hit(drive[0, s:s + 3000], np.zeros((1, 3000)), FS) for s in starts]
+    # hit 2 at twice 60 N clips at 90 N; hits 1 and 3 at 60 N stay clean
+    assert [v.accepted for v in verdicts] == [True, False, True]
+    assert "overload" in verdicts[1].reason
+    assert float(drive[0].max()) == pytest.approx(90.0)
+    assert verdicts[0].peak_n == pytest.approx(60.0, rel=1e-3)
+
+
 def test_a_roving_hammer_test_of_a_three_mass_chain_identified_by_polymax(tmp_path) -> None:
     """Hits at each of three masses, accelerometers on all three: the FRF matrix, written as
     UFF 58 and read back, gives the chain's eigenfrequencies and modes by PolyMAX."""
