@@ -115,8 +115,10 @@ def write_side_files(out: str | Path, extra_files: dict[str, Any]) -> Path:
 def read_imported(bag: str | Path) -> tuple[SignalBlock, list[ChannelSpec]]:
     """Return the record of a bag as one block and its channel map.
 
-    The map comes from ``channel_map.json`` when the bag has one, else from the
-    channel names (:func:`modal_twin.channels.default_role`). A damaged bag gives its
+    The map comes from ``channel_map.json`` when the bag has one, else from the bag's
+    last ``/measurement/channels`` message (a run's bag: the acquisition's map, with
+    quantities, nodes and directions), else from the channel names
+    (:func:`modal_twin.channels.default_role`). A damaged bag gives its
     longest contiguous run; what was skipped and where is logged as one warning
     (:func:`~modal_twin.io.bag.read_frames`).
 
@@ -129,9 +131,24 @@ def read_imported(bag: str | Path) -> tuple[SignalBlock, list[ChannelSpec]]:
     if frames.skipped or frames.gaps:
         log.warning("bag %s, %s: %s", bag, FRAMES, frames.note(block))
     p = Path(bag) / MAP_FILE
-    if p.is_file():
-        chans = {c.name: c for c in read_channel_map(p)}
-        channels = [chans.get(n, ChannelSpec(n, "acceleration")) for n in block.channel_names]
-    else:
-        channels = [ChannelSpec(n, "acceleration") for n in block.channel_names]
+    chans = {c.name: c for c in (read_channel_map(p) if p.is_file() else _recorded_map(bag))}
+    channels = [chans.get(n, ChannelSpec(n, "acceleration")) for n in block.channel_names]
     return block, channels
+
+
+def _recorded_map(bag: str | Path) -> list[ChannelSpec]:
+    """Return the last channel map recorded on ``/measurement/channels`` (or none)."""
+    from modal_twin.errors import ModalTwinError
+    from modal_twin.io.bag import bag_info, read_messages
+    from modal_twin.io.convert import channel_map_from_msg
+
+    if CHANNELS not in {t.name for t in bag_info(bag).topics}:
+        return []
+    out: list[ChannelSpec] = []
+    for _, _, msg in read_messages(bag, [CHANNELS]):
+        try:
+            out = channel_map_from_msg(msg)
+        except (ModalTwinError, ValueError, TypeError, AttributeError) as err:
+            log.warning("bag %s, %s: a channel map that does not convert skipped (%s)",
+                        bag, CHANNELS, err)
+    return out

@@ -16,7 +16,7 @@ writes the FRF matrix of the four accepted hits. Known answers:
   hold, the factor :math:`\\mathrm{sinc}^2(\\omega T / 2)`) and the sampled response
   holds the aliases :math:`\\omega + k \\omega_s`;
 - the bounced and the overloaded hit are rejected, counted and named (hits.yaml, the
-  launcher's lines);
+  launcher's lines); ``modal-twin impact`` on the run's bag gives the same FRFs;
 - ``identify`` (PolyMAX + LSFD on frf.uff) finds the truth's seven modes below 420 Hz
   within 0.5 % and 2 % damping within 0.3 points (the window's damping removed);
 - ``update`` of the nominal frame file brings both contact stiffnesses within 0.02 of the
@@ -135,6 +135,14 @@ def test_impact_scenario_from_launch_to_updated_contact_stiffness(
     err = (np.linalg.norm((H - Hc)[..., band], axis=-1)
            / np.linalg.norm(Hc[..., band], axis=-1))
     assert err.max() < 0.02, np.round(err, 4)
+    # the run's bag holds the test: `impact` on it (the recorded channel map names the
+    # forces) gives the node's FRFs again
+    assert main(["impact", str(run / "bag"), "--block-s", str(acq["impact_block_s"]),
+                 "--tau-s", str(acq["impact_tau_s"]), "--force-range",
+                 str(acq["impact_force_range_n"]), "--out", str(tmp_path / "again")]) == 0
+    _, H2, outs2, ins2 = read_frf_matrix(tmp_path / "again" / "frf.uff")
+    assert (outs2, ins2) == (outs, ins)
+    np.testing.assert_allclose(H2, H, rtol=0, atol=1e-12 * np.abs(H).max())
 
     assert main(["identify", str(run / "impact" / "frf.uff"), "--f-max", "420",
                  "--out", str(tmp_path / "modes")]) == 0
