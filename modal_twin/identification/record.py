@@ -34,7 +34,11 @@ channel map and does, in this order and for every caller alike:
    no mode, and said; its dropped columns from
    :func:`~modal_twin.identification.stabilization.dropped_columns`. The stabilization
    diagram (flags of [004]) and the singular values of the output PSD matrix (CMIF) come
-   with the modes either way.
+   with the modes either way. Output-only PolyMAX then keeps the selected modes that stand
+   on a peak of the half-spectra they were fitted to
+   (:func:`~modal_twin.identification.polymax_oma.spectral_support`: prominence above two
+   standard errors of the lag-window PSD, within the pole's half-power width); the others
+   are listed as not reported, with that reason.
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ from modal_twin.identification.feedback import FEEDBACK, input_feedback
 from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
 from modal_twin.identification.polymax import polymax
+from modal_twin.identification.polymax_oma import half_spectra_support
 from modal_twin.identification.ssi_cov import correlations, ssi_cov
 from modal_twin.identification.stabilization import (
     REL_SUPPORT,
@@ -630,6 +635,11 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
         sweep, opts, s.band_hz, notes,
         harmonic=lambda f: is_harmonic(yq, s.fs_hz, f),  # a column damped at about zero
         io=bool(ins))
+    if spectra and spectra[0][2] > 0:  # output-only PolyMAX: modes on peaks of the data
+        mm, gone, note = half_spectra_support(mm, spectra[0][1], spectra[0][0],
+                                              spectra[0][2], yq.shape[1], s.fs_hz, sweep)
+        drop = sorted(drop + gone, key=lambda d: d.f_hz)
+        notes.append(note)
     if spectra:
         mm = _lsfd_shapes(mm, spectra[0], s.band_hz)
     return RecordModes(method, tuple(ins), tuple(outs), s, sweep, diag, mm, relaxed,
