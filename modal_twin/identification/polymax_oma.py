@@ -14,8 +14,13 @@ standard error for a record of :math:`N` samples is
 .. math:: \varepsilon = \sqrt{\tfrac{1}{N} \sum_{|k| < L} w_{|k|}^2}
 
 (Priestley 1981, *Spectral Analysis and Time Series*, Eq. (6.2.124); with the window of
-:func:`~modal_twin.identification.record.half_spectra`, :math:`N \beta \approx 4 \ln 100`
-and :math:`\varepsilon \approx 0.23`). :func:`lag_window_error` evaluates the finite sum.
+:func:`~modal_twin.identification.record.half_spectra` to 1 % over :math:`N / 4` lags,
+:math:`N \beta \approx 4 \ln 100` and :math:`\varepsilon \approx 0.23`).
+:func:`lag_window_error` evaluates the finite sum; :func:`correlations_fft` gives the
+correlations of every lag from one FFT of the record.
+
+**Sub-bands** (:func:`polymax_banded`): the band is fitted octave by octave, each with its
+own z-domain basis, the poles of each octave's core merged per order.
 
 **Physical-pole test** (:func:`spectral_support`): a mode is what makes a peak of the
 response spectrum, so a pole PolyMAX selects from the half-spectra is reported only where
@@ -37,14 +42,23 @@ import scipy.signal as sig
 
 from modal_twin._types import BoolArray, ComplexArray, FloatArray
 from modal_twin.errors import ShapeError
-from modal_twin.identification.modal_model import ModalModel, PoleSweep
+from modal_twin.identification.modal_model import ModalModel, PoleSet, PoleSweep
+from modal_twin.identification.polymax import polymax
 from modal_twin.identification.stabilization import DroppedColumn
 
-__all__ = ["N_ERRORS", "half_spectra_support", "lag_window_error", "spectral_support"]
+__all__ = ["BAND_RATIO", "N_ERRORS", "correlations_fft", "half_spectra_support",
+           "lag_window_error", "polymax_banded", "polymax_bands", "spectral_support"]
 
+BAND_RATIO = 2.0
+"""Upper over lower edge of a PolyMAX sub-band (an octave)."""
+BAND_OVERLAP = 0.15
+"""Each sub-band is fitted over its core widened by this fraction on each side; only the
+poles in the core are kept (a pole at a fitted band's edge is biased by the modes outside)."""
 N_ERRORS = 2.0
 """A supporting peak rises above its surroundings by this many standard errors of the PSD
-estimate (about 95 % of the estimate's scatter stays below it)."""
+estimate (about 95 % of a Gaussian scatter stays below it; with the window of
+:func:`~modal_twin.identification.record.half_spectra` over a quarter of the record,
+:math:`\varepsilon \approx 0.23` and the threshold 1.7 dB)."""
 
 
 def lag_window_error(beta: float, n_lags: int, n_samples: int) -> float:
@@ -163,3 +177,88 @@ def half_spectra_support(modes: ModalModel, f_hz: FloatArray, S: ComplexArray, s
             f"error {100 * eps:.0f} %) within its half-power half-width; {len(dropped)} of "
             f"{modes.f_hz.size} selected dropped")
     return kept, dropped, note
+
+
+def polymax_bands(band_hz: tuple[float, float], f_hz: FloatArray, min_lines: int,
+                  ratio: float = BAND_RATIO) -> list[tuple[float, float]]:
+    """Cores of the sub-bands of ``band_hz``: octaves (``ratio``), each with ``min_lines``.
+
+    Adjacent octaves are merged until each holds at least ``min_lines`` lines of
+    ``f_hz`` (a last short one joins the one below); a band too narrow for two is one core.
+    """
+    lo, hi = band_hz
+    f = np.asarray(f_hz, dtype=float)
+    edges = [lo]
+    while edges[-1] * ratio < hi and edges[-1] > 0:
+        edges.append(edges[-1] * ratio)
+    edges.append(hi)
+
+    def lines(a: float, b: float) -> int:
+        return int(np.count_nonzero((f >= a) & (f <= b)))
+
+    out: list[tuple[float, float]] = []
+    a = edges[0]
+    for b in edges[1:]:
+        if lines(a, b) >= min_lines or b == hi:
+            out.append((a, b))
+            a = b
+    if len(out) > 1 and lines(*out[-1]) < min_lines:
+        out[-2:] = [(out[-2][0], out[-1][1])]
+    return out
+
+
+def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
+                   band_hz: tuple[float, float], *, ratio: float = BAND_RATIO,
+                   overlap: float = BAND_OVERLAP) -> tuple[PoleSweep, list[tuple[float, float]]]:
+    r"""PolyMAX (:func:`~modal_twin.identification.polymax.polymax`) fitted per sub-band.
+
+    The linearised cost of pLSCF (Eqs. (1)-(4) of [002]) sums :math:`|B - H A|^2` over the
+    lines, so over a wide band (a bridge's 0.3-39 Hz, the spectrum falling by 60 dB) the
+    strong modes' lines set the denominator and a weak or low mode, crowded near
+    :math:`z = 1` by the basis of the whole band, needs orders beyond the diagram's. As
+    test engineers fit PolyMAX band by band, each sub-band of :func:`polymax_bands`
+    (octaves with at least 4 p_max lines) is fitted on its own, over its core widened by
+    ``overlap``, with its own basis (Eq. (3): :math:`\Delta t = 1 / 2 f_{\max}` of the
+    fitted band); the poles in the core make that order's set. Numerator shapes.
+
+    Returns
+    -------
+    (PoleSweep, list of (float, float))
+        The merged poles of every order and the sub-bands' cores.
+    """
+    cores = polymax_bands(band_hz, f_hz, 4 * max(orders), ratio)
+    parts = []
+    for a, b in cores:
+        fit = (max(band_hz[0], a / (1 + overlap)), min(band_hz[1], b * (1 + overlap)))
+        parts.append((a, b, polymax(H, f_hz, orders=orders, band_hz=fit, shapes="numerator")))
+    sets = []
+    for k, p in enumerate(orders):
+        keep = [(sw.poles[k], (sw.poles[k].f_hz >= a) & (sw.poles[k].f_hz < b))
+                for a, b, sw in parts]
+        sets.append(PoleSet(
+            int(p), np.concatenate([q.f_hz[m] for q, m in keep]),
+            np.concatenate([q.zeta[m] for q, m in keep]),
+            np.concatenate([q.shapes[:, m] for q, m in keep], axis=1),
+            np.concatenate([q.std_f_hz[m] for q, m in keep]),
+            np.concatenate([q.std_zeta[m] for q, m in keep])))
+    return PoleSweep("polymax", np.asarray(orders, dtype=np.int64), tuple(sets), np.zeros(0),
+                     0), cores
+
+
+def correlations_fft(y: FloatArray, n_lags: int) -> FloatArray:
+    r"""Unbiased output correlations :math:`R_k = \sum_s y_{s+k} y_s^T / (N - k)`, k < n_lags.
+
+    The exact lag sums of every channel pair from one zero-padded FFT of the record
+    (:math:`O(c^2 N \log N)`, the many lags of the half-spectra included). Same layout as
+    :func:`~modal_twin.identification.ssi_cov.correlations` with every output a reference:
+    ``R[k, o, r]`` pairs output o at s + k with reference r at s.
+    """
+    c, n = y.shape
+    L = max(1, min(int(n_lags), n))
+    nfft = int(2 ** np.ceil(np.log2(2 * n)))
+    Y = np.fft.rfft(y, n=nfft, axis=1)
+    out = np.empty((L, c, c))
+    for r in range(c):  # sum_s y_o[s + k] y_r[s] = IFFT(Y_o conj(Y_r))[k], one reference a pass
+        out[:, :, r] = np.fft.irfft(Y * np.conj(Y[r]), n=nfft, axis=1)[:, :L].T
+    res: FloatArray = out / (n - np.arange(L))[:, None, None]
+    return res
