@@ -5,7 +5,10 @@ by the closed-form standard error :math:`\\sqrt{\\sum w_k^2 / N}` (Priestley 198
 (6.2.124)); (2) on the 5-DOF chain of ``test_polymax_chain`` (its own eigenproblem, exact
 discretisation, every mass driven by white noise for 65 s), the five true modes stand on
 peaks of the half-spectra and are kept, while poles put in the valleys between them (as a
-high-order fit of a short record puts noise poles) are dropped, each with its reason.
+high-order fit of a short record puts noise poles) are dropped, each with its reason;
+(3) the correlations from one FFT are the exact lag sums; (4) seven modes of a closed-form
+spectrum over 0.3-39 Hz (5 % noise) are found at every order when fitted octave by octave,
+while one fit of the whole band loses its lowest modes at many orders.
 """
 
 from __future__ import annotations
