@@ -17,12 +17,19 @@ channel map and does, in this order and for every caller alike:
    the number of averages: the share of the output power the inputs explain) is at least
    :data:`COHERENT` and, on a transient record, that the outputs do not feed back
    (:mod:`~modal_twin.identification.feedback`), else ``ssi-cov``; PolyMAX uses the
-   map's inputs by the same rules (named inputs always); the choice and its reason are
-   said.
+   map's inputs by the same rules and only where its H1 lines resolve a
+   :data:`H1_ZETA`-damped mode at the band's centre (named inputs always); the choice and
+   its reason are said. On the real records of ../shared/realdata this rule makes
+   PolyMAX output-only (Hayward: coherence 0.64-0.66; Berkeley, Rio Dell: coherent but
+   fed back 20 % / 17 %, and H1 lines of 0.31 / 0.2 Hz).
 3. **Settings** (:func:`~modal_twin.identification.auto.choose_settings`): band,
    decimation, block rows and orders from the record, each one replaced by a given
    option; a given option the record cannot support is an error naming the limit. The
-   H1 segments (PolyMAX) are the longest power of two with ``2 n_in + 2`` averages.
+   H1 segments (PolyMAX) are the longest power of two with ``max(2 n_in + 2, 8)``
+   averages (:func:`welch_segment`). Output-only PolyMAX: correlations over a quarter of
+   the record (the exponential window to 1 % adds a decay of 4 ln(100) / T, taken back
+   out of the poles), fitted octave by octave
+   (:func:`~modal_twin.identification.polymax_oma.polymax_banded`).
 4. **Selection**: by default (``selection="clusters"``; PolyMAX on H1 keeps the rule of
    [004] unless asked) hierarchical clustering of the
    poles of every order (:mod:`~modal_twin.identification.clustering`, Magalhaes et al.
@@ -34,7 +41,11 @@ channel map and does, in this order and for every caller alike:
    no mode, and said; its dropped columns from
    :func:`~modal_twin.identification.stabilization.dropped_columns`. The stabilization
    diagram (flags of [004]) and the singular values of the output PSD matrix (CMIF) come
-   with the modes either way.
+   with the modes either way. Output-only PolyMAX then keeps the selected modes that stand
+   on a peak of the half-spectra they were fitted to
+   (:func:`~modal_twin.identification.polymax_oma.spectral_support`: prominence above two
+   standard errors of the lag-window PSD, within the pole's half-power width); the others
+   are listed as not reported, with that reason.
 """
 
 from __future__ import annotations
@@ -57,7 +68,12 @@ from modal_twin.identification.feedback import FEEDBACK, input_feedback
 from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
 from modal_twin.identification.polymax import polymax
-from modal_twin.identification.ssi_cov import correlations, ssi_cov
+from modal_twin.identification.polymax_oma import (
+    correlations_fft,
+    half_spectra_support,
+    polymax_banded,
+)
+from modal_twin.identification.ssi_cov import ssi_cov
 from modal_twin.identification.stabilization import (
     REL_SUPPORT,
     DroppedColumn,
@@ -317,7 +333,7 @@ def half_spectra(y: FloatArray, fs_hz: float, n_lags: int, *, decay: float = 0.0
     sigma_w : float
         The window's added decay rate :math:`\beta f_s` (1/s).
     """
-    R = correlations(y, y, n_lags)  # (L, out, ref)
+    R = correlations_fft(y, n_lags)  # (L, out, ref), unbiased
     beta = -math.log(decay) / max(n_lags - 1, 1)
     w = np.exp(-beta * np.arange(n_lags))
     w[0] = 0.5
@@ -369,7 +385,7 @@ def _polymax(u: FloatArray, y: FloatArray, s: AutoSettings, notes: list[str],
         est = frf(u, y, s.fs_hz, nperseg=seg)
         H, f, m = est.H1, est.f_hz, u.shape[0]
         notes.append(f"PolyMAX on H1: {seg}-sample segments ({s.fs_hz / seg:.3g} Hz lines), "
-                     f"{est.n_averages} averages (>= 2 x {m} inputs + 2)")
+                     f"{est.n_averages} averages (>= max(2 x {m} inputs + 2, 8))")
         shift = 0.0
     else:
         lags = max(16, n // 4)
@@ -380,7 +396,13 @@ def _polymax(u: FloatArray, y: FloatArray, s: AutoSettings, notes: list[str],
                      f"window to 1 % (its damping {shift:.3g} 1/s added back)")
     lines = int(np.count_nonzero((f >= s.band_hz[0]) & (f <= s.band_hz[1]) & (f > 0)))
     p_max = polymax_orders(s, m, lines, y.shape[0])
-    sweep = polymax(H, f, orders=range(2, p_max + 1), band_hz=s.band_hz, shapes="numerator")
+    if shift:  # half-spectra: fitted octave by octave (polymax_oma.polymax_banded)
+        sweep, cores = polymax_banded(H, f, list(range(2, p_max + 1)), s.band_hz)
+        notes.append(f"PolyMAX fitted per sub-band ({len(cores)}: "
+                     + ", ".join(f"{a:.3g}-{b:.3g}" for a, b in cores) + " Hz)")
+    else:
+        sweep = polymax(H, f, orders=range(2, p_max + 1), band_hz=s.band_hz,
+                        shapes="numerator")
     keep.append((H, f, shift))
     sweep = replace(sweep, poles=tuple(replace(p, shapes=np.nan_to_num(p.shapes))
                                        for p in sweep.poles))  # no numerator: MAC 0
@@ -630,6 +652,11 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
         sweep, opts, s.band_hz, notes,
         harmonic=lambda f: is_harmonic(yq, s.fs_hz, f),  # a column damped at about zero
         io=bool(ins))
+    if spectra and spectra[0][2] > 0:  # output-only PolyMAX: modes on peaks of the data
+        mm, gone, note = half_spectra_support(mm, spectra[0][1], spectra[0][0],
+                                              spectra[0][2], yq.shape[1], s.fs_hz, sweep)
+        drop = sorted(drop + gone, key=lambda d: d.f_hz)
+        notes.append(note)
     if spectra:
         mm = _lsfd_shapes(mm, spectra[0], s.band_hz)
     return RecordModes(method, tuple(ins), tuple(outs), s, sweep, diag, mm, relaxed,
