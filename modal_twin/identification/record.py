@@ -35,7 +35,9 @@ channel map and does, in this order and for every caller alike:
    poles of every order (:mod:`~modal_twin.identification.clustering`, Magalhaes et al.
    2009 with a cut-off from the data): each cluster's median reported with its size,
    every cluster not reported with its reason (too few poles, damping out of range, MPC
-   below :data:`MPC_MIN`, a duplicate). ``selection="stability"`` is the earlier rule
+   below :data:`MPC_MIN`, output-only no peak of its own in the output spectrum along its
+   shape, :func:`~modal_twin.identification.clustering.spectral_peak`, a duplicate).
+   ``selection="stability"`` is the earlier rule
    (:mod:`~modal_twin.identification.stabilization`): stability with the thresholds of
    [004] (1 % frequency, 5 % damping, MAC 0.95), relaxed (2 %, 20 %, 0.9) when they give
    no mode, and said; its dropped columns from
@@ -63,7 +65,12 @@ from modal_twin.acquisition.decimation import decimate
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import OptionError, SignalError
 from modal_twin.identification.auto import AutoSettings, choose_settings, rms_spread
-from modal_twin.identification.clustering import ZETA_MIN, cluster_modes, is_harmonic
+from modal_twin.identification.clustering import (
+    ZETA_MIN,
+    cluster_modes,
+    is_harmonic,
+    spectral_peak,
+)
 from modal_twin.identification.feedback import FEEDBACK, input_feedback
 from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
@@ -477,13 +484,14 @@ def _coherence(u: FloatArray, y: FloatArray, fs_hz: float, band: tuple[float, fl
 
 def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float],
             notes: list[str], harmonic: Callable[[float], bool] | None = None,
-            io: bool = True
+            io: bool = True,
+            spectrum: Callable[[float, float, ComplexArray], bool] | None = None
             ) -> tuple[StabilizationDiagram, ModalModel, bool, list[DroppedColumn]]:
     rule = opts.selection or ("stability" if sweep.method == "polymax" and io else "clusters")
     if rule == "clusters":
         diag = stabilization_diagram(sweep, **opts.thresholds)
         cm = cluster_modes(diag, zeta_max=opts.zeta_max, f_range_hz=band, mpc_min=MPC_MIN,
-                           harmonic=harmonic)
+                           harmonic=harmonic, spectrum=None if io else spectrum)
         notes.append(f"modes by clustering the poles of {len(sweep.orders)} orders: cut-off "
                      f"distance {cm.cutoff:.3f} from the data, a mode needs {cm.n_min} poles "
                      f"with damping in ({100 * ZETA_MIN:g}, {100 * opts.zeta_max:g} %) and MPC >= "
@@ -651,7 +659,7 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     diag, mm, relaxed, drop = _select(
         sweep, opts, s.band_hz, notes,
         harmonic=lambda f: is_harmonic(yq, s.fs_hz, f),  # a column damped at about zero
-        io=bool(ins))
+        io=bool(ins), spectrum=spectral_peak(yq, s.fs_hz))  # output-only: a mode peaks
     if spectra and spectra[0][2] > 0:  # output-only PolyMAX: modes on peaks of the data
         mm, gone, note = half_spectra_support(mm, spectra[0][1], spectra[0][0],
                                               spectra[0][2], yq.shape[1], s.fs_hz, sweep)

@@ -95,6 +95,7 @@ def ssi_cov(
     ref_channels: ArrayLike | None = None,
     n_blocks_std: int = 8,
     f_min_hz: float | None = None,
+    scale_groups: ArrayLike | None = None,
 ) -> PoleSweep:
     """Output-only SSI-cov poles, damping, shapes and their spread for every order.
 
@@ -119,6 +120,11 @@ def ssi_cov(
     f_min_hz : float, optional
         Lowest natural frequency of interest; sets the default horizon (see
         ``block_rows``). Ignored when ``block_rows`` is given.
+    scale_groups : array_like, optional
+        A label per channel: the channels of one label share one scale, their joint RMS
+        (channels of one quantity keep their relative power, as in the textbook SSI-cov
+        of Peeters & De Roeck 1999 and pyOMA2, so a weak, noise-dominated channel is not
+        raised to the level of the strong ones). Default: each channel its own scale.
 
     Returns
     -------
@@ -164,7 +170,7 @@ def ssi_cov(
         )
         raise ShapeError(msg)
     o = check_orders(orders, min(l * (i - 1), r * i), f"rank limit of {l * i} x {r * i} Toeplitz")
-    scale = np.sqrt(np.mean((Y - Y.mean(axis=1, keepdims=True)) ** 2, axis=1))
+    scale = _channel_scales(Y, scale_groups)
     Ys = (Y - Y.mean(axis=1, keepdims=True)) / scale[:, None]
     T, Tb = _toeplitz_blocks(Ys, ref, i, nb)
     # the one factorisation for every order: T T^T = U S^2 U^T (symmetric eigen-solve,
@@ -175,6 +181,21 @@ def ssi_cov(
     G_blocks = [(Tk @ TtG) * s2_inv for Tk in Tb]  # O_b = T_b V S^-1 with V = T^T U S^-1
     poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=scale)
     return PoleSweep("ssi-cov", o, poles, s, len(G_blocks))
+
+
+def _channel_scales(Y: FloatArray, groups: ArrayLike | None) -> FloatArray:
+    """RMS of each channel, or the joint RMS of its group (``scale_groups``)."""
+    ms = np.mean((Y - Y.mean(axis=1, keepdims=True)) ** 2, axis=1)
+    if groups is None:
+        return np.asarray(np.sqrt(ms), dtype=float)
+    g = np.asarray(groups)
+    if g.shape != (Y.shape[0],):
+        msg = f"scale_groups: expected one label per channel ({Y.shape[0]}), got {g.shape}"
+        raise OptionError(msg)
+    out = np.empty(Y.shape[0])
+    for lab in np.unique(g):
+        out[g == lab] = np.sqrt(np.mean(ms[g == lab]))
+    return out
 
 
 def _toeplitz_blocks(Ys: FloatArray, ref: IntArray, i: int, nb: int

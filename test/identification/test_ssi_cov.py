@@ -117,3 +117,29 @@ def test_unequal_channel_scales_move_no_pole(data: tuple) -> None:
     mm = select_modes(stabilization_diagram(b))
     np.testing.assert_allclose(mm.f_hz, f, rtol=3e-3)
     assert np.diag(mac(mm.shapes, units[:, None] * Phi)).min() > 0.99
+
+
+def test_channels_of_one_group_keep_their_relative_power(data: tuple) -> None:
+    """``scale_groups``: a group shares one scale. A unit change of one group (x 1e3 on
+    channels 3-4) moves no pole; a channel's weight within its group is its own power,
+    so scaling one channel alone does move them (per-channel scaling undoes that, and is
+    the default, the same as one group per channel)."""
+    y, fs, _f, _z, _Phi = data
+    y = y[:, :40_000]
+    kw = {"orders": range(2, 21, 2), "n_blocks_std": 0}
+    two = ["acceleration", "acceleration", "acceleration", "strain", "strain"]
+    a = ssi_cov(y, fs, scale_groups=two, **kw)
+    b = ssi_cov(np.r_[y[:3], 1e3 * y[3:]], fs, scale_groups=two, **kw)
+    for p, q in zip(a.poles, b.poles, strict=True):
+        np.testing.assert_allclose(q.f_hz, p.f_hz, rtol=1e-8)
+    gain = np.array([1.0, 1.0, 1.0, 1.0, 10.0])[:, None]  # channel 5 ten times louder
+    c = ssi_cov(gain * y, fs, scale_groups=["g"] * 5, **kw)
+    d = ssi_cov(gain * y, fs, scale_groups=list("abcde"), **kw)
+    e = ssi_cov(y, fs, **kw)
+    moved = max(np.max(np.abs(p.f_hz - q.f_hz)) for p, q in zip(c.poles, e.poles, strict=True)
+                if p.f_hz.size == q.f_hz.size)
+    assert moved > 1e-6
+    for p, q in zip(d.poles, e.poles, strict=True):
+        np.testing.assert_allclose(q.f_hz, p.f_hz, rtol=1e-8)
+    with pytest.raises(OptionError, match="scale_groups: expected one label per channel"):
+        ssi_cov(y, fs, scale_groups=["g"] * 4, **kw)
