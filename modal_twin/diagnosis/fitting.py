@@ -110,11 +110,13 @@ def warm_up_kernels(plant: Plant, fs_hz: float = 1000.0) -> float:
     evaluated once (:meth:`~modal_twin.models.devices.base.Device.evaluate`: the simulator
     of a candidate's plant asks its law for the stiffness at rest) and driven along a
     history (:meth:`~modal_twin.models.devices.base.Device.respond`, as the evidence and
-    the behaviour labels drive the laws). Every law is a branch of those kernels, so one
-    call serves every candidate. Tens of seconds on a cold numba cache,
+    the behaviour labels drive the laws), and the stop operator of the evidence's
+    hysteresis terms (:func:`.restoring_force.stop_operator`). Every law is a branch of
+    those kernels, so one call serves every candidate. Tens of seconds on a cold numba cache,
     about a second from the disk cache; a node calls it before it says ready
     (:func:`modal_twin.io.ros.compile_kernels`) so that its first request does not wait.
     """
+    from modal_twin.diagnosis.restoring_force import stop_operator
     from modal_twin.models.devices.linear import LinearDevice
 
     t0 = time.perf_counter()
@@ -122,6 +124,7 @@ def warm_up_kernels(plant: Plant, fs_hz: float = 1000.0) -> float:
     law = LinearDevice([1.0], [0.0])
     law.evaluate(np.zeros(2), np.zeros(2), law.initial_state())
     law.respond(np.zeros((1, 2)))
+    stop_operator(np.zeros(2), 1.0)
     return time.perf_counter() - t0
 
 

@@ -5,8 +5,8 @@ dispatchers of the simulator and of the device laws hold no signature after the 
 :func:`~modal_twin.diagnosis.fitting.warm_up_kernels` of the nominal building gives the
 simulator's kernel, the law at rest and the law driver one each; then what a first
 diagnosis runs (the nominal model and a model with a Bouc-Wen isolator simulated on a
-record, a rate law driven along a drift history as the evidence and the labels drive it)
-adds none: nothing is compiled after the warm-up.
+record, a rate law driven along a drift history as the evidence and the labels drive it,
+the evidence's stop operator) adds none: nothing is compiled after the warm-up.
 """
 
 from __future__ import annotations
@@ -31,8 +31,10 @@ from modal_twin.models.building_factory import BuildingFactory
 from modal_twin.models.devices.maxwell import MaxwellDamper
 from modal_twin.models.effects import EffectSpec
 
-mods = [modal_twin.twin.kernels] + [importlib.import_module(f"{devices.__name__}.{m.name}")
-                                    for m in pkgutil.iter_modules(devices.__path__)]
+import modal_twin.diagnosis.restoring_force as restoring_force
+mods = [modal_twin.twin.kernels, restoring_force] + [
+    importlib.import_module(f"{devices.__name__}.{m.name}")
+    for m in pkgutil.iter_modules(devices.__path__)]
 jitted = {f"{m.__name__}.{k}": v for m in mods for k, v in vars(m).items()
           if isinstance(v, CPUDispatcher)}
 
@@ -56,6 +58,7 @@ simulate_record(factory.plant([EffectSpec("RB1", "bouc_wen", {"uy": 0.02, "alpha
 law = MaxwellDamper([1e6], [5e6], [1e4], name="SDP1")  # a rate law: dt given
 u = 0.01 * np.sin(np.linspace(0, 20, n))[None]
 law.respond(u, np.gradient(u, 1 / fs, axis=1), dt=1 / fs)
+restoring_force.stop_operator(u[0], 0.002)
 print(json.dumps({"at_import": at_import, "warm": warm, "after": compiled(), "took": took}))
 """
 
@@ -67,6 +70,7 @@ def test_warm_up_compiles_what_a_first_diagnosis_runs() -> None:
     doc = json.loads(out.strip().splitlines()[-1])
     kernels = "modal_twin.twin.kernels.run_block"
     laws = [f"modal_twin.models.devices._dispatch.{k}" for k in ("evaluate_law", "drive_law")]
+    stop = "modal_twin.diagnosis.restoring_force._stop"
     assert not any(doc["at_import"].values())  # a fresh interpreter: nothing yet
-    assert [doc["warm"][k] for k in (kernels, *laws)] == [1, 1, 1]
+    assert [doc["warm"][k] for k in (kernels, *laws, stop)] == [1, 1, 1, 1]
     assert doc["after"] == doc["warm"]  # the first request compiles nothing more
