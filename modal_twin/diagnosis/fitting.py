@@ -30,7 +30,7 @@ from modal_twin.models.plant import Plant
 from modal_twin.twin.simulator import Simulator
 
 __all__ = ["FittedEffect", "SimulationObjective", "fit_effect", "judge_fit", "normalised_residual",
-           "record_nmse", "simulate_record", "threshold_start"]
+           "record_nmse", "simulate_record", "threshold_start", "warm_up_kernels"]
 
 log = logging.getLogger(__name__)
 
@@ -100,6 +100,32 @@ def simulate_record(plant: Plant, rec: Record) -> FloatArray:
     y = plant.measure(sim.step_block(ag), plant.delay_line(rec.fs_hz))
     names = plant.channel_names
     return y[[names.index(n) for n in rec.channel_names]]
+
+
+def warm_up_kernels(plant: Plant, fs_hz: float = 1000.0) -> float:
+    """Compile the numba kernels a diagnosis of ``plant`` runs; return the seconds it took.
+
+    The simulator as :func:`simulate_record` runs it (without modal histories;
+    :meth:`~modal_twin.twin.simulator.Simulator.warm_up`: two samples at rest), a device law
+    evaluated once (:meth:`~modal_twin.models.devices.base.Device.evaluate`: the simulator
+    of a candidate's plant asks its law for the stiffness at rest) and driven along a
+    history (:meth:`~modal_twin.models.devices.base.Device.respond`, as the evidence and
+    the behaviour labels drive the laws), and the stop operator of the evidence's
+    hysteresis terms (:func:`.restoring_force.stop_operator`). Every law is a branch of
+    those kernels, so one call serves every candidate. Tens of seconds on a cold numba cache,
+    about a second from the disk cache; a node calls it before it says ready
+    (:func:`modal_twin.io.ros.compile_kernels`) so that its first request does not wait.
+    """
+    from modal_twin.diagnosis.restoring_force import stop_operator
+    from modal_twin.models.devices.linear import LinearDevice
+
+    t0 = time.perf_counter()
+    Simulator(plant.system, 1.0 / fs_hz, modal_histories=False).warm_up()
+    law = LinearDevice([1.0], [0.0])
+    law.evaluate(np.zeros(2), np.zeros(2), law.initial_state())
+    law.respond(np.zeros((1, 2)))
+    stop_operator(np.zeros(2), 1.0)
+    return time.perf_counter() - t0
 
 
 _SAID: set[tuple[str, tuple[str, ...]]] = set()

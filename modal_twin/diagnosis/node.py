@@ -20,7 +20,7 @@ from modal_twin.diagnosis.service import DiagnosisService
 from modal_twin.io.convert import block_from_msg
 from modal_twin.io.params import declare_config
 from modal_twin.io.report_convert import diagnosis_to_msg, version_to_parameters_msg
-from modal_twin.io.ros import guarded, guarded_service, qos_for, report, run_node
+from modal_twin.io.ros import compile_kernels, guarded, guarded_service, qos_for, report, run_node
 from modal_twin.io.status import status_of
 from modal_twin.paths import resolve_config
 
@@ -65,6 +65,7 @@ class DiagnosisNode(Node):
                             guarded_service(self, "~/add_effect", self._on_add))
         if self.cfg.period_s > 0:
             self.create_timer(self.cfg.period_s, guarded(self, "live diagnosis", self._live))
+        compile_kernels(self, self.service.warm_up)  # before ready: ~/run does not wait
 
     def _on_frame(self, msg: SignalBlockMsg) -> None:
         v = self.service.add_frame(block_from_msg(msg))

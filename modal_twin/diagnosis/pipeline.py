@@ -88,6 +88,10 @@ class Diagnosis:
     # every round's ranked fits and its decision (empty: one round, ``fitted`` / ``summary``)
     round_fits: tuple[tuple[FittedEffect, ...], ...] = ()
     round_summaries: tuple[str, ...] = ()
+    # per round its heading (the model it ran on; a law chosen again: which and where) and
+    # the fit it took (None: none); empty: the headings and fits of forward rounds only
+    round_titles: tuple[str, ...] = ()
+    round_added: tuple[FittedEffect | None, ...] = ()
 
     @property
     def evidence(self) -> tuple[DeviceEvidence, ...]:
@@ -136,8 +140,10 @@ class Diagnosis:
         One table for ``diagnose`` and ``effects add --auto``: per candidate its place,
         family (with the law fitted and what it does), NRMSE before -> after on the
         training and held-out records, BIC, and ADDED / accepted / FLAGGED (why) /
-        REJECTED (the record and the figure it failed on); per round its decision; last,
-        the effects found (after the joint refit).
+        REJECTED (the record and the figure it failed on); per round its decision; a round
+        that chose an early device law again (:func:`_reselected`) as its own round, the
+        law it took in place of the first marked ADDED; last, the effects found (after the
+        joint refit).
         """
         fits = self.round_fits or (self.fitted,)
         summaries = self.round_summaries or (self.summary,)
@@ -145,8 +151,7 @@ class Diagnosis:
                "-> after; ranked, every round)"]
         for i, (ranked, summary) in enumerate(zip(fits, summaries, strict=True)):
             added = self.added_in_round(i)
-            with_ = ", ".join(f"{f.family} at {f.place}" for f in self.found[:i])
-            out.append(f" round {i + 1}: the model as given" + (f" with {with_}" if with_ else ""))
+            out.append(f" {self.round_title(i)}")
             out += [_fit_line(f, f is added) for f in ranked] or ["  no candidate fitted"]
             out.append(f"  decision: {summary}")
         if self.found:
@@ -155,8 +160,20 @@ class Diagnosis:
                     for f in self.found]
         return out
 
+    def round_title(self, i: int) -> str:
+        """Return round ``i``'s heading: the model it ran on (a law chosen again: which)."""
+        if self.round_titles:
+            return self.round_titles[i]
+        return _forward_title(i, self.found[:i])
+
     def added_in_round(self, i: int) -> FittedEffect | None:
-        """Return the fit round ``i`` added (its best usable one), None when it added none."""
+        """Return the fit round ``i`` added (its best usable one), None when it added none.
+
+        A round that chose a law again: the law it took in place of the first (None when
+        it kept that one).
+        """
+        if self.round_added:
+            return self.round_added[i] if i < len(self.round_added) else None
         fits = self.round_fits or (self.fitted,)
         if i >= len(self.found) or i >= len(fits):
             return None
@@ -166,18 +183,25 @@ class Diagnosis:
     def to_dict(self) -> dict[str, Any]:
         """Return the decision, the effects found and the table of every round, as JSON data.
 
-        The same rows and decisions as :meth:`table` (``decision``: ADDED, accepted, FLAGGED
-        or REJECTED; ``reason``: the flags or the record and figure it failed on).
+        The same rounds (``title``: :meth:`round_title`), rows and decisions as :meth:`table`
+        (``decision``: ADDED, accepted, FLAGGED or REJECTED; ``reason``: the flags or the
+        record and figure it failed on).
         """
         fits = self.round_fits or (self.fitted,)
         summaries = self.round_summaries or (self.summary,)
         return {
             "significant": self.significant, "summary": self.summary,
             "found": [_fit_row(f) for f in self.found],
-            "rounds": [{"decision": summary, "candidates": [
+            "rounds": [{"title": self.round_title(i), "decision": summary, "candidates": [
                 _fit_row(f, _decision(f, f is self.added_in_round(i))) for f in ranked]}
                 for i, (ranked, summary) in enumerate(zip(fits, summaries, strict=True))],
             "dropped": list(self.dropped), "skipped": list(self.skipped)}
+
+
+def _forward_title(i: int, with_: Sequence[FittedEffect]) -> str:
+    """Heading of forward round ``i``: the model as given with the effects added before."""
+    names = ", ".join(f"{f.family} at {f.place}" for f in with_)
+    return f"round {i + 1}: the model as given" + (f" with {names}" if names else "")
 
 
 def _decision(f: FittedEffect, added: bool) -> tuple[str, str]:
@@ -414,9 +438,15 @@ def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Seq
     return keep, dropped
 
 
+# a round of the tables: its heading, its ranked fits, its decision and the fit it took
+# (None: none; a round that chose a device law again: the law taken in place of the first)
+RoundRow = tuple[str, tuple[FittedEffect, ...], str, FittedEffect | None]
+
+
 def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
                 rec_c: Sequence[Record], noises: Sequence[np.ndarray],
-                say: Callable[[str], None], **round_kw: Any) -> list[FittedEffect]:
+                say: Callable[[str], None], **round_kw: Any
+                ) -> tuple[list[FittedEffect], list[RoundRow]]:
     """``found`` with the law of each device effect found before the last chosen again.
 
     A law chosen in an early round was fitted while the effects found later were missing,
@@ -426,8 +456,13 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
     other effect found (:func:`diagnose_round` with ``only`` that site, judged and ranked as
     in a round), and the best replaces the effect when the whitened information criterion
     over every record (:func:`.judge.information_criterion`) is lower with it.
+
+    Returns the effects and, per site tried, a round for the tables
+    (:data:`RoundRow`): its ranked fits and its decision, "law at SITE re-chosen: A ->
+    B, criterion x -> y" or why the law was kept.
     """
     out = list(found)
+    rows: list[RoundRow] = []
 
     def ic(effects: Sequence[FittedEffect]) -> float:
         figs = figures_on(_apply_all(factory, effects).plant(), rec_c, noises)
@@ -440,18 +475,32 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
         others = out[:i] + out[i + 1:]
         d = diagnose_round(_apply_all(factory, others), records, only=f.effect.component,
                            **round_kw)
-        best = d.best
-        if best is None or best.effect.law == f.effect.law:
-            continue
-        trial = [*out[:i], best, *out[i + 1:]]
-        ic_out = ic(out) if ic_out is None else ic_out
-        ic_trial = ic(trial)
-        if ic_trial < ic_out:
-            ic_out = ic_trial
-            say(f"{f.family} at {f.place}: with the other effects in place "
-                f"{best.effect.law} fits better than {f.effect.law}; taken instead")
-            out = trial
-    return out
+        with_ = ", ".join(f"{g.family} at {g.place} ({g.effect.law})" for g in others)
+        title = (f"the law at {f.place} chosen again ({f.effect.law}, found in round "
+                 f"{i + 1}), the model as given with {with_}")
+        best, taken = d.best, None
+        head = f"law at {f.place} kept: {f.effect.law}"
+        if best is None:
+            decision = f"{head} (no law there is usable with the others in place: {d.summary})"
+        elif best.effect.law == f.effect.law:
+            decision = f"{head} (the best law there with the others in place)"
+        else:
+            trial = [*out[:i], best, *out[i + 1:]]
+            ic_out = ic(out) if ic_out is None else ic_out
+            ic_trial = ic(trial)
+            crit = (f"criterion {ic_out:.4f} -> {ic_trial:.4f} (whitened information "
+                    "criterion over every record, lower is better)")
+            if ic_trial < ic_out:
+                decision = (f"law at {f.place} re-chosen: {f.effect.law} -> "
+                            f"{best.effect.law}, {crit}")
+                ic_out, taken = ic_trial, best
+                say(f"{f.family} at {f.place}: with the other effects in place "
+                    f"{best.effect.law} fits better than {f.effect.law}; taken instead")
+                out = trial
+            else:
+                decision = f"{head} (the best fit there, {best.effect.law}: {crit}, not lower)"
+        rows.append((title, d.fitted, decision, taken))
+    return out, rows
 
 
 def _refitted_trial(factory: ModelFactory, trials: Sequence[_Trial],
@@ -522,9 +571,14 @@ def diagnose(
         return first
     rec_c, _ = _common_channels(factory, records)
     noises = [f.noise for f in first.before]  # the floors of the model as given
+    titles = [_forward_title(i, found[:i]) for i in range(len(rounds))]  # as they ran
+    table: list[RoundRow] = [(t, r.fitted, r.summary, r.best if i < len(found) else None)
+                                for i, (t, r) in enumerate(zip(titles, rounds, strict=True))]
     if joint and len(found) > 1:
-        found = _reselected(factory, found, records, rec_c, noises, say, n_fit=n_fit,
-                            gain_threshold=gain_threshold, mapper=mapper)
+        found, again = _reselected(factory, found, records, rec_c, noises, say, n_fit=n_fit,
+                                   gain_threshold=gain_threshold, mapper=mapper)
+        table += [(f"round {len(table) + k + 1}: {t}", fits, why, took)
+                  for k, (t, fits, why, took) in enumerate(again)]
         say("refitting all effects found jointly")
         found = _relabelled(factory, first, rec_c, noises,
                             refit_jointly(factory, found, (records[0], *records[2:])))
@@ -547,8 +601,10 @@ def diagnose(
             w.split(":", 1)[0] for w in dropped)
     return replace(first, summary=summary, found=tuple(found), after=after,
                    rounds=len(rounds), dropped=tuple(dropped),
-                   round_fits=tuple(r.fitted for r in rounds),
-                   round_summaries=tuple(r.summary for r in rounds))
+                   round_titles=tuple(t[0] for t in table),
+                   round_fits=tuple(t[1] for t in table),
+                   round_summaries=tuple(t[2] for t in table),
+                   round_added=tuple(t[3] for t in table))
 
 
 def _relabelled(factory: ModelFactory, first: Diagnosis, records: Sequence[Record],

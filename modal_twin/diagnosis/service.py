@@ -12,6 +12,7 @@ from pathlib import Path
 from modal_twin.acquisition.continuity import BlockVerdict, StreamMonitor
 from modal_twin.block_window import BlockWindow
 from modal_twin.channels import ChannelSpec
+from modal_twin.diagnosis.fitting import warm_up_kernels
 from modal_twin.diagnosis.live import live_diagnosis
 from modal_twin.diagnosis.pipeline import Diagnosis
 from modal_twin.diagnosis.record import Record, record_from_blocks
@@ -52,8 +53,16 @@ class DiagnosisService:
         self.residuals = BlockWindow(buffer_s, "twin residuals")
         self.monitor = StreamMonitor()
         self.last: Diagnosis | None = None
-        self.channels: Mapping[str, ChannelSpec] = {
-            c.name: c for c in load_model(self.model_file).plant().channels}
+        self.nominal = load_model(self.model_file).plant()
+        self.channels: Mapping[str, ChannelSpec] = {c.name: c for c in self.nominal.channels}
+
+    def warm_up(self) -> float:
+        """Compile the kernels a diagnosis of the model runs (:func:`.fitting.warm_up_kernels`).
+
+        The node calls it before it says ready, so that its first ``~/run`` does not wait
+        for a compiler; returns the seconds it took.
+        """
+        return warm_up_kernels(self.nominal)
 
     def add_frame(self, block: SignalBlock) -> BlockVerdict:
         """Keep a measured block (a gap or a restart starts a new record); return the check."""

@@ -6,7 +6,10 @@ height ``z0``): its longitudinal and circumferential lines, the end walls, the b
 the equipment on their hangers, one scene node per FE node. Each bogie frame is a
 rectangle at its centre height (corners at the primary suspensions, ``x_b +- a``,
 ``y = +-b``), with the air springs as lines from its side mid-points up to the seat nodes;
-each wheelset is an axle line at the rolling radius.
+each wheelset is an axle line at the rolling radius. A box the file hangs on elastic
+hangers (``hanger: elastic``: six coordinates of its own, left out of the shell) is the
+uniform box of its mass and inertia about its centre of mass, moving as a rigid body with
+those coordinates, with a line per hanger up (down) to the carbody's point.
 
 A vehicle mode ``x`` (vehicle coordinates) moves the nodes by :attr:`Vehicle3DScene.move`:
 a shell node by the recovery of the carbody coordinates (``T`` of the Craig-Bampton
@@ -22,21 +25,22 @@ stretch.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError, OptionError
-from modal_twin.models.carbody3d import CarbodyFE
+from modal_twin.models.carbody3d import CarbodyFE, Equipment
 from modal_twin.models.carbody_shell import ShellCarbody
 from modal_twin.models.fe import NodeId
-from modal_twin.models.vehicle3d import Vehicle3D
+from modal_twin.models.vehicle3d import N_AXLES, Vehicle3D, box_centre
 from modal_twin.models.vehicle3d_ride import carbody_mode_shapes
 from modal_twin.viz.scene import SceneModes, StructureGeometry, _edges_from_stiffness
 
-__all__ = ["RecordDeflection", "Vehicle3DScene", "record_deflection", "vehicle3d_scene"]
+__all__ = ["RecordDeflection", "Vehicle3DScene", "box_half_sizes", "record_deflection",
+           "vehicle3d_scene"]
 
 FRAME_HALF_WIDTH_M = 1.0
 """Half width of a bogie frame's rectangle, m (drawing only)."""
@@ -227,12 +231,50 @@ def vehicle3d_scene(vehicle: Vehicle3D) -> Vehicle3DScene:
                                                         dofs=(1, 5)))
                 for y in (-0.75, 0.75)]
         edges.append((ends[0], ends[1]))
+    for i, box in enumerate(spec.hung_equipment):
+        edges += _hung_box(vehicle, box, nc + 12 + 2 * N_AXLES + 6 * i, add)
     pos = np.array(xyz)
     sensors = {p.label: pos[index[_nearest_floor(car, p.x, p.y)]] for p in spec.floor_points}
     geom = StructureGeometry(f"{spec.name} (shell carbody)", pos,
                              np.array(sorted({(min(p, q), max(p, q)) for p, q in edges}),
                                       dtype=np.int64), sensors, {})
     return Vehicle3DScene(geom, np.array(move), len(asm.nodes))
+
+
+def box_half_sizes(box: Equipment) -> FloatArray:
+    """Half sizes ``(x, y, z)`` of the uniform box with the equipment's mass and inertia, m.
+
+    ``J_xx = m (L_y^2 + L_z^2) / 12`` and its two companions, so ``L_x^2 = 6 (J_yy + J_zz -
+    J_xx) / m`` ...; drawing only (a side an inertia cannot give is drawn 0.1 m).
+    """
+    j = np.asarray(box.inertia, dtype=float)
+    sq = 6.0 * (j.sum() - 2.0 * j) / box.mass
+    return 0.5 * np.sqrt(np.maximum(sq, 0.01))
+
+
+def _hung_box(vehicle: Vehicle3D, box: Equipment, col: int,
+              add: Callable[[FloatArray, FloatArray], int]) -> list[tuple[int, int]]:
+    """Draw a box on elastic hangers; return its lines.
+
+    The box of :func:`box_half_sizes` about its centre of mass
+    (:func:`~modal_twin.models.vehicle3d.box_centre`), its corners moving with the box's own
+    six coordinates from column ``col`` (``u + theta x r``), and a line per hanger from the
+    box's face below (above) the hanger point to the carbody's point there (its translation
+    from the carbody coordinates, ``ReducedCarbody.hangers``).
+    """
+    n, nc = vehicle.n_dof, vehicle.carbody.n
+    E, h = box_centre(vehicle.spec, box), box_half_sizes(box)
+    signs = list(itertools.product((-1.0, 1.0), repeat=3))
+    corners = [add(E + h * sg, _rigid_rows(n, col, h * np.array(sg))) for sg in signs]
+    edges = [(corners[a], corners[b]) for a, b in itertools.combinations(range(8), 2)
+             if sum(x != y for x, y in zip(signs[a], signs[b], strict=True)) == 1]
+    for j in range(4):
+        p, P = vehicle.carbody.hangers[f"{box.name}_h{j + 1}"]
+        rows = np.zeros((3, n))
+        rows[:, :nc] = P
+        r = np.array([p[0] - E[0], p[1] - E[1], np.sign(p[2] - E[2]) * h[2]])
+        edges.append((add(E + r, _rigid_rows(n, col, r)), add(p, rows)))
+    return edges
 
 
 def _shell_edges(vehicle: Vehicle3D, index: dict[NodeId, int]) -> list[tuple[int, int]]:

@@ -166,28 +166,73 @@ def test_own_bouc_wen_hysteresis_at_rb1(factory: BuildingFactory) -> None:
     assert error_fall(factory, d, test, ["RB1_fx", "RB1_fy", *BASE_H]) >= 3.0
 
 
-def test_a_law_chosen_before_a_later_effect_is_chosen_again(factory: BuildingFactory) -> None:
+def test_a_law_chosen_before_a_later_effect_is_chosen_again(
+        factory: BuildingFactory, monkeypatch: pytest.MonkeyPatch) -> None:
     # issue 20, seed robustness: two isolator effects (friction at ESB2, Bouc-Wen hysteresis
     # at RB1); the first round, with the friction still missing, named a stick-slip law at
     # RB1 that acts as a spring, and the joint refit moves only its parameters. Its law is
-    # fitted again with the friction in place: a law with an internal state is taken
+    # fitted again with the friction in place: a law with an internal state is taken.
+    # The forward rounds are given (those two, then nothing); the choosing again, the joint
+    # refit and the tables are the diagnosis's own. Item 7 of issue 20: the tables show
+    # the choice as its own round, and the effects found agree with it.
+    from dataclasses import replace
+
+    import modal_twin.diagnosis.pipeline as pipeline
     from modal_twin.diagnosis.fitting import FittedEffect
-    from modal_twin.diagnosis.judge import record_noise_floors
-    from modal_twin.diagnosis.pipeline import _reselected
+    from modal_twin.diagnosis.judge import figures_on, record_noise_floors
 
     friction = EffectSpec("ESB2", "stick_slip", {"mu_s": 0.05, "mu_k": 0.035})
     eff = [friction, EffectSpec("RB1", "bouc_wen", {"uy": 0.02, "alpha": 0.3})]
     recs = [make_record(eff, kind="random", level=1.0, seed=17, seconds=8.0),
             make_record(eff, kind="earthquake", level=3.5, seed=18, seconds=8.0)]
-    noises = record_noise_floors(factory.plant(), recs)
+    before = figures_on(factory.plant(), recs, record_noise_floors(factory.plant(), recs))
     spring = EffectSpec("RB1", "stick_slip", {"Fk": 800.0, "Fs": 800.0})
 
     def found(e: EffectSpec, n: int, family: str) -> FittedEffect:
         return FittedEffect(e, n, 1.0, 1.0, 1.0, 0.0, 1, 0.0, family=family, place=e.component)
 
-    out = _reselected(factory, [found(spring, 2, "stiffness"), found(friction, 2, "friction")],
-                      recs, recs, noises, print, n_fit=1)
-    assert out[0].effect.component == "RB1"
-    assert out[0].effect.law in ("bouc_wen", "bilinear_hysteretic")
-    assert out[0].family == "hysteresis"
-    assert out[1].effect is friction
+    w = factory.weight("ESB2")  # the friction as a fit states it: forces, not coefficients
+    forward = [found(spring, 2, "stiffness"),
+               found(replace(friction, params={"Fs": 0.05 * w, "Fk": 0.035 * w}), 2,
+                     "friction")]
+    real_round = pipeline.diagnose_round
+
+    def given_round(f, records, *, only: str = "", **kw):  # type: ignore[no-untyped-def]
+        if only:  # the law at a site chosen again: the diagnosis's own round
+            return real_round(f, records, only=only, **kw)
+        k = len(f.base_effects)
+        fits = (forward[k],) if k < len(forward) else ()
+        return Diagnosis(bool(fits), f"forward round {k + 1}", None, fits, (),  # type: ignore[arg-type]
+                         before=before, after=before)
+
+    monkeypatch.setattr(pipeline, "diagnose_round", given_round)
+    d = diagnose(factory, recs[0], recs[1], n_fit=1)
+    hyst = d.found[0]
+    assert hyst.effect.component == "RB1"
+    assert hyst.effect.law == "bouc_wen"  # the truth's own law: its parameters come back
+    assert hyst.effect.params["uy"] == pytest.approx(0.02, rel=0.02)
+    assert hyst.effect.params["alpha"] == pytest.approx(0.3, rel=0.02)
+    assert hyst.family == "hysteresis"
+    assert (d.found[1].effect.component, d.found[1].effect.law) == ("ESB2", "stick_slip")
+    # the tables: rounds 1-3 as they ran (the spring ADDED at RB1; the third finds nothing),
+    # round 4 the choice again
+    lines = d.table()
+    assert " round 2: the model as given with stiffness at RB1" in lines
+    assert " round 3: the model as given with stiffness at RB1, friction at ESB2" in lines
+    k4 = lines.index(" round 4: the law at RB1 chosen again (stick_slip, found in round 1), "
+                     "the model as given with friction at ESB2 (stick_slip)")
+    decision = next(ln for ln in lines[k4:] if ln.startswith("  decision: "))
+    head = "  decision: law at RB1 re-chosen: stick_slip -> bouc_wen, criterion "
+    assert decision.startswith(head), decision
+    x, y = (float(v) for v in decision[len(head):].split(" (")[0].split(" -> "))
+    assert y < x
+    doc = d.to_dict()
+    assert [r["title"].split(":")[0] for r in doc["rounds"]] == [
+        "round 1", "round 2", "round 3", "round 4"]
+    assert [[(c["component"], c["law"]) for c in r["candidates"] if c["decision"] == "ADDED"]
+            for r in doc["rounds"]] == [[("RB1", "stick_slip")], [("ESB2", "stick_slip")], [],
+                                        [("RB1", "bouc_wen")]]
+    assert doc["rounds"][3]["decision"] == decision[len("  decision: "):]
+    # the effects found are those the last round of each site added (refitted jointly)
+    assert [(f["component"], f["law"]) for f in doc["found"]] == [
+        ("RB1", "bouc_wen"), ("ESB2", "stick_slip")]
