@@ -188,15 +188,17 @@ def redundancy_sd(residual: FloatArray) -> FloatArray:
     z = x / np.where(s > 0, s, 1.0)[:, None]
     regs = np.vstack([z, np.imag(signal.hilbert(z, axis=1))])
     cov = regs @ regs.T / nt
-    out = np.empty(n)
+    left = np.empty_like(z)  # what the other rows leave of each row
+    var = np.empty(n)
     for i in range(n):
         idx = np.array([j for j in range(2 * n) if j not in (i, n + i)])
         b = cov[idx, i]
         w = np.linalg.lstsq(cov[np.ix_(idx, idx)], b, rcond=1e-10)[0]
-        n_eff = effective_samples(z[i] - w @ regs[idx])
-        keep = max(1.0 - p / n_eff, 0.2)  # a spurious fit takes at most 80 %
-        out[i] = np.sqrt(max(float(cov[i, i] - b @ w), 0.0) / keep) * s[i]
-    return out
+        left[i] = z[i] - w @ regs[idx]
+        var[i] = max(float(cov[i, i] - b @ w), 0.0)
+    n_eff = _effective_samples_rows(left)  # one Welch over the rows
+    keep = np.maximum(1.0 - p / n_eff, 0.2)  # a spurious fit takes at most 80 %
+    return np.sqrt(var / keep) * s
 
 
 def effective_samples(x: FloatArray) -> float:
@@ -207,15 +209,21 @@ def effective_samples(x: FloatArray) -> float:
     Parseval), which is 1 for white noise (``N_eff = N``) and ``(1 + a^2) / (1 - a^2)``
     for an AR(1) series of coefficient ``a``.
     """
-    x = np.asarray(x, float)
-    nt = x.size
+    return float(_effective_samples_rows(np.asarray(x, float).reshape(1, -1))[0])
+
+
+def _effective_samples_rows(x: FloatArray) -> FloatArray:
+    """:func:`effective_samples` of each row of ``x`` (n_rows, nt), one Welch call."""
+    nt = x.shape[1]
     nper = int(min(nt, 256))
-    _, psd = signal.welch(x - x.mean(), nperseg=nper)
-    s1 = float(np.sum(psd))
-    if not s1 > 0:
-        return float(nt)
-    rho2 = 0.5 * nper * float(np.sum(psd**2)) / s1**2  # df = fs / nper
-    return float(nt / max(rho2, 1.0))
+    _, psd = signal.welch(np.stack([r - r.mean() for r in x]), nperseg=nper, axis=-1)
+    out = np.full(len(x), float(nt))
+    for i, p in enumerate(psd):
+        s1 = float(np.sum(p))
+        if s1 > 0:
+            rho2 = 0.5 * nper * float(np.sum(p**2)) / s1**2  # df = fs / nper
+            out[i] = nt / max(rho2, 1.0)
+    return out
 
 
 def coloured_noise_sd(measured: FloatArray, residual: FloatArray, fs_hz: float

@@ -123,6 +123,21 @@ def test_effective_samples_of_white_and_ar1_series() -> None:
     assert effective_samples(x) == pytest.approx(nt * (1 - a**2) / (1 + a**2), rel=0.05)
 
 
+@pytest.mark.parametrize("nt", [207, 5000])
+def test_effective_samples_of_all_rows_at_once_are_each_rows_own(nt: int) -> None:
+    # redundancy_sd takes every row's in one Welch call: the same figures to the last bit
+    from modal_twin.diagnosis.noise import _effective_samples_rows
+
+    rng = np.random.default_rng(nt)
+    x = rng.standard_normal((5, nt))
+    x[1] = signal.lfilter([1.0], [1.0, -0.9], x[1])
+    x[2] = 0.0
+    x[3] += 3.0 * np.sin(0.05 * np.arange(nt))
+    got = _effective_samples_rows(x)
+    assert got[2] == nt
+    np.testing.assert_array_equal(got, [effective_samples(r) for r in x])
+
+
 def _shared_error(rng: np.random.Generator, n_ch: int, nt: int) -> np.ndarray:
     """A model error moving every channel: three modes (narrow-band sources at 2, 5 and
     9 Hz), each seen by the channels with its own gain and phase (complex modes)."""

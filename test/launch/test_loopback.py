@@ -77,8 +77,8 @@ def test_launched_nodes_bind_the_loopback_only_unless_network(
     try:
         addrs = {pid: udp_addresses(pid) for pid in children(proc.pid)}
     finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.wait(60)
+        proc.send_signal(signal.SIGTERM if network else signal.SIGINT)
+        code = proc.wait(60)
     assert len(addrs) == 2  # the excitation node and the recorder
     assert all(addrs.values())  # each holds its DDS sockets
     bound = set().union(*addrs.values())
@@ -86,13 +86,12 @@ def test_launched_nodes_bind_the_loopback_only_unless_network(
         assert bound - {"127.0.0.1"}  # Fast DDS's own transports: 0.0.0.0 / the interfaces
     else:
         assert bound == {"127.0.0.1"}, addrs
+        ctrl_c_exits_130(code, tmp_path)  # the same launch serves both (one launch fewer)
 
 
-@pytest.mark.ros
-def test_ctrl_c_on_the_launcher_exits_130(domain_id: int, tmp_path: Path) -> None:
-    proc = launch_until_matched(tmp_path)
-    proc.send_signal(signal.SIGINT)
-    assert proc.wait(60) == ExitCode.INTERRUPTED == 130
+def ctrl_c_exits_130(code: int, tmp_path: Path) -> None:
+    """Ctrl-C on the launcher once up and matched: exit 130; the run closed, all private."""
+    assert code == ExitCode.INTERRUPTED == 130
     assert (tmp_path / "run" / "bag" / "metadata.yaml").is_file()  # the bag still closed
     # one file-mode policy: the launcher's logs and parameters, the bag, all private
     run = tmp_path / "run"
