@@ -199,23 +199,36 @@ def redundancy_sd(residual: FloatArray) -> FloatArray:
     return out
 
 
-def effective_samples(x: FloatArray) -> float:
-    """Independent samples of a stationary series for the fit of regressors of its colour.
+def effective_samples(residual: FloatArray, *, lags: float = 2.0) -> float:
+    """Independent samples a stationary series is worth (one row, or the median over rows).
 
-    ``N / sum_k rho_k^2`` over all lags ``k`` (``rho`` its autocorrelation), from its Welch
-    spectrum ``S``: ``sum_k rho_k^2 = (fs / 2) int S^2 df / (int S df)^2`` (one-sided,
-    Parseval), which is 1 for white noise (``N_eff = N``) and ``(1 + a^2) / (1 - a^2)``
-    for an AR(1) series of coefficient ``a``.
+    For a stationary Gaussian series of autocorrelation ``rho_k`` the variance of its mean
+    square is ``2 sigma^4 / N sum_k rho_k^2`` (Bartlett's formula for the variance of a
+    sample variance, the sum over all lags, both signs), and a share ``p / N`` of its
+    variance is what a least-squares fit of ``p`` regressors of its colour takes by chance
+    with ``N`` replaced by the same count: both count the series as
+
+        N_eff = N / sum_k rho_k^2 = N / (1 + 2 sum_(k >= 1) rho_k^2)
+
+    independent samples: ``N`` for white noise, ``N (1 - a^2) / (1 + a^2)`` for an AR(1)
+    series of coefficient ``a``, few for a residual that is smooth model error. The sum is
+    over ``lags * sqrt(N)`` lags (a window growing slower than ``N``, so that the
+    estimates' own scatter, about ``1 / N`` each, adds little), less that white-noise bias;
+    the autocorrelation from the FFT of each row (``residual``: one series, or channels by
+    samples, then the median over the channels). Used by the backward elimination
+    (:func:`.pipeline._without_idle`) and the coloured-noise test (:func:`redundancy_sd`).
     """
-    x = np.asarray(x, float)
-    nt = x.size
-    nper = int(min(nt, 256))
-    _, psd = signal.welch(x - x.mean(), nperseg=nper)
-    s1 = float(np.sum(psd))
-    if not s1 > 0:
-        return float(nt)
-    rho2 = 0.5 * nper * float(np.sum(psd**2)) / s1**2  # df = fs / nper
-    return float(nt / max(rho2, 1.0))
+    r = np.atleast_2d(np.asarray(residual, float))
+    r = r - r.mean(axis=1, keepdims=True)
+    n = r.shape[1]
+    spec = np.abs(np.fft.rfft(r, 2 * n, axis=1)) ** 2
+    ac = np.fft.irfft(spec, axis=1)[:, :n]
+    ok = ac[:, 0] > 0
+    if not ok.any():
+        return float(n)
+    rho2 = (ac[ok, 1:max(2, int(lags * np.sqrt(n)))] / ac[ok, :1]) ** 2
+    excess = np.maximum(np.sum(rho2, axis=1) - rho2.shape[1] / n, 0.0)
+    return float(np.median(n / (1.0 + 2.0 * excess)))
 
 
 def coloured_noise_sd(measured: FloatArray, residual: FloatArray, fs_hz: float
