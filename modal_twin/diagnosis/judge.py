@@ -139,34 +139,10 @@ def worse_tolerance(rec: Record, n_samples: float | None = None) -> float:
     """How much higher an error may come out on a record before it counts as worse.
 
     Three standard errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %
-    (``N`` the record's scored samples, or ``n_samples``: :func:`effective_samples`).
+    (``N`` the record's scored samples, or ``n_samples``: :func:`.noise.effective_samples`).
     """
     n = rec.scored.shape[-1] if n_samples is None else n_samples
     return max(WORSE_BY, 3.0 / np.sqrt(2.0 * max(n, 1.0)))
-
-
-def effective_samples(residual: np.ndarray, *, lags: float = 2.0) -> float:
-    """Independent samples a record's residual is worth for the variance of its RMS.
-
-    For a stationary Gaussian series of autocorrelation ``rho_k`` the variance of its mean
-    square is ``2 sigma^4 / N (1 + 2 sum_k rho_k^2)`` (Bartlett's formula for the variance
-    of a sample variance), so the series counts as ``N / (1 + 2 sum_k rho_k^2)`` independent
-    samples: ``N`` for white noise, fewer for a residual that is smooth model error. The sum
-    over ``lags * sqrt(N)`` lags (a window growing slower than ``N``, so that the estimates'
-    own scatter, about ``1 / N`` each, adds little), less that white-noise bias; the median
-    over the channels (rows of ``residual``).
-    """
-    r = np.atleast_2d(np.asarray(residual, float))
-    r = r - r.mean(axis=1, keepdims=True)
-    n = r.shape[1]
-    spec = np.abs(np.fft.rfft(r, 2 * n, axis=1)) ** 2
-    ac = np.fft.irfft(spec, axis=1)[:, :n]
-    ok = ac[:, 0] > 0
-    if not ok.any():
-        return float(n)
-    rho2 = (ac[ok, 1:max(2, int(lags * np.sqrt(n)))] / ac[ok, :1]) ** 2
-    excess = np.maximum(np.sum(rho2, axis=1) - rho2.shape[1] / n, 0.0)
-    return float(np.median(n / (1.0 + 2.0 * excess)))
 
 
 def information_criterion(figures: Sequence[ErrorFigures], n_params: int,
@@ -185,7 +161,7 @@ def information_criterion(figures: Sequence[ErrorFigures], n_params: int,
     so that a change of ``ln(1 + tol)`` is an RMS ``tol`` higher on one record. The
     training record, the held-out one and every other level count alike; ``n_params`` is
     the number of fitted parameters of the model's effects. ``n_samples`` replaces ``N_r``
-    by what each record's residual is worth (:func:`effective_samples`).
+    by what each record's residual is worth (:func:`.noise.effective_samples`).
     """
     n_r = np.array([r.scored.shape[-1] for r in records] if n_samples is None
                    else n_samples, float)

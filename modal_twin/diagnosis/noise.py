@@ -188,7 +188,7 @@ def redundancy_sd(residual: FloatArray) -> FloatArray:
     z = x / np.where(s > 0, s, 1.0)[:, None]
     regs = np.vstack([z, np.imag(signal.hilbert(z, axis=1))])
     cov = regs @ regs.T / nt
-    left = np.empty_like(z)  # what the other rows leave of each row
+    left = np.empty_like(z)
     var = np.empty(n)
     for i in range(n):
         idx = np.array([j for j in range(2 * n) if j not in (i, n + i)])
@@ -196,33 +196,50 @@ def redundancy_sd(residual: FloatArray) -> FloatArray:
         w = np.linalg.lstsq(cov[np.ix_(idx, idx)], b, rcond=1e-10)[0]
         left[i] = z[i] - w @ regs[idx]
         var[i] = max(float(cov[i, i] - b @ w), 0.0)
-    n_eff = _effective_samples_rows(left)  # one Welch over the rows
+    n_eff = np.nan_to_num(_effective_samples_rows(left), nan=float(nt))  # one FFT, all rows
     keep = np.maximum(1.0 - p / n_eff, 0.2)  # a spurious fit takes at most 80 %
     return np.sqrt(var / keep) * s
 
 
-def effective_samples(x: FloatArray) -> float:
-    """Independent samples of a stationary series for the fit of regressors of its colour.
+def effective_samples(residual: FloatArray, *, lags: float = 2.0) -> float:
+    """Independent samples a stationary series is worth (one row, or the median over rows).
 
-    ``N / sum_k rho_k^2`` over all lags ``k`` (``rho`` its autocorrelation), from its Welch
-    spectrum ``S``: ``sum_k rho_k^2 = (fs / 2) int S^2 df / (int S df)^2`` (one-sided,
-    Parseval), which is 1 for white noise (``N_eff = N``) and ``(1 + a^2) / (1 - a^2)``
-    for an AR(1) series of coefficient ``a``.
+    For a stationary Gaussian series of autocorrelation ``rho_k`` the variance of its mean
+    square is ``2 sigma^4 / N sum_k rho_k^2`` (Bartlett's formula for the variance of a
+    sample variance, the sum over all lags, both signs), and a share ``p / N`` of its
+    variance is what a least-squares fit of ``p`` regressors of its colour takes by chance
+    with ``N`` replaced by the same count: both count the series as
+
+        N_eff = N / sum_k rho_k^2 = N / (1 + 2 sum_(k >= 1) rho_k^2)
+
+    independent samples: ``N`` for white noise, ``N (1 - a^2) / (1 + a^2)`` for an AR(1)
+    series of coefficient ``a``, few for a residual that is smooth model error. The sum is
+    over ``lags * sqrt(N)`` lags (a window growing slower than ``N``, so that the
+    estimates' own scatter, about ``1 / N`` each, adds little), less that white-noise bias;
+    the autocorrelation from the FFT of each row (``residual``: one series, or channels by
+    samples, then the median over the channels). Used by the backward elimination
+    (:func:`.pipeline._without_idle`) and the coloured-noise test (:func:`redundancy_sd`).
     """
-    return float(_effective_samples_rows(np.asarray(x, float).reshape(1, -1))[0])
+    r = np.atleast_2d(np.asarray(residual, float))
+    per_row = _effective_samples_rows(r, lags)
+    live = per_row[~np.isnan(per_row)]
+    return float(np.median(live)) if live.size else float(r.shape[1])
 
 
-def _effective_samples_rows(x: FloatArray) -> FloatArray:
-    """:func:`effective_samples` of each row of ``x`` (n_rows, nt), one Welch call."""
-    nt = x.shape[1]
-    nper = int(min(nt, 256))
-    _, psd = signal.welch(np.stack([r - r.mean() for r in x]), nperseg=nper, axis=-1)
-    out = np.full(len(x), float(nt))
-    for i, p in enumerate(psd):
-        s1 = float(np.sum(p))
-        if s1 > 0:
-            rho2 = 0.5 * nper * float(np.sum(p**2)) / s1**2  # df = fs / nper
-            out[i] = nt / max(rho2, 1.0)
+def _effective_samples_rows(r: FloatArray, lags: float = 2.0) -> FloatArray:
+    """:func:`effective_samples` of each row of ``r`` (rows x samples).
+
+    NaN for a row that is constant (no autocorrelation to read).
+    """
+    r = r - r.mean(axis=1, keepdims=True)
+    n = r.shape[1]
+    spec = np.abs(np.fft.rfft(r, 2 * n, axis=1)) ** 2
+    ac = np.fft.irfft(spec, axis=1)[:, :n]
+    out = np.full(r.shape[0], np.nan)
+    ok = ac[:, 0] > 0
+    rho2 = (ac[ok, 1:max(2, int(lags * np.sqrt(n)))] / ac[ok, :1]) ** 2
+    excess = np.maximum(np.sum(rho2, axis=1) - rho2.shape[1] / n, 0.0)
+    out[ok] = n / (1.0 + 2.0 * excess)
     return out
 
 

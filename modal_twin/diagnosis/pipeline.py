@@ -42,7 +42,6 @@ from modal_twin.diagnosis.evidence import DeviceEvidence
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
 from modal_twin.diagnosis.judge import (
-    effective_samples,
     figures_on,
     information_criterion,
     judge,
@@ -53,7 +52,7 @@ from modal_twin.diagnosis.judge import (
 )
 from modal_twin.diagnosis.kinds import KINDS, kind_of
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
-from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures
+from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures, effective_samples
 from modal_twin.diagnosis.record import Record
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
 from modal_twin.errors import ModalTwinError
@@ -365,7 +364,7 @@ _Trial = tuple[float, FittedEffect, list[FittedEffect], Any]
 def _effective_samples(plant: Plant, records: Sequence[Record]) -> list[float]:
     """Return what each record's residual under ``plant`` is worth in independent samples.
 
-    :func:`.judge.effective_samples` of the residual on the scored part of each record.
+    :func:`.noise.effective_samples` of the residual on the scored part of each record.
     """
     return [effective_samples(r.scored - simulate_record(plant, r)[:, r.skip:])
             for r in records]
@@ -384,7 +383,7 @@ def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Seq
     ``tol`` higher, ``tol`` the mean over the records of :func:`.judge.worse_tolerance`,
     three standard errors, at least 1 %). Both count each record's samples by what the
     residual of the model with every effect found is worth
-    (:func:`.judge.effective_samples`): as many as it has when that residual is the noise,
+    (:func:`.noise.effective_samples`): as many as it has when that residual is the noise,
     fewer when it is smooth model error (then small gains are within what another record
     of the same test would change, and an extra effect riding on them is dropped);
     the search repeats on the rest. An effect found early can stand in for one found later

@@ -285,7 +285,7 @@ def test_an_extra_effect_that_only_props_up_a_stuck_fit_is_dropped(factory: Buil
 def test_effective_samples_of_white_and_ar1_noise() -> None:
     # Bartlett's formula: an AR(1) series x_t = phi x_(t-1) + e_t has rho_k = phi^k, so its
     # mean square has the variance of N (1 - phi^2) / (1 + phi^2) independent samples
-    from modal_twin.diagnosis.judge import effective_samples
+    from modal_twin.diagnosis.noise import effective_samples
 
     rng = np.random.default_rng(7)
     n = 20000

@@ -216,3 +216,17 @@ def test_errors_name_the_value() -> None:
 def test_readme_table_is_the_registry() -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert markdown_table() in readme
+
+
+def test_regularised_friction_keeps_a_share_of_each_direction_dashpot() -> None:
+    # c_factor is a share of the component's dashpot per direction, as kp of its spring
+    d = build_effect_device("regularised_friction", {"c_factor": 0.3, "kp": 0.2}, _site())
+    np.testing.assert_allclose(d.reference_damping(), np.diag(0.3 * C_NOM), rtol=1e-12)
+    np.testing.assert_allclose(d.reference_stiffness(), np.diag(0.2 * K_NOM), rtol=1e-12)
+    # the absolute form takes one value for both directions, or a pair
+    one = build_device("regularised_friction", {**ABSOLUTE["regularised_friction"], "c": 5e3},
+                       _site())
+    np.testing.assert_allclose(one.reference_damping(), np.diag([5e3, 5e3]), rtol=1e-12)
+    pair = build_device("regularised_friction",
+                        {**ABSOLUTE["regularised_friction"], "c": [5e3, 7e3]}, _site())
+    np.testing.assert_allclose(pair.reference_damping(), np.diag([5e3, 7e3]), rtol=1e-12)

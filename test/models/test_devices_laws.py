@@ -250,6 +250,29 @@ def test_regularised_friction_closed_form() -> None:
     assert fast.f[0, 0] == pytest.approx(Fk, rel=1e-4)
 
 
+def test_friction_dashpot_per_direction() -> None:
+    # f = kp u + mu(s) v / sqrt(s^2 + v_reg^2) + diag(cx, cy) v: the dashpot beside the
+    # slider need not be isotropic (a bearing's nominal c differs between x and y)
+    Fs, Fk, c, v_s, v_reg = 2e4, 1e4, (3e4, 1e4), 0.05, 0.002
+    rng = np.random.default_rng(5)
+    u = rng.normal(0.0, 0.05, (2, 300))
+    v = rng.normal(0.0, 0.05, (2, 300))
+    d = CoulombFriction(Fs, Fk, 1.0, c, n_dir=2, v_s=v_s, v_reg=v_reg)
+    s = np.hypot(v[0], v[1])
+    mu = Fk + (Fs - Fk) * np.exp(-((s / v_s) ** 2))
+    want = mu * v / np.sqrt(s**2 + v_reg**2) + np.array(c)[:, None] * v
+    np.testing.assert_allclose(d.respond(u, v).f, want, rtol=1e-12)
+    np.testing.assert_array_equal(d.reference_damping(), np.diag(c))
+    # one value: the same dashpot in both directions (as before)
+    iso = CoulombFriction(Fs, Fk, 1.0, 2e4, n_dir=2, v_s=v_s, v_reg=v_reg)
+    np.testing.assert_allclose(iso.respond(u, v).f,
+                               want + (2e4 - np.array(c))[:, None] * v, rtol=1e-12)
+    # the stick-slip form too: while stuck at rest the force is the dashpot's alone
+    stuck = CoulombFriction(Fs, Fk, 1e9, c, n_dir=2).respond(np.zeros((2, 1)),
+                                                              np.array([[0.01], [0.02]]))
+    np.testing.assert_allclose(stuck.f[:, 0], [3e4 * 0.01, 1e4 * 0.02], rtol=1e-12)
+
+
 @pytest.mark.parametrize("cls", [BilinearElastic, BilinearHysteretic])
 def test_bilinear_anisotropic_bearing_scales_y(cls) -> None:
     # the same drift history in x and y: y's force is y_scale times x's (same yield drift)

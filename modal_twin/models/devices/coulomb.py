@@ -12,7 +12,9 @@ Per step, trial force ``f_tr = f_prev + kt du``:
 
 Bidirectional use is isotropic (circular friction cone). Stick/slip changes are resolved to
 one time step; a prescribed cycle of amplitude X dissipates ``4 Fk (X - Fk / kt)`` plus the
-breakaway overshoot, i.e. 4 Fk X as kt -> infinity. An optional viscous ``c`` acts in parallel.
+breakaway overshoot, i.e. 4 Fk X as kt -> infinity. An optional viscous ``c`` acts in parallel,
+one value or one per direction (the dashpot of a bearing need not be isotropic, the friction
+cone is).
 
 Two optional extensions (off by default) express friction the classical law does not:
 
@@ -43,11 +45,12 @@ __all__ = ["CoulombFriction", "law_coulomb"]
 
 @njit(cache=True)
 def law_coulomb(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
-    """p = [Fs, Fk, kt, c, n_dir, kpx, kpy, v_s, v_reg]; s[2:4] friction force, s[4] slides."""
+    """p = [Fs, Fk, kt, cx, n_dir, kpx, kpy, v_s, v_reg, cy]; s[2:4] force, s[4] slides."""
     Fs = p[0]
     Fk = p[1]
     kt = p[2]
     c = p[3]
+    cy = p[9]
     nd = int(p[4])
     v_s = p[7]
     if p[8] > 0.0:
@@ -91,13 +94,13 @@ def law_coulomb(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
             Kt[1, 1] = g * (1.0 - ny * ny)
         sliding = True
     f[0] = fx + c * v[0] + p[5] * u[0]
-    f[1] = (fy + c * v[1] + p[6] * u[1]) if nd == 2 else 0.0
+    f[1] = (fy + cy * v[1] + p[6] * u[1]) if nd == 2 else 0.0
     Kt[0, 0] += p[5]
     if nd == 2:
         Kt[1, 1] += p[6]
     Ct[0, 0] = c
     if nd == 2:
-        Ct[1, 1] = c
+        Ct[1, 1] = cy
     for ic in range(s.shape[0]):  # explicit loop: s_new[:] = s is ~30 ns slower
         s_new[ic] = s[ic]
     s_new[0] = u[0]
@@ -113,6 +116,7 @@ def _regularised(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
     Fs = p[0]
     Fk = p[1]
     c = p[3]
+    cy = p[9]
     nd = int(p[4])
     v_s = p[7]
     v_reg = p[8]
@@ -130,11 +134,11 @@ def _regularised(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
     Ct[0, 0] = c + mu / r - mu * v[0] * v[0] / r**3  # d f / d v at constant mu
     if nd == 2:
         Kt[1, 1] = p[6]
-        Ct[1, 1] = c + mu / r - mu * vy * vy / r**3
+        Ct[1, 1] = cy + mu / r - mu * vy * vy / r**3
         Ct[0, 1] = -mu * v[0] * vy / r**3
         Ct[1, 0] = Ct[0, 1]
     f[0] = fx + c * v[0] + p[5] * u[0]
-    f[1] = (fy + c * vy + p[6] * u[1]) if nd == 2 else 0.0
+    f[1] = (fy + cy * vy + p[6] * u[1]) if nd == 2 else 0.0
     for ic in range(s.shape[0]):
         s_new[ic] = s[ic]
     s_new[0] = u[0]
@@ -155,8 +159,8 @@ class CoulombFriction(Device):
         Kinetic friction force mu_k N, N (0 < Fk <= Fs).
     kt : float
         Stuck contact stiffness, N/m (large: Fk / kt is the pre-slip displacement).
-    c : float
-        Parallel viscous damping, N s/m.
+    c : float or pair of float
+        Parallel viscous damping, N s/m: one value for every direction, or one per direction.
     n_dir : int
         1 or 2 (isotropic) directions.
     name : str
@@ -176,7 +180,7 @@ class CoulombFriction(Device):
         Fs: float,
         Fk: float,
         kt: float,
-        c: float = 0.0,
+        c: float | tuple[float, float] = 0.0,
         *,
         n_dir: int = 1,
         name: str = "coulomb",
@@ -184,20 +188,21 @@ class CoulombFriction(Device):
         v_s: float = 0.0,
         v_reg: float = 0.0,
     ) -> None:
-        if not (0 < Fk <= Fs and kt > 0 and c >= 0 and min(kp) >= 0 and v_s >= 0
+        cx, cy = (float(c), float(c)) if np.ndim(c) == 0 else map(float, c)  # type: ignore[arg-type]
+        if not (0 < Fk <= Fs and kt > 0 and min(cx, cy) >= 0 and min(kp) >= 0 and v_s >= 0
                 and v_reg >= 0):
             msg = (
                 f"Fs, Fk, kt, c, kp, v_s, v_reg: expected 0 < Fk <= Fs, kt > 0, c, kp, v_s, "
                 f"v_reg >= 0, got {Fs}, {Fk}, {kt}, {c}, {kp}, {v_s}, {v_reg}"
             )
             raise ModelError(msg)
-        super().__init__([Fs, Fk, kt, c, float(n_dir), *map(float, kp), float(v_s),
-                          float(v_reg)], n_dir=n_dir, name=name)
+        super().__init__([Fs, Fk, kt, cx, float(n_dir), *map(float, kp), float(v_s),
+                          float(v_reg), cy], n_dir=n_dir, name=name)
 
     def reference_stiffness(self) -> FloatArray:
         """Return the spring beside the slider (the stuck stiffness is left to Newton)."""
         return np.diag(self.params[5:7])
 
     def reference_damping(self) -> FloatArray:
-        """Return c I."""
-        return np.diag([self.params[3], self.params[3] if self.n_dir == 2 else 0.0])
+        """Return diag(cx, cy)."""
+        return np.diag([self.params[3], self.params[9] if self.n_dir == 2 else 0.0])

@@ -151,6 +151,12 @@ def _cmean(p: dict[str, Any], site: Site) -> float:
     return float(p.pop("c", np.mean(site.c)))
 
 
+def _c_pair(site: Site) -> tuple[float, float]:
+    """Return the component's nominal dashpot per direction (x, y), N s/m."""
+    c = np.broadcast_to(np.asarray(site.c, float), (2,))
+    return float(c[0]), float(c[1])
+
+
 def _take(p: dict[str, Any], key: str, default: float) -> float:
     return float(p.pop(key, default))
 
@@ -206,6 +212,18 @@ def _abs_cubic(p: dict[str, Any], site: Site) -> Device:
 
 def _abs_coulomb(p: dict[str, Any], site: Site) -> Device:
     c = _cmean(p, site)
+    return CoulombFriction(float(p.pop("Fs")), float(p.pop("Fk")), float(p.pop("kt")), c,
+                           n_dir=2, name=site.name, **p)
+
+
+def _abs_regularised_friction(p: dict[str, Any], site: Site) -> Device:
+    """Build Coulomb friction with its dashpot ``c`` given as one value or a pair (x, y).
+
+    When ``c`` is not given, the component's nominal dashpot per direction.
+    """
+    c_given = p.pop("c", None)
+    c = (_c_pair(site) if c_given is None else float(c_given) if np.ndim(c_given) == 0
+         else _c_pair(Site(site.name, site.k, np.asarray(c_given, float))))
     return CoulombFriction(float(p.pop("Fs")), float(p.pop("Fk")), float(p.pop("kt")), c,
                            n_dir=2, name=site.name, **p)
 
@@ -279,8 +297,10 @@ def _rel_regularised_friction(p: dict[str, Any], site: Site) -> Device:
     share = _take(p, "kp", _REG_FRICTION["kp"])
     kp = (share * float(site.k[0]), share * float(site.k[1]))
     # c_factor: the share of the component's dashpot beside the slider (a damper whose
-    # viscous part a friction element partly replaced)
-    c = _take(p, "c_factor", _REG_FRICTION["c_factor"]) * float(np.mean(site.c))
+    # viscous part a friction element partly replaced), per direction as kp
+    share_c = _take(p, "c_factor", _REG_FRICTION["c_factor"])
+    cx, cy = _c_pair(site)
+    c = (share_c * cx, share_c * cy)
     return CoulombFriction(Fs, Fk, _kmean(site), c, n_dir=2,
                            name=site.name, kp=kp, v_s=_take(p, "v_s", _REG_FRICTION["v_s"]),
                            v_reg=_take(p, "v_reg", _REG_FRICTION["v_reg"]))
@@ -371,9 +391,10 @@ _ENTRIES = (
              build_relative=_rel_stick_slip),
     LawEntry("regularised_friction", CoulombFriction, law_coulomb, ("friction",),
              ("Fs", "Fk", "kt", "c", "kp", "v_s", "v_reg"),
-             {"c": "mean nominal c", "kp": (0.0, 0.0), "v_s": 0.0},
+             {"c": "nominal c per direction", "kp": (0.0, 0.0), "v_s": 0.0},
              "viscous-regularised Coulomb friction, Stribeck speed dependence",
-             _abs_coulomb, ("mu_s", "mu_k", "Fs", "Fk", "kp", "v_s", "v_reg", "c_factor"),
+             _abs_regularised_friction,
+             ("mu_s", "mu_k", "Fs", "Fk", "kp", "v_s", "v_reg", "c_factor"),
              {"mu_s": 0.09, "mu_k": 0.06, **_REG_FRICTION},
              build_relative=_rel_regularised_friction),
     LawEntry("bilinear", BilinearElastic, law_bilinear_elastic,
