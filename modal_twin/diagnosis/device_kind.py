@@ -340,29 +340,70 @@ def _site_evidence(rnd: Round, comp: str) -> _SiteEvidence | None:
     the fits use (``rnd.fit_on``) whose evidence names one: a law with a threshold (a
     friction force, a clearance) can leave a small share of the force at one level (a
     slider that slips beside a large viscous force) and most of it at another (the same
-    slider stuck at a low level). None when the site's drift and force are not measured.
+    slider stuck at a low level). Where the training record named none only because its
+    nominal law leaves under 1 % of the force (``min_share`` of
+    :func:`.evidence.device_evidence`), the other level has shown the site is not nominal,
+    so the training record is read again in full (:func:`_read_in_full`) and its families
+    taken when it names any (a stuck slider reads as a stiff spring or a dashpot at the low
+    level, the slipping one as friction on the strong record); the laws' starts are still
+    screened on the other level, where the law's share of the force is large. None when
+    the site's drift and force are not measured.
     """
-    spec = rnd.factory.sites[comp]
     first: _SiteEvidence | None = None
+    first_i = -1
     for i, rec in enumerate(rnd.records):
         if i == 1:  # the held-out record never informs a candidate
             continue
-        cols = measured_device(rnd.nominal.channels, rec, comp)
-        if cols is None:
+        got = _evidence_on(rnd, comp, i)
+        if got is None:
             continue
-        noise = dict(zip(rec.channel_names, rnd.noise[i], strict=True))
-        u, f = rec.channels(cols[0]), rec.channels(cols[1])
-        fv = [(noise[n] * float(np.std(f[j]))) ** 2 for j, n in enumerate(cols[1])]
-        share = input_share(rnd.factory, comp, rec, u.shape[0])
-        ev = device_evidence(comp, u, f, spec.k, spec.c, rec.fs_hz, noise_var=fv,
-                             input_share=share)
-        if _top_family(ev) != "nothing":
-            if first is not None:  # another level than the first one measured
-                ev = replace(ev, notes=(*ev.notes, f"from {rec.source or f'record {i}'}: "
-                                        "the training record names no family here"))
-            return ev, u, f, rec.fs_hz, share
-        first = first or (ev, u, f, rec.fs_hz, share)
+        if _top_family(got[0]) == "nothing":
+            if first is None:
+                first, first_i = got, i
+            continue
+        if first is None:
+            return got
+        name = rec.source or f"record {i}"
+        full = _read_in_full(rnd, comp, first_i, name)
+        if full is not None:  # its families; the starts screened where the law shows most
+            return (full, *got[1:])
+        ev = replace(got[0], notes=(*got[0].notes, f"from {name}: the training record "
+                                    "names no family here"))
+        return (ev, *got[1:])
     return first
+
+
+def _evidence_on(rnd: Round, comp: str, i: int, min_share: float = 0.01
+                 ) -> _SiteEvidence | None:
+    """Return the evidence at ``comp`` on ``rnd.records[i]`` (None when not measured)."""
+    rec = rnd.records[i]
+    cols = measured_device(rnd.nominal.channels, rec, comp)
+    if cols is None:
+        return None
+    spec = rnd.factory.sites[comp]
+    noise = dict(zip(rec.channel_names, rnd.noise[i], strict=True))
+    u, f = rec.channels(cols[0]), rec.channels(cols[1])
+    fv = [(noise[n] * float(np.std(f[j]))) ** 2 for j, n in enumerate(cols[1])]
+    share = input_share(rnd.factory, comp, rec, u.shape[0])
+    ev = device_evidence(comp, u, f, spec.k, spec.c, rec.fs_hz, noise_var=fv,
+                         min_share=min_share, input_share=share)
+    return ev, u, f, rec.fs_hz, share
+
+
+def _read_in_full(rnd: Round, comp: str, i: int, other: str) -> DeviceEvidence | None:
+    """Return the evidence of record ``i`` at ``comp`` without the 1 % cut, when it names one.
+
+    Its regression then judges the residual against the noise alone (a family must still
+    beat ``p ln N`` noise variances and 10 % of the residual); None when it names none.
+    """
+    got = _evidence_on(rnd, comp, i, min_share=0.0)
+    if got is None or _top_family(got[0]) == "nothing":
+        return None
+    ev = got[0]
+    note = (f"read in full: {other} shows the site is not nominal (the nominal law leaves "
+            f"{100 * ev.residual_share:.2f} % of the force here); the starts screened on "
+            f"{other}")
+    return replace(ev, notes=(*ev.notes, note))
 
 
 def _laws_named(ev: DeviceEvidence, n_families: int) -> tuple[str, ...]:

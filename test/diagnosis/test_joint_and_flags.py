@@ -299,3 +299,23 @@ def test_effective_samples_of_white_and_ar1_noise() -> None:
     # a residual that is one smooth sine (model error, not noise) is worth a few samples
     t = np.arange(n) / 200.0
     assert effective_samples(np.sin(2 * np.pi * 1.3 * t)[None, :]) < 0.01 * n
+
+
+def test_the_normalised_residual_is_every_kth_sample_of_the_scaled_residual(
+        factory: BuildingFactory) -> None:
+    """The vector the fits minimise: (model - measured) / scale on the scored samples,
+    every ``decimate``-th of them, channel after channel; exactly, from a record whose
+    first samples are skipped (a truth 10 % heavier at F2, so the residual is not zero)."""
+    from modal_twin.diagnosis.fitting import normalised_residual
+
+    rec = record_of(factory, {"m_F2": 1.1 * factory.parameters()["m_F2"]}, 5)
+    rec = Record(rec.fs_hz, rec.input_names, rec.inputs, rec.channel_names, rec.data,
+                 rec.source, skip=37)
+    scale = np.std(rec.scored, axis=1)[:, None]
+    pred = simulate_record(factory.plant(), rec)
+    full = (pred[:, 37:] - rec.data[:, 37:]) / scale
+    for d in (1, 3, 5):
+        r = normalised_residual(factory.plant(), rec, d, scale)
+        np.testing.assert_array_equal(r, full[:, ::d].ravel())
+        assert r.size == len(rec.channel_names) * len(range(0, rec.scored.shape[1], d))
+    assert np.max(np.abs(full)) > 1e-3
