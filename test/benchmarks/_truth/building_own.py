@@ -74,7 +74,7 @@ import numpy as np
 import yaml
 from scipy.linalg import cho_factor, cho_solve, eigh
 
-from .integrate import Attached, run_rk4
+from .integrate import Attached, RunResult, run_rk4
 from .laws import Law
 
 FloatArray = np.ndarray
@@ -371,10 +371,19 @@ class BuildingOwn:
             att.append(Attached(name, law, b))
         res = run_rk4(np.eye(r), C, K, self.Gamma, att, ag, fs_hz, n_sub)
         acc = self.S_Phi @ res.xdd + self.S_P @ ag
-        u = np.einsum("dir,rt->dit", self.B, res.x)
-        v = np.einsum("dir,rt->dit", self.B, res.xd)
-        f = self.k_dev[:, :, None] * u + self.c_dev[:, :, None] * v
-        for i, name in enumerate(self.laws):
-            f[self.device_names.index(name)] = res.f[i]
-        nd = len(self.device_names)
-        return np.vstack([acc, u.reshape(2 * nd, -1), f.reshape(2 * nd, -1)])
+        return np.vstack([acc, device_channels(self.B, self.k_dev, self.c_dev,
+                                               self.device_names, self.laws, res)])
+
+
+def device_channels(B: FloatArray, k_dev: FloatArray, c_dev: FloatArray,
+                    names: tuple[str, ...], laws: Mapping[str, Law], res: RunResult
+                    ) -> FloatArray:
+    """Drift rows ``<dev>_dx, _dy`` of every device, then its force rows (spring + dashpot,
+    or the law's force) from a run in modal coordinates (drift ``B_d q``)."""
+    u = np.einsum("dir,rt->dit", B, res.x)
+    v = np.einsum("dir,rt->dit", B, res.xd)
+    f = k_dev[:, :, None] * u + c_dev[:, :, None] * v
+    for i, name in enumerate(laws):
+        f[names.index(name)] = res.f[i]
+    nd = len(names)
+    return np.vstack([u.reshape(2 * nd, -1), f.reshape(2 * nd, -1)])
