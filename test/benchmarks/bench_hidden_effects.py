@@ -7,7 +7,10 @@ or storey, an eccentric roof mass, a hardening equipment mount, a worn damper) a
 RK4 integration; only the linear structure (FE assembly, modal / coupled matrices) comes
 from the library, except for the 3D car, whose truth is written whole from the physics
 (``_truth/vehicle3d_own.py``, checked against the library's car in
-``test/models/test_vehicle3d_own_truth.py``). Every case has a training record
+``test/models/test_vehicle3d_own_truth.py``), the ``new_veh_*`` cars
+(``_truth/vehicle_own.py``) and the building cases of ``--new`` (``_truth/building_own.py``,
+its own assembly of the structure file, checked in
+``test/diagnosis/test_building_own_truth.py``). Every case has a training record
 (earthquake-level random), a held-out record (earthquake-like, other seed; for the car
 another speed) and a low-level record (1/20), with 1-3 % white sensor noise.
 

@@ -26,6 +26,7 @@ import yaml
 from modal_twin.models.building import build_building, modal_reduction
 from modal_twin.models.structure_yaml import parse_structure
 
+from .building_own import device_channels
 from .integrate import Attached, run_rk4
 from .laws import Law
 
@@ -117,10 +118,5 @@ class BuildingTruth:
             att.append(Attached(name, law, B))
         res = run_rk4(np.eye(r), C, K, mb.Gamma, att, ag, fs_hz, n_sub)
         acc = mb.C_acc[:, 2 * r:] @ res.xdd + mb.D_acc @ ag
-        u = np.einsum("dir,rt->dit", mb.B, res.x)
-        v = np.einsum("dir,rt->dit", mb.B, res.xd)
-        f = mb.k_dev[:, :, None] * u + mb.c_dev[:, :, None] * v
-        for i, name in enumerate(self.laws):
-            f[mb.device_names.index(name)] = res.f[i]
-        nd = len(mb.device_names)
-        return np.vstack([acc, u.reshape(2 * nd, -1), f.reshape(2 * nd, -1)])
+        return np.vstack([acc, device_channels(mb.B, mb.k_dev, mb.c_dev, mb.device_names,
+                                               self.laws, res)])

@@ -23,6 +23,9 @@ import numpy as np
 from . import laws
 from .building import INPUTS as B_INPUTS
 from .building import BuildingTruth, add_masses, weaken_columns
+from .building_own import BuildingOwn
+from .building_own import add_masses as own_masses
+from .building_own import weaken_columns as own_weaken
 from .records import Noisy, measured, table_earthquake, table_random, track_inputs
 from .vehicle import INPUTS as V_INPUTS
 from .vehicle import VehicleTruth
@@ -72,7 +75,7 @@ class Case:
     name: str
     model: str  # "building" | "vehicle" | "vehicle3d" | "vehicle3d_eq1" (EQ1 hung)
     hidden: tuple[Hidden, ...]
-    build: Callable[[], BuildingTruth | VehicleTruth | VehicleOwn | Vehicle3DOwn]
+    build: Callable[[], BuildingTruth | BuildingOwn | VehicleTruth | VehicleOwn | Vehicle3DOwn]
     noise_pct: float = 2.0
     gains: dict[str, float] = field(default_factory=dict)
     seed: int = 0
@@ -94,25 +97,32 @@ def _nominal() -> BuildingTruth:
 
 
 _NOM = None
+_OWN: BuildingOwn | None = None
 
 
-def _dev(name: str) -> tuple[np.ndarray, np.ndarray, float]:
-    """Nominal (k, c) per direction and weight of a device."""
-    global _NOM
+def _dev(name: str, own: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
+    """Nominal (k, c) per direction and weight of a device (``own``: of the independent
+    truth :mod:`.building_own`, the building cases of ``--new``; else of :mod:`.building`)."""
+    global _NOM, _OWN
+    if own:
+        if _OWN is None:
+            _OWN = BuildingOwn()
+        k, c = _OWN.device_kc(name)
+        return k, c, _OWN.weight(name)
     if _NOM is None:
         _NOM = _nominal()
     d = _NOM.mb.device_names.index(name)
     return _NOM.mb.k_dev[d].copy(), _NOM.mb.c_dev[d].copy(), _NOM.weight(name)
 
 
-def _bw(dev: str, alpha: float, uy: float, c_frac: float) -> laws.Law:
-    k, c, _ = _dev(dev)
+def _bw(dev: str, alpha: float, uy: float, c_frac: float, own: bool = False) -> laws.Law:
+    k, c, _ = _dev(dev, own)
     return laws.BoucWenN1(k=k, alpha=alpha, uy=uy, c=c_frac * c)
 
 
 def _stribeck(dev: str, mu_s: float = 0.06, mu_k: float = 0.03, v_s: float = 0.05,
-              k_frac: float = 0.3) -> laws.Law:
-    k, c, w = _dev(dev)
+              k_frac: float = 0.3, own: bool = False) -> laws.Law:
+    k, c, w = _dev(dev, own)
     return laws.StribeckFriction(W=w, mu_s=mu_s, mu_k=mu_k, v_s=v_s, k=k_frac * k,
                                  c=0.3 * c)
 
@@ -121,8 +131,16 @@ def _laws(**kw: Callable[[], laws.Law]) -> Callable[[], BuildingTruth]:
     return lambda: BuildingTruth(laws={d: f() for d, f in kw.items()})
 
 
-def _iwan(dev: str = "ESB2") -> laws.Law:
-    k, c, _ = _dev(dev)
+def _own_nominal() -> BuildingOwn:
+    return BuildingOwn()
+
+
+def _own_laws(**kw: Callable[[], laws.Law]) -> Callable[[], BuildingOwn]:
+    return lambda: BuildingOwn(laws={d: f() for d, f in kw.items()})
+
+
+def _iwan(dev: str = "ESB2", own: bool = False) -> laws.Law:
+    k, c, _ = _dev(dev, own)
     return laws.IwanJoint(k=0.8 * float(k.mean()), phi_max=0.03, k_res=0.2 * float(k.mean()),
                        c=c)
 
@@ -137,8 +155,8 @@ def _quintic() -> laws.Law:
     return laws.QuinticHardening(k=k, u5=0.09, c=c)
 
 
-def _hertz() -> laws.Law:
-    k, c, _ = _dev("RB1")
+def _hertz(own: bool = False) -> laws.Law:
+    k, c, _ = _dev("RB1", own)
     return laws.HertzGap(k=k, c=c, k_h=21.0 * float(k.mean()), g=0.06)
 
 
@@ -262,11 +280,11 @@ def _sensor(stem: str, kind: str) -> Hidden:
     return Hidden("sensor", stem, aliases=tuple(f"{stem}_{a}" for a in "xyz"), kind=kind)
 
 
-def _damper_friction(dev: str, f_s: float, f_k: float) -> laws.Law:
+def _damper_friction(dev: str, f_s: float, f_k: float, own: bool = False) -> laws.Law:
     """Friction in a damper (no vertical load): the Stribeck law with ``W = 1`` N, so its
     coefficients are the static / sliding forces, beside the damper's spring and half its
     dashpot."""
-    k, c, _ = _dev(dev)
+    k, c, _ = _dev(dev, own)
     return laws.StribeckFriction(W=1.0, mu_s=f_s, mu_k=f_k, v_s=0.02, k=k, c=0.5 * c)
 
 
@@ -296,56 +314,56 @@ _CARBODY = ("zeta_carbody", "carbody_bending", "bending_1", "mode_1")
 # channels at 0.02-0.05 % noise (``quiet_pct``) where the external records had them so
 NEW_CASES: tuple[Case, ...] = (
     # (a) nearly noise-free device channels beside 2 % accelerometers, nothing hidden
-    Case("new_control_quiet_devices", "building", (), _nominal, 2.0, seed=51, new=True,
+    Case("new_control_quiet_devices", "building", (), _own_nominal, 2.0, seed=51, new=True,
          quiet_pct=0.02),
     # (a) + (g): an added mass on F3 (neither the lowest nor the highest floor), 3 %
     Case("new_mass_F3_quiet_devices", "building", (Hidden("mass", "F3", aliases=("m_F3",)),),
-         lambda: BuildingTruth(edits=[add_masses([("F3_2A", 6000.0), ("F3_A23", 3000.0)])]),
+         lambda: BuildingOwn(edits=[own_masses([("F3_2A", 6000.0), ("F3_A23", 3000.0)])]),
          3.0, seed=52, new=True, quiet_pct=0.02),
     # (h) a group: the columns of line 3B (the side opposite line 1A) at half stiffness
     Case("new_stiffness_line_3B", "building", (Hidden("stiffness", "columns:line_3B"),),
-         lambda: BuildingTruth(edits=[weaken_columns(
+         lambda: BuildingOwn(edits=[own_weaken(
              lambda n1, n2: n1.endswith("_3B") and n2.endswith("_3B"), 0.5)]), 1.5,
          seed=53, new=True, quiet_pct=0.02),
     # (b) friction in a damper: a broadband response a flat-top noise estimate takes for noise
     Case("new_friction_damper_SDP2_broadband", "building", (Hidden("friction", "SDP2"),),
-         _laws(SDP2=lambda: _damper_friction("SDP2", 4.0e4, 3.0e4)), 1.0, seed=54, new=True,
-         quiet_pct=0.02),
+         _own_laws(SDP2=lambda: _damper_friction("SDP2", 4.0e4, 3.0e4, own=True)), 1.0,
+         seed=54, new=True, quiet_pct=0.02),
     # (c) a 10 ms time delay on the three channels of one accelerometer
-    Case("new_sensor_delay_F3_C2", "building", (_sensor("F3_C2", "delay"),), _nominal, 2.0,
+    Case("new_sensor_delay_F3_C2", "building", (_sensor("F3_C2", "delay"),), _own_nominal, 2.0,
          seed=55, new=True, delays={f"F3_C2_{a}": 0.010 for a in "xyz"}),
     # (d) the two horizontal axes of one accelerometer turned by 6 degrees
     Case("new_sensor_orientation_F1_C3", "building", (_sensor("F1_C3", "orientation"),),
-         _nominal, 1.0, seed=56, new=True, turns={"F1_C3": 6.0}),
+         _own_nominal, 1.0, seed=56, new=True, turns={"F1_C3": 6.0}),
     # (e) two interacting isolator effects: friction at ESB2, hysteresis at RB1
     Case("new_two_stribeck_ESB2_bw1_RB1", "building",
          (Hidden("friction", "ESB2"), Hidden("hysteresis", "RB1")),
-         _laws(ESB2=lambda: _stribeck("ESB2", 0.07, 0.035, 0.03, 0.2),
-               RB1=lambda: _bw("RB1", 0.3, 0.012, 0.5)), 2.0, seed=57, new=True,
+         _own_laws(ESB2=lambda: _stribeck("ESB2", 0.07, 0.035, 0.03, 0.2, own=True),
+               RB1=lambda: _bw("RB1", 0.3, 0.012, 0.5, own=True)), 2.0, seed=57, new=True,
          quiet_pct=0.02),
     # (f) a device and a global parameter: friction at ESB1, storey 2 columns at 0.6
     Case("new_two_stribeck_ESB1_storey_2", "building",
          (Hidden("friction", "ESB1"), Hidden("stiffness", "columns:storey_2")),
-         lambda: BuildingTruth(laws={"ESB1": _stribeck("ESB1")}, edits=[weaken_columns(
+         lambda: BuildingOwn(laws={"ESB1": _stribeck("ESB1", own=True)}, edits=[own_weaken(
              lambda n1, n2: n1.startswith("F1_") and n2.startswith("F2_"), 0.6)]), 2.0,
          seed=58, new=True),
     # (l) Bouc-Wen laws labelled by what they do: nearly a dashpot (alpha 0.95, a yield
     # displacement twice the largest drift, 3.5x the dashpot) ...
     Case("new_bw_dashpot_like_SDP2", "building", (Hidden("damping", "SDP2"),),
-         _laws(SDP2=lambda: _bw("SDP2", 0.95, 0.2, 3.5)), 2.0, seed=59, new=True),
+         _own_laws(SDP2=lambda: _bw("SDP2", 0.95, 0.2, 3.5, own=True)), 2.0, seed=59, new=True),
     # ... a yielding damper (alpha 0.05, yield at ~11 % of the largest drift) ...
     Case("new_bw_yielding_damper_SDP1", "building", (Hidden("hysteresis", "SDP1"),),
-         _laws(SDP1=lambda: _bw("SDP1", 0.05, 0.01, 0.2)), 2.0, seed=60, new=True),
+         _own_laws(SDP1=lambda: _bw("SDP1", 0.05, 0.01, 0.2, own=True)), 2.0, seed=60, new=True),
     # ... and a microslip joint (Iwan): loops enclose area, not "cubic softening"
     Case("new_microslip_iwan_RB1", "building",
          (Hidden("hysteresis", "RB1", also_families=("friction",)),),
-         _laws(RB1=lambda: _iwan("RB1")), 2.0, seed=61, new=True, quiet_pct=0.02),
+         _own_laws(RB1=lambda: _iwan("RB1", own=True)), 2.0, seed=61, new=True, quiet_pct=0.02),
     # second noise and excitation seeds of two cases of the first set (gap_hertz_RB1 seed 7,
     # hyst_bw1_RB1 seed 1)
-    Case("new_gap_hertz_RB1_seed2", "building", (Hidden("gap", "RB1"),), _laws(RB1=_hertz),
-         2.0, seed=62, new=True),
+    Case("new_gap_hertz_RB1_seed2", "building", (Hidden("gap", "RB1"),),
+         _own_laws(RB1=lambda: _hertz(own=True)), 2.0, seed=62, new=True),
     Case("new_hyst_bw1_RB1_seed2", "building", (Hidden("hysteresis", "RB1"),),
-         _laws(RB1=lambda: _bw("RB1", 0.35, 0.01, 0.5)), 2.0, seed=63, new=True),
+         _own_laws(RB1=lambda: _bw("RB1", 0.35, 0.01, 0.5, own=True)), 2.0, seed=63, new=True),
     # (i) + (b) the car: friction (800 N) in the front secondary damper, stroke and force
     # channels recorded (channels the library's car lacks)
     Case("new_veh_damper_friction_front", "vehicle",
@@ -366,8 +384,8 @@ NEW_CASES: tuple[Case, ...] = (
     # run on main's head before the fix, see the baseline file)
     Case("new_two_stribeck_ESB2_bw1_RB1_table", "building",
          (Hidden("friction", "ESB2"), Hidden("hysteresis", "RB1")),
-         _laws(ESB2=lambda: _stribeck("ESB2", 0.07, 0.035, 0.03, 0.2),
-               RB1=lambda: _bw("RB1", 0.3, 0.012, 0.5)), 2.0, seed=57, new=True,
+         _own_laws(ESB2=lambda: _stribeck("ESB2", 0.07, 0.035, 0.03, 0.2, own=True),
+               RB1=lambda: _bw("RB1", 0.3, 0.012, 0.5, own=True)), 2.0, seed=57, new=True,
          quiet_pct=0.02, table_channels=True),
     # control of the car with its device channels
     Case("new_veh_control_devices", "vehicle", (),
@@ -375,14 +393,14 @@ NEW_CASES: tuple[Case, ...] = (
     # issue 20, item 2 (added 2026-11-26, run on main's head 8a7814d before any mechanism
     # for them): the y axis of one accelerometer reads with reversed polarity ...
     Case("new_sensor_polarity_F1_C2_y", "building", (_sensor("F1_C2", "polarity"),),
-         _nominal, 2.0, gains={"F1_C2_y": -1.0}, seed=68, new=True),
+         _own_nominal, 2.0, gains={"F1_C2_y": -1.0}, seed=68, new=True),
     # ... the zero of one accelerometer axis creeps (0.02 m/s2 + 0.005 m/s2 per s from
     # each record's start: a charge amplifier's drift after its reset; nothing high-passes
     # the records) ...
-    Case("new_sensor_drift_F2_C3_y", "building", (_sensor("F2_C3", "drift"),), _nominal,
+    Case("new_sensor_drift_F2_C3_y", "building", (_sensor("F2_C3", "drift"),), _own_nominal,
          1.5, seed=69, new=True, drifts={"F2_C3_y": (0.02, 0.005)}),
     # ... and the x / y cables of one accelerometer crossed
-    Case("new_sensor_swap_F3_C1", "building", (_sensor("F3_C1", "swap"),), _nominal, 1.5,
+    Case("new_sensor_swap_F3_C1", "building", (_sensor("F3_C1", "swap"),), _own_nominal, 1.5,
          seed=70, new=True, swaps=(("F3_C1_x", "F3_C1_y"),)),
     # issue 23, item 9 (added 2026-11-26, run on main's head bc6baa7 + the 3D car's
     # factory before any diagnosis change for it): the 3D car, the left yaw damper of the
@@ -433,24 +451,25 @@ _C1_QUIET = {f"{fl}_C1_{a}": 0.3 for fl in ("F0", "F1", "F2", "F3") for a in "xy
 NOISE_FORM_CASES: tuple[Case, ...] = (
     # 3 % white noise on every accelerometer (the top of the stated range), friction at ESB2
     Case("new_noise_3pct_stribeck_ESB2", "building", (Hidden("friction", "ESB2"),),
-         _laws(ESB2=lambda: _stribeck("ESB2", 0.08, 0.04, 0.02, 0.15)), 3.0, seed=81,
+         _own_laws(ESB2=lambda: _stribeck("ESB2", 0.08, 0.04, 0.02, 0.15, own=True)), 3.0, seed=81,
          new=True, quiet_pct=0.02),
     # accelerometers of very different noise: the C1 line and the roof's P1 at 0.3 %, the
     # others at 3 %; a mass on F2
     Case("new_noise_mixed_levels_mass_F2", "building", (Hidden("mass", "F2", aliases=("m_F2",)),),
-         lambda: BuildingTruth(edits=[add_masses([("F2_1B", 5000.0), ("F2_B12", 5000.0)])]),
+         lambda: BuildingOwn(edits=[own_masses([("F2_1B", 5000.0), ("F2_B12", 5000.0)])]),
          3.0, seed=82, new=True, quiet_pct=0.02, pct_of=_C1_QUIET),
     # 1/f ("pink") noise of 2 % RMS on every channel, friction at ESB1
     Case("new_noise_pink_stribeck_ESB1", "building", (Hidden("friction", "ESB1"),),
-         _laws(ESB1=lambda: _stribeck("ESB1")), 2.0, seed=83, new=True, colour="pink"),
+         _own_laws(ESB1=lambda: _stribeck("ESB1", own=True)), 2.0, seed=83, new=True,
+         colour="pink"),
     # noise low-passed at 15 Hz (2 % RMS, nothing above the band the structure responds in),
     # nothing hidden: must name nothing
-    Case("new_noise_lowpass_control", "building", (), _nominal, 2.0, seed=84, new=True,
+    Case("new_noise_lowpass_control", "building", (), _own_nominal, 2.0, seed=84, new=True,
          colour="lowpass:15"),
     # every reading through a 16-bit ADC over 20x its training RMS (the device channels have
     # no other noise; the low-level record is at 1/20 with the same range), hysteresis at RB1
     Case("new_noise_adc16_bw1_RB1", "building", (Hidden("hysteresis", "RB1"),),
-         _laws(RB1=lambda: _bw("RB1", 0.35, 0.01, 0.5)), 1.0, seed=85, new=True,
+         _own_laws(RB1=lambda: _bw("RB1", 0.35, 0.01, 0.5, own=True)), 1.0, seed=85, new=True,
          quiet_pct=0.0, adc_bits=16),
 )
 NEW_CASES = NEW_CASES + NOISE_FORM_CASES
