@@ -80,7 +80,9 @@ def test_bad_blocks_do_not_crash_nodes(domain_id: int, tmp_path: Path) -> None:
         send(raw, ("F0_C1_x",), 0, np.full((1, 10), np.inf))
         for k in range(21, 40):
             send(drive, ch, 100 * k, 0.5 * rng.normal(size=(6, 100)))
-        end = time.monotonic() + 10.0
+        # a bound, not a speed: the loop ends when the twin has scored 3000 samples (a CI
+        # run beside three benchmarks took more than 10 s to get there)
+        end = time.monotonic() + 90.0
         while time.monotonic() < end and not (metrics and metrics[-1].samples >= 3000):
             ex.spin_once(timeout_sec=0.1)
         assert launcher.dead() == []  # nobody crashed
