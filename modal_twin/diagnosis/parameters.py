@@ -39,7 +39,7 @@ from modal_twin.models.loading import ModelFactory
 from modal_twin.models.plant import Plant
 
 __all__ = ["KINDS", "PARAMETER", "PARAMETER_LAWS", "ParameterCandidate", "ParameterKind",
-           "fit_parameter", "screen_parameters"]
+           "fit_parameter", "rival_places", "screen_parameters"]
 
 KINDS = {"m_": "added_mass", "E_": "stiffness", "EI_": "stiffness", "k_": "stiffness",
          "c_": "damping"}
@@ -136,6 +136,53 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
         if best is not None:
             out.append(best)
     return sorted(out, key=lambda c: -c.gain)
+
+
+# the level a parameter acts at: the places that compete with one another (a column line,
+# a storey and a material all change the structure's stiffness; a floor's mass and a mass
+# added on it, a floor's load)
+_PLACE_CLASS = {"modulus": "structure", "group": "structure", "link": "structure",
+                "added_mass": "mass"}
+
+
+def _place_class(factory: ModelFactory, name: str) -> str:
+    try:
+        family = factory.parameter_info(name).family
+    except (ModalTwinError, AttributeError):
+        return ""
+    return _PLACE_CLASS.get(family, family)
+
+
+def rival_places(factory: ModelFactory, effect: EffectSpec) -> list[ParameterCandidate]:
+    """Return the places that compete with a parameter change found, each as a candidate.
+
+    The parameters of the same law and the same level (:data:`_PLACE_CLASS`: the structure's
+    moduli, column lines and storeys; the devices' rates; the floors' masses), ``effect``'s
+    own among them, each started at the change found: the same factor where both nominal
+    values are non-zero, else the same increment (an added mass of ``m`` kg on another
+    floor). The screening ranks places by a linear sensitivity at the nominal model; a large
+    change found next to a device law fitted before it can land on a group that only
+    overlaps the right one (a column line for its storey), which a fit at every rival, the
+    others in place, tells apart.
+    """
+    values = factory.parameters()
+    name = effect.component
+    if name not in values or name not in effect.params:
+        return []
+    nom_p, v = float(values[name]), float(effect.params[name])
+    level = _place_class(factory, name)
+    out = []
+    for q, nom_q in values.items():
+        what = _info(factory, q, nom_q, (*factory.parameter_prefixes, name))
+        if what is None or what[0] != effect.law or _place_class(factory, q) != level:
+            continue
+        law, lo, hi = what
+        start = nom_q * v / nom_p if nom_p and nom_q else nom_q + (v - nom_p)
+        start = float(np.clip(start, lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo)))
+        own = tuple((n, effect.params[n]) for n in _companions(factory, q)
+                    if q == name and n in effect.params)
+        out.append(ParameterCandidate(q, law, float(nom_q), start, 0.0, own))
+    return out
 
 
 def _positions(factory: ModelFactory, name: str) -> list[dict[str, float]]:

@@ -32,6 +32,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -53,6 +54,7 @@ from modal_twin.diagnosis.judge import (
 from modal_twin.diagnosis.kinds import KINDS, kind_of
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
 from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures, effective_samples
+from modal_twin.diagnosis.parameters import fit_parameter, rival_places
 from modal_twin.diagnosis.record import Record
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
 from modal_twin.errors import ModalTwinError
@@ -370,6 +372,19 @@ def _effective_samples(plant: Plant, records: Sequence[Record]) -> list[float]:
             for r in records]
 
 
+def _sampling_tolerance(factory: ModelFactory, found: Sequence[FittedEffect],
+                        records: Sequence[Record]) -> tuple[list[float], float]:
+    """Return each record's effective samples and the criterion's sampling tolerance.
+
+    :func:`_effective_samples` of the residual of the model with ``found``, and
+    ``ln(1 + tol)``, ``tol`` the mean over the records of :func:`.judge.worse_tolerance`
+    (one record's RMS that much higher is within what another record of the test gives).
+    """
+    n_eff = _effective_samples(_apply_all(factory, found).plant(), records)
+    return n_eff, float(np.log1p(np.mean([worse_tolerance(r, n)
+                                          for r, n in zip(records, n_eff, strict=True)])))
+
+
 def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
                   noises: Sequence[np.ndarray], say: Callable[[str], None], *,
                   refit: bool = True) -> tuple[list[FittedEffect], list[str]]:
@@ -401,9 +416,7 @@ def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Seq
     """
     keep = list(found)
     dropped: list[str] = []
-    n_eff = _effective_samples(_apply_all(factory, found).plant(), records)
-    tol = float(np.log1p(np.mean([worse_tolerance(r, n)
-                                  for r, n in zip(records, n_eff, strict=True)])))
+    n_eff, tol = _sampling_tolerance(factory, found, records)
 
     def criterion(effects: Sequence[FittedEffect]) -> tuple[float, tuple[ErrorFigures, ...]]:
         figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
@@ -502,6 +515,101 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
     return out, rows
 
 
+def _places_rechosen(factory: ModelFactory, found: list[FittedEffect],
+                     records: Sequence[Record], noises: Sequence[np.ndarray],
+                     say: Callable[[str], None], mapper: Mapper
+                     ) -> tuple[list[FittedEffect], list[RoundRow]]:
+    """``found`` with the place of each parameter change chosen again among its rivals.
+
+    A parameter change is placed by the screening's linear sensitivities at the model of
+    its round, on a residual still bent by the laws fitted before it (a friction fitted
+    while a storey's stiffness was wrong takes part of it): a column line can be chosen for
+    its storey. So each is fitted again at every rival place (:func:`.parameters.rival_places`:
+    the same law at the same level, from the same change) with the other effects in place
+    and judged as in a round. The move that lowers the whitened information criterion over
+    every record (:func:`.judge.information_criterion`) most is made when it lowers it by
+    more than the sampling tolerance (:func:`_sampling_tolerance`: a place is moved on
+    evidence, not on a tie), and the changes not moved are tried again with it in place
+    (a wrong place beside a right one bends the right one's rivals too: the clearest move
+    first).
+
+    Returns the effects and, per change, its last trial as a round for the tables
+    (:data:`RoundRow`).
+    """
+    out = list(found)
+    pending = [i for i, f in enumerate(found) if kind_of(f.effect.law) is KINDS["parameter"]]
+    rows: dict[int, RoundRow] = {}
+
+    def ic(effects: Sequence[FittedEffect]) -> float:
+        figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
+        return information_criterion(figs, sum(g.n_params for g in effects), records)
+
+    while pending:
+        ic_out = ic(out)
+        _, tol = _sampling_tolerance(factory, out, records)
+        trials = [t for i in pending if (t := _rival_trial(factory, out, i, records, noises,
+                                                            say, mapper, ic)) is not None]
+        if not trials:
+            break
+        for t in trials:
+            rows[t[2]] = _place_row(out[t[2]], t, ic_out, tol, moved=False)
+        best_trial = min(trials, key=lambda t: t[0])
+        ic_best, best, i, _ = best_trial
+        if best is None or ic_best >= ic_out - tol:
+            break
+        rows[i] = _place_row(out[i], best_trial, ic_out, tol, moved=True)
+        say(f"{out[i].family}: {best.place} fits better than {out[i].place}; taken instead")
+        out[i] = best
+        pending.remove(i)
+    return out, [rows[i] for i in sorted(rows)]
+
+
+_RivalTrial = tuple[float, FittedEffect | None, int, tuple[FittedEffect, ...]]
+
+
+def _place_row(f: FittedEffect, trial: _RivalTrial, ic_out: float, tol: float, *,
+               moved: bool) -> RoundRow:
+    """Return the round of the tables for the rival places of ``f``: fits, decision, reason."""
+    ic_best, best, _, ranked = trial
+    title = (f"the place of {f.family} at {f.place} chosen again among its rival places, "
+             "the other effects in place")
+    if best is None:
+        return title, ranked, f"{f.family} kept at {f.place} (no rival place is usable)", None
+    crit = (f"criterion {ic_out:.4f} -> {ic_best:.4f} at {best.place} (whitened information "
+            f"criterion over every record; moved when lower by more than {tol:.4f})")
+    if moved:
+        return title, ranked, f"{f.family} moved: {f.place} -> {best.place}, {crit}", best
+    return title, ranked, f"{f.family} kept at {f.place} ({crit})", None
+
+
+def _rival_trial(factory: ModelFactory, out: Sequence[FittedEffect], i: int,
+                 records: Sequence[Record], noises: Sequence[np.ndarray],
+                 say: Callable[[str], None], mapper: Mapper,
+                 ic: Callable[[Sequence[FittedEffect]], float]) -> _RivalTrial | None:
+    """Return the best rival place of ``out[i]``: (criterion with it, it, i, ranked fits).
+
+    None when the change has no rival; the fit None (criterion inf) when no rival is usable.
+    """
+    f = out[i]
+    base = _apply_all(factory, [*out[:i], *out[i + 1:]])
+    rivals = rival_places(base, f.effect)
+    if len(rivals) < 2:
+        return None
+    say(f"{f.family} at {f.place}: fitting it at {len(rivals) - 1} rival places")
+    rnd = Round(base, records, base.plant(), noises, (), [], say)
+    before = figures_on(rnd.nominal, records, noises)
+    jobs: list[Job] = [(f"{pc.kind} {pc.name}", partial(fit_parameter, base, pc, rnd.fit_on,
+                                                        rnd.test)) for pc in rivals]
+    ranked = tuple(rank([_judge(rnd, g, before, 0.01)
+                         for g in _run_jobs(jobs, mapper, [], say)]))
+    scored = [(ic([*out[:i], g, *out[i + 1:]]), g) for g in ranked
+              if not g.rejected and not g.flags and g.effect.component != f.effect.component]
+    if not scored:
+        return float("inf"), None, i, ranked
+    ic_best, best = min(scored, key=lambda t: t[0])
+    return ic_best, best, i, ranked
+
+
 def _refitted_trial(factory: ModelFactory, trials: Sequence[_Trial],
                     records: Sequence[Record],
                     criterion: Callable[[Sequence[FittedEffect]], tuple[float, Any]],
@@ -576,6 +684,8 @@ def diagnose(
     if joint and len(found) > 1:
         found, again = _reselected(factory, found, records, rec_c, noises, say, n_fit=n_fit,
                                    gain_threshold=gain_threshold, mapper=mapper)
+        found, moved = _places_rechosen(factory, found, rec_c, noises, say, mapper)
+        again += moved
         table += [(f"round {len(table) + k + 1}: {t}", fits, why, took)
                   for k, (t, fits, why, took) in enumerate(again)]
         say("refitting all effects found jointly")

@@ -11,6 +11,7 @@ from modal_twin.diagnosis.effect_kind import Facts
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
 from modal_twin.diagnosis.judge import _flags
+from modal_twin.diagnosis.parameters import ParameterCandidate, fit_parameter, rival_places
 from modal_twin.diagnosis.record import Record
 from modal_twin.excitation import signals
 from modal_twin.models.building_factory import INPUTS_6DOF, BuildingFactory
@@ -319,3 +320,70 @@ def test_the_normalised_residual_is_every_kth_sample_of_the_scaled_residual(
         np.testing.assert_array_equal(r, full[:, ::d].ravel())
         assert r.size == len(rec.channel_names) * len(range(0, rec.scored.shape[1], d))
     assert np.max(np.abs(full)) > 1e-3
+
+
+# issue 20, item 5 (place at the right level): a parameter change's place chosen again among
+# its rivals, the other effects in place (a storey's stiffness found as one column line of
+# that storey beside a friction law fitted before it)
+
+
+def test_rivals_are_the_same_law_at_the_same_level_from_the_same_change(
+        factory: BuildingFactory) -> None:
+    values = factory.parameters()
+    rivals = {c.name: c for c in rival_places(
+        factory, EffectSpec("kcol_3B", "stiffness", {"kcol_3B": 0.7}))}
+    structure = {n for n in values if n.startswith(("E_", "kcol_", "kst_"))}
+    assert set(rivals) == structure  # not the isolators' rates, not a mass or a damping
+    for name, c in rivals.items():
+        assert c.kind == "stiffness" and c.nominal == values[name]
+        assert c.start == pytest.approx(0.7 * values[name], rel=1e-12)  # the same factor
+    # a mass added on one floor: the same kilograms on every other floor, or on its mass
+    rivals = {c.name: c for c in rival_places(
+        factory, EffectSpec("madd_F2", "added_mass", {"madd_F2": 5000.0, "madd_F2_x": 3.0}))}
+    assert {n for n in rivals if n.startswith("madd_")} == {
+        n for n in values if n.startswith("madd_") and n.count("_") == 1}
+    assert rivals["madd_F1"].start == pytest.approx(5000.0)
+    assert rivals["m_F1"].start == pytest.approx(values["m_F1"] + 5000.0)
+    assert dict(rivals["madd_F2"].companions) == {"madd_F2_x": 3.0}  # its own position kept
+    assert rival_places(factory, EffectSpec("ESB1", "stick_slip", {"Fk": 1.0})) == []
+
+
+def _judged(factory: BuildingFactory, name: str, start: float, recs: list) -> FittedEffect:
+    from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floor
+
+    nominal = factory.plant()
+    noises = [record_noise_floor(nominal, r) for r in recs]
+    f = fit_parameter(factory, ParameterCandidate(name, "stiffness", factory.parameters()[name],
+                                                  start, 0.0), recs[0], recs[1])
+    return judge(f, factory.with_theta(f.effect.params).plant(),
+                 figures_on(nominal, recs, noises), recs, noises,
+                 facts=Facts(factory.parameters()), place=name)
+
+
+def test_a_column_line_named_for_its_storey_is_moved_to_the_storey(
+        factory: BuildingFactory) -> None:
+    from modal_twin.diagnosis.judge import record_noise_floor
+    from modal_twin.diagnosis.pipeline import _places_rechosen
+
+    values = factory.parameters()
+    truth = {"kst_2": 0.6, "m_R": 1.2 * values["m_R"]}
+    recs = [noisy(record_of(factory, truth, seed=s), 1.0, s) for s in (51, 52)]
+    noises = [record_noise_floor(factory.plant(), r) for r in recs]
+    mass = FittedEffect(EffectSpec("m_R", "added_mass", {"m_R": truth["m_R"]}), 1, 1.0, 1.0,
+                        1.0, 0.0, 1, 0.0, family="mass", place="floor R")
+    with_mass = factory.with_theta({"m_R": truth["m_R"]})
+    line = _judged(with_mass, "kcol_3B", 0.8, recs)  # the wrong place, fitted as well as it can
+    said: list[str] = []
+    out, rows = _places_rechosen(factory, [mass, line], recs, noises, said.append, map)
+    assert out[0] is mass  # a mass's rivals were fitted too, and it stays
+    moved = out[1]
+    assert moved.effect.component == "kst_2"
+    assert moved.effect.params["kst_2"] == pytest.approx(0.6, rel=0.02)
+    assert rows[1][3] is moved and rows[1][2].startswith("stiffness moved: kcol_3B -> ")
+    assert len(rows[1][1]) == sum(n.startswith(("E_", "kcol_", "kst_")) for n in values)
+    # at its right place it stays, the decision says so with the criterion
+    right = _judged(with_mass, "kst_2", 0.8, recs)
+    out, rows = _places_rechosen(factory, [mass, right], recs, noises, said.append, map)
+    assert out[1] is right and rows[1][3] is None
+    assert rows[1][2].startswith("stiffness kept at kst_2 (criterion ")
+    assert np.isfinite(float(rows[1][2].split("criterion ")[1].split(" ")[0]))
