@@ -16,8 +16,9 @@ standard error for a record of :math:`N` samples is
 (Priestley 1981, *Spectral Analysis and Time Series*, Eq. (6.2.124); with the window of
 :func:`~modal_twin.identification.record.half_spectra` to 1 % over :math:`N / 4` lags,
 :math:`N \beta \approx 4 \ln 100` and :math:`\varepsilon \approx 0.23`).
-:func:`lag_window_error` evaluates the finite sum; :func:`correlations_fft` gives the
-correlations of every lag from one FFT of the record.
+:func:`lag_window_error` evaluates the finite sum. The correlations are those of
+:func:`~modal_twin.identification.ssi_cov.correlations` (the many lags of the half-spectra
+from one transform of the record, :mod:`~modal_twin.identification._lagsums`).
 
 **Sub-bands** (:func:`polymax_banded`): the band is fitted octave by octave, each with its
 own z-domain basis, the poles of each octave's core merged per order.
@@ -46,7 +47,7 @@ from modal_twin.identification.modal_model import ModalModel, PoleSet, PoleSweep
 from modal_twin.identification.polymax import polymax
 from modal_twin.identification.stabilization import DroppedColumn
 
-__all__ = ["BAND_RATIO", "N_ERRORS", "correlations_fft", "half_spectra_support",
+__all__ = ["BAND_RATIO", "N_ERRORS", "half_spectra_support",
            "lag_window_error", "polymax_banded", "polymax_bands", "spectral_support"]
 
 BAND_RATIO = 2.0
@@ -243,22 +244,3 @@ def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
             np.concatenate([q.std_zeta[m] for q, m in keep])))
     return PoleSweep("polymax", np.asarray(orders, dtype=np.int64), tuple(sets), np.zeros(0),
                      0), cores
-
-
-def correlations_fft(y: FloatArray, n_lags: int) -> FloatArray:
-    r"""Unbiased output correlations :math:`R_k = \sum_s y_{s+k} y_s^T / (N - k)`, k < n_lags.
-
-    The exact lag sums of every channel pair from one zero-padded FFT of the record
-    (:math:`O(c^2 N \log N)`, the many lags of the half-spectra included). Same layout as
-    :func:`~modal_twin.identification.ssi_cov.correlations` with every output a reference:
-    ``R[k, o, r]`` pairs output o at s + k with reference r at s.
-    """
-    c, n = y.shape
-    L = max(1, min(int(n_lags), n))
-    nfft = int(2 ** np.ceil(np.log2(2 * n)))
-    Y = np.fft.rfft(y, n=nfft, axis=1)
-    out = np.empty((L, c, c))
-    for r in range(c):  # sum_s y_o[s + k] y_r[s] = IFFT(Y_o conj(Y_r))[k], one reference a pass
-        out[:, :, r] = np.fft.irfft(Y * np.conj(Y[r]), n=nfft, axis=1)[:, :L].T
-    res: FloatArray = out / (n - np.arange(L))[:, None, None]
-    return res

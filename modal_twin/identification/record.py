@@ -75,12 +75,8 @@ from modal_twin.identification.feedback import FEEDBACK, input_feedback
 from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
 from modal_twin.identification.polymax import polymax
-from modal_twin.identification.polymax_oma import (
-    correlations_fft,
-    half_spectra_support,
-    polymax_banded,
-)
-from modal_twin.identification.ssi_cov import ssi_cov
+from modal_twin.identification.polymax_oma import half_spectra_support, polymax_banded
+from modal_twin.identification.ssi_cov import correlations, ssi_cov
 from modal_twin.identification.stabilization import (
     REL_SUPPORT,
     DroppedColumn,
@@ -340,7 +336,7 @@ def half_spectra(y: FloatArray, fs_hz: float, n_lags: int, *, decay: float = 0.0
     sigma_w : float
         The window's added decay rate :math:`\beta f_s` (1/s).
     """
-    R = correlations_fft(y, n_lags)  # (L, out, ref), unbiased
+    R = correlations(y, y, n_lags)  # (L, out, ref), unbiased
     beta = -math.log(decay) / max(n_lags - 1, 1)
     w = np.exp(-beta * np.arange(n_lags))
     w[0] = 0.5
