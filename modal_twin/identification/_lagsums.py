@@ -1,6 +1,8 @@
 r"""Exact lag sums and block-Hankel Gram matrices by segmented FFT (private).
 
-Shared by :mod:`.n4sid` and :mod:`.ssi_cov`. The lag sums
+Shared by :mod:`.n4sid`, :mod:`.ssi_cov` and the half-spectra of output-only PolyMAX
+(:func:`~modal_twin.identification.record.half_spectra`, through
+:func:`~modal_twin.identification.ssi_cov.correlations`). The lag sums
 
 .. math:: C_d = \sum_{s=s_0}^{s_1 - 1} x_s\, y_{s+d}^T, \qquad d = 0, \dots, L - 1
 
@@ -21,6 +23,11 @@ The Gram matrix of the block Hankel matrix with 2i block rows of :math:`z_t`,
 sums over :math:`[t_0, t_1)` and two short edge corrections (:func:`hankel_gram`), instead
 of forming the :math:`2i c \times j` Hankel matrix and its product (2i / 4 times more
 work and a large copy).
+
+With many lags for the range (:math:`L^2` above :data:`WHOLE_RANGE` times its length: the
+half-spectra's quarter of the record) the inverse DFT and the tail DFT above grow as
+:math:`L^2`; the sums then come from one zero-padded transform of the whole range
+(:func:`_whole_range`), exact to rounding as well.
 """
 
 from __future__ import annotations
@@ -32,7 +39,12 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from modal_twin._types import ComplexArray, FloatArray, IntArray
 
-__all__ = ["hankel_gram", "lag_sums"]
+__all__ = ["WHOLE_RANGE", "hankel_gram", "lag_sums"]
+
+WHOLE_RANGE = 1.0
+r"""Lags L with :math:`L^2` above this many times the range's length are summed from one
+transform of the whole range (:func:`_whole_range`): the segmented path's inverse DFT
+and tail DFT grow as :math:`L^2`, the whole transform as :math:`(n + L) \log(n + L)`."""
 
 
 def lag_sums(
@@ -58,6 +70,8 @@ def lag_sums(
     """
     L = int(n_lags)
     ln = stop - start
+    if WHOLE_RANGE * ln < L * L:  # many lags for the range: one transform of it
+        return _whole_range(x, y, L, start, stop, n_valid)
     K = max(6 * L, 128)  # segments of ~6 L samples: FFT, products and inverse DFT balanced
     nfft = sfft.next_fast_len(K + L - 1, real=True)
     K = nfft - L + 1  # use the whole FFT length
@@ -82,6 +96,25 @@ def lag_sums(
     Wcs = np.stack([np.cos(ang) * wgt, -np.sin(ang) * wgt], axis=-1).reshape(L, 2 * F)
     Sri = S.view(np.float64).reshape(F, cx * cy, 2).transpose(0, 2, 1).reshape(2 * F, -1)
     out: FloatArray = (Wcs @ Sri).reshape(L, cx, cy)
+    return out
+
+
+def _whole_range(x: FloatArray, y: FloatArray, L: int, start: int, stop: int,
+                 n_valid: int) -> FloatArray:
+    r""":func:`lag_sums` from one zero-padded transform of the whole range.
+
+    With :math:`n_{fft} \ge (s_1 - s_0) + L - 1` the circular cross-correlation of the
+    range of x with the samples of y from :math:`s_0` (to :math:`s_1 + L - 1`, zero from
+    ``n_valid``) has no wrap at lags below L; one inverse transform per channel of x.
+    """
+    ln = stop - start
+    nfft = sfft.next_fast_len(ln + L - 1, real=True)
+    X = sfft.rfft(x[:, start:stop], n=nfft, axis=1)
+    Y = sfft.rfft(y[:, start : max(min(stop + L - 1, n_valid), start)], n=nfft, axis=1)
+    np.conjugate(X, out=X)
+    out = np.empty((L, x.shape[0], y.shape[0]))
+    for a in range(x.shape[0]):  # sum_s x_a,s y_{s+d} = IFFT(conj(X_a) Y)[d]
+        out[:, a, :] = sfft.irfft(X[a] * Y, n=nfft, axis=1)[:, :L].T
     return out
 
 

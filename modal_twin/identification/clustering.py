@@ -61,6 +61,7 @@ from modal_twin._types import ComplexArray, FloatArray, IntArray
 from modal_twin.errors import OptionError
 from modal_twin.identification.metrics import mpc
 from modal_twin.identification.modal_model import ModalModel, StabilizationDiagram
+from modal_twin.identification.peaks import on_peak
 from modal_twin.identification.stabilization import DroppedColumn, _unit_shapes
 
 __all__ = ["CUT_MAX", "CUT_MIN", "HARMONIC_KURTOSIS", "PEAK_RATIO", "ZETA_MIN",
@@ -159,13 +160,7 @@ def spectral_peak(y: FloatArray, fs_hz: float, ratio: float = PEAK_RATIO
         p = np.real(np.einsum("i,fij,j->f", phi.conj(), G, phi)) / max(
             float(np.vdot(phi, phi).real), 1e-300)
         w = max(min(max(zeta, 0.0), 0.02) * f_hz, PEAK_REL_TOL * f_hz, 1.5 * df)
-        d = np.abs(fg - f_hz)
-        core, flank = np.nonzero(d <= w)[0], (d >= 3 * w) & (d <= 6 * w)
-        if core.size == 0 or not flank.any():
-            return True
-        k = int(core[np.argmax(p[core])])
-        inner = 0 < k < p.size - 1 and p[k] >= p[k - 1] and p[k] >= p[k + 1]
-        return bool(inner and p[k] >= ratio * np.median(p[flank]))
+        return bool(on_peak(fg, p, f_hz, w, ratio)[0])
 
     return peak
 

@@ -16,8 +16,9 @@ standard error for a record of :math:`N` samples is
 (Priestley 1981, *Spectral Analysis and Time Series*, Eq. (6.2.124); with the window of
 :func:`~modal_twin.identification.record.half_spectra` to 1 % over :math:`N / 4` lags,
 :math:`N \beta \approx 4 \ln 100` and :math:`\varepsilon \approx 0.23`).
-:func:`lag_window_error` evaluates the finite sum; :func:`correlations_fft` gives the
-correlations of every lag from one FFT of the record.
+:func:`lag_window_error` evaluates the finite sum. The correlations are those of
+:func:`~modal_twin.identification.ssi_cov.correlations` (the many lags of the half-spectra
+from one transform of the record, :mod:`~modal_twin.identification._lagsums`).
 
 **Sub-bands** (:func:`polymax_banded`): the band is fitted octave by octave, each with its
 own z-domain basis, the poles of each octave's core merged per order.
@@ -25,7 +26,8 @@ own z-domain basis, the poles of each octave's core merged per order.
 **Physical-pole test** (:func:`spectral_support`): a mode is what makes a peak of the
 response spectrum, so a pole PolyMAX selects from the half-spectra is reported only where
 the first singular value of :math:`\hat G` (the CMIF of the fitted data) has a local
-maximum of prominence at least :math:`10 \log_{10}(1 + 2 \varepsilon)` dB (a peak above
+maximum of topographic prominence at least :math:`10 \log_{10}(1 + 2 \varepsilon)` dB
+(:func:`~modal_twin.identification.peaks.on_peak`; a peak above
 two standard errors of the estimate, :data:`N_ERRORS`) within the half-power half-width of
 the fitted pole, :math:`(\sigma_r + \sigma_w) / 2\pi` Hz (its decay rate with the window's
 :math:`\sigma_w = \beta f_s`; at least one line). A pole that repeats over the model
@@ -38,15 +40,15 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-import scipy.signal as sig
 
-from modal_twin._types import BoolArray, ComplexArray, FloatArray
+from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import ShapeError
 from modal_twin.identification.modal_model import ModalModel, PoleSet, PoleSweep
+from modal_twin.identification.peaks import on_peak
 from modal_twin.identification.polymax import polymax
 from modal_twin.identification.stabilization import DroppedColumn
 
-__all__ = ["BAND_RATIO", "N_ERRORS", "correlations_fft", "half_spectra_support",
+__all__ = ["BAND_RATIO", "N_ERRORS", "half_spectra_support",
            "lag_window_error", "polymax_banded", "polymax_bands", "spectral_support"]
 
 BAND_RATIO = 2.0
@@ -128,27 +130,21 @@ def spectral_support(modes: ModalModel, f_hz: FloatArray, S: ComplexArray, sigma
         return modes, [], prom
     pos = f > 0
     fl = f[pos]
-    db = 10.0 * np.log10(np.maximum(_first_singular_value(S[..., pos]), 1e-300))
-    pk, _ = sig.find_peaks(db, prominence=prom)
-    fp = fl[pk]
     df = float(np.median(np.diff(fl))) if fl.size > 1 else 0.0
     w = 2 * np.pi * modes.f_hz
     half = np.maximum((modes.zeta * w + sigma_w) / (2 * np.pi), df)  # half-power half-width
-    gap = (np.min(np.abs(fp[None, :] - modes.f_hz[:, None]), axis=1) if fp.size
-           else np.full(modes.f_hz.size, np.inf))
-    ok: BoolArray = gap <= half
+    ok = on_peak(fl, _first_singular_value(S[..., pos]), modes.f_hz, half,
+                 1.0 + N_ERRORS * rel_error, flank=None)
     dropped = []
     for k in np.nonzero(~ok)[0]:
         fk, hk = float(modes.f_hz[k]), float(half[k])
         span = _span(sweep, fk, hk) if sweep is not None else (
             int(modes.mode_orders[k]), int(modes.mode_orders[k]))
-        near = (f"the nearest at {float(fp[np.argmin(np.abs(fp - fk))]):.3f} Hz"
-                if fp.size else "none in the band")
         dropped.append(DroppedColumn(
             fk, float(modes.zeta[k]), int(modes.n_support[k]), span,
             f"no peak of the half-spectra's PSD (prominence >= {prom:.2f} dB, {N_ERRORS:g} "
-            f"standard errors) within its half-power half-width {hk:.3g} Hz ({near}): not a "
-            f"mode of the response"))
+            f"standard errors) within its half-power half-width {hk:.3g} Hz: not a mode of "
+            f"the response"))
     kept = replace(modes, f_hz=modes.f_hz[ok], zeta=modes.zeta[ok], shapes=modes.shapes[:, ok],
                    std_f_hz=modes.std_f_hz[ok], std_zeta=modes.std_zeta[ok],
                    mode_orders=modes.mode_orders[ok], n_support=modes.n_support[ok])
@@ -243,22 +239,3 @@ def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
             np.concatenate([q.std_zeta[m] for q, m in keep])))
     return PoleSweep("polymax", np.asarray(orders, dtype=np.int64), tuple(sets), np.zeros(0),
                      0), cores
-
-
-def correlations_fft(y: FloatArray, n_lags: int) -> FloatArray:
-    r"""Unbiased output correlations :math:`R_k = \sum_s y_{s+k} y_s^T / (N - k)`, k < n_lags.
-
-    The exact lag sums of every channel pair from one zero-padded FFT of the record
-    (:math:`O(c^2 N \log N)`, the many lags of the half-spectra included). Same layout as
-    :func:`~modal_twin.identification.ssi_cov.correlations` with every output a reference:
-    ``R[k, o, r]`` pairs output o at s + k with reference r at s.
-    """
-    c, n = y.shape
-    L = max(1, min(int(n_lags), n))
-    nfft = int(2 ** np.ceil(np.log2(2 * n)))
-    Y = np.fft.rfft(y, n=nfft, axis=1)
-    out = np.empty((L, c, c))
-    for r in range(c):  # sum_s y_o[s + k] y_r[s] = IFFT(Y_o conj(Y_r))[k], one reference a pass
-        out[:, :, r] = np.fft.irfft(Y * np.conj(Y[r]), n=nfft, axis=1)[:, :L].T
-    res: FloatArray = out / (n - np.arange(L))[:, None, None]
-    return res

@@ -29,7 +29,9 @@ channel map and does, in this order and for every caller alike:
    averages (:func:`welch_segment`). Output-only PolyMAX: correlations over a quarter of
    the record (the exponential window to 1 % adds a decay of 4 ln(100) / T, taken back
    out of the poles), fitted octave by octave
-   (:func:`~modal_twin.identification.polymax_oma.polymax_banded`).
+   (:func:`~modal_twin.identification.polymax_oma.polymax_banded`). SSI-cov scales the
+   output channels of one quantity jointly unless their RMS spread exceeds
+   :data:`JOINT_SCALE`, then each to unit RMS (:func:`scale_groups`), and says which.
 4. **Selection**: by default (``selection="clusters"``; PolyMAX on H1 keeps the rule of
    [004] unless asked) hierarchical clustering of the
    poles of every order (:mod:`~modal_twin.identification.clustering`, Magalhaes et al.
@@ -75,12 +77,8 @@ from modal_twin.identification.feedback import FEEDBACK, input_feedback
 from modal_twin.identification.modal_model import ModalModel, PoleSweep, StabilizationDiagram
 from modal_twin.identification.n4sid import n4sid
 from modal_twin.identification.polymax import polymax
-from modal_twin.identification.polymax_oma import (
-    correlations_fft,
-    half_spectra_support,
-    polymax_banded,
-)
-from modal_twin.identification.ssi_cov import ssi_cov
+from modal_twin.identification.polymax_oma import half_spectra_support, polymax_banded
+from modal_twin.identification.ssi_cov import correlations, ssi_cov
 from modal_twin.identification.stabilization import (
     REL_SUPPORT,
     DroppedColumn,
@@ -91,6 +89,7 @@ from modal_twin.identification.stabilization import (
 from modal_twin.signal_block import SignalBlock
 
 __all__ = [
+    "JOINT_SCALE",
     "METHODS",
     "MPC_MIN",
     "OUTPUT_ONLY",
@@ -104,6 +103,7 @@ __all__ = [
     "identify_record",
     "polymax_orders",
     "record_channels",
+    "scale_groups",
     "welch_segment",
 ]
 
@@ -127,6 +127,11 @@ H1_ZETA = 0.01
 the H1 lines of input-output PolyMAX must resolve; coarser lines (short records with many
 inputs: Berkeley's 6 ground channels, 0.31 Hz lines; Rio Dell's 9, 0.2 Hz) bias the poles
 by leakage, and PolyMAX runs output-only on the half-spectra instead."""
+JOINT_SCALE = 10.0
+"""Largest ratio of the strongest to the weakest RMS among the output channels of one
+quantity for which output-only SSI scales them jointly (:func:`scale_groups`): a channel
+more than 20 dB below the strongest adds under 1 % of the power to the jointly scaled
+correlations, as good as unused, so beyond it each channel gets its own scale."""
 NONSTATIONARY = 4.0
 """Largest / smallest window RMS above which output-only SSI is warned about."""
 COHERENT = 0.8
@@ -340,7 +345,7 @@ def half_spectra(y: FloatArray, fs_hz: float, n_lags: int, *, decay: float = 0.0
     sigma_w : float
         The window's added decay rate :math:`\beta f_s` (1/s).
     """
-    R = correlations_fft(y, n_lags)  # (L, out, ref), unbiased
+    R = correlations(y, y, n_lags)  # (L, out, ref), unbiased
     beta = -math.log(decay) / max(n_lags - 1, 1)
     w = np.exp(-beta * np.arange(n_lags))
     w[0] = 0.5
@@ -432,8 +437,40 @@ def _lsfd_shapes(mm: ModalModel, spectra: _Spectra, band: tuple[float, float]) -
     return replace(mm, shapes=lsfd(H[..., sel], f[sel], lam).shapes)
 
 
+def scale_groups(y: FloatArray, quantities: Sequence[str]) -> tuple[list[str], str]:
+    """Channel scales of output-only SSI: one per quantity unless its RMS spread is large.
+
+    The output channels of one quantity share one scale, their joint RMS, so that a weak,
+    noise-dominated channel is not raised to the level of the strong ones (the textbook
+    SSI-cov of Peeters & De Roeck 1999 on data of one unit); where the strongest channel
+    of a quantity has more than :data:`JOINT_SCALE` times the RMS of its weakest, joint
+    scaling would leave the weak ones out, and each channel of that quantity is scaled
+    to unit RMS.
+
+    Returns
+    -------
+    (list of str, str)
+        A label per channel (``ssi_cov(scale_groups=)``) and a note.
+    """
+    rms = np.std(y, axis=1)
+    labels, said = [], []
+    for q in dict.fromkeys(quantities):
+        sel = [k for k, c in enumerate(quantities) if c == q]
+        spread = float(rms[sel].max() / max(rms[sel].min(), 1e-300))
+        joint = spread <= JOINT_SCALE
+        said.append(f"{len(sel)} {q} channel{'s' * (len(sel) > 1)} "
+                    + ("scaled jointly" if joint or len(sel) == 1 else "each to unit RMS")
+                    + f" (RMS spread x{spread:.1f}, {'<=' if joint else '>'} x{JOINT_SCALE:g})")
+    for k, q in enumerate(quantities):
+        sel = [j for j, c in enumerate(quantities) if c == q]
+        joint = rms[sel].max() <= JOINT_SCALE * rms[sel].min()
+        labels.append(q if joint else f"{q}#{k}")
+    return labels, "SSI-cov scales: " + "; ".join(said)
+
+
 def _sweep(method: str, u: FloatArray, y: FloatArray, s: AutoSettings, nb: int,
-           notes: list[str], keep: list[_Spectra]) -> PoleSweep:
+           notes: list[str], keep: list[_Spectra], quantities: Sequence[str] = ()
+           ) -> PoleSweep:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # fewer std blocks on short records
         try:
@@ -441,8 +478,10 @@ def _sweep(method: str, u: FloatArray, y: FloatArray, s: AutoSettings, nb: int,
                 return n4sid(u, y, s.fs_hz, orders=s.orders, block_rows=s.block_rows,
                              n_blocks_std=nb)
             if method == "ssi-cov":
+                groups, note = scale_groups(y, quantities or ["output"] * y.shape[0])
+                notes.append(note)
                 return ssi_cov(y, s.fs_hz, orders=s.orders, block_rows=s.block_rows,
-                               n_blocks_std=nb)
+                               n_blocks_std=nb, scale_groups=groups)
             return _polymax(u, y, s, notes, keep)
         except np.linalg.LinAlgError as err:
             msg = (f"{method}: the data are rank-deficient at these settings ({err}); "
@@ -655,7 +694,8 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     else:
         yq, uq = y, u
     spectra: list[_Spectra] = []
-    sweep = _sweep(method, uq, yq, s, opts.n_blocks_std, notes, spectra)
+    sweep = _sweep(method, uq, yq, s, opts.n_blocks_std, notes, spectra,
+                   [c.quantity for c in outs])
     diag, mm, relaxed, drop = _select(
         sweep, opts, s.band_hz, notes,
         harmonic=lambda f: is_harmonic(yq, s.fs_hz, f),  # a column damped at about zero

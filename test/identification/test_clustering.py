@@ -102,6 +102,25 @@ def test_two_modes_one_percent_apart_are_both_reported() -> None:
     np.testing.assert_array_less(0.95, np.diag(macs))  # each close mode its own shape
 
 
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_mode_that_shifts_by_0_6_percent_is_reported_once(seed: int) -> None:
+    """One mode whose frequency steps from 2.000 to 2.012 Hz halfway through a 1200 s
+    record (a stiffness change: two near-duplicate resonances 0.6 % apart along one shape,
+    closer than the 1 % of the close modes above) and a second mode at 4 Hz: each is
+    reported once, the first between its two frequencies."""
+    rng = np.random.default_rng(seed)
+    n = int(FS * 1200)
+    phi = np.array([[1.0, 1.0, 1.0, 1.0], [1.0, -1.0, 1.0, -1.0]]).T
+    e = rng.standard_normal(n)
+    q1 = np.r_[_resonator(2.0, 0.01, e)[: n // 2], _resonator(2.012, 0.01, e)[n // 2 :]]
+    y = phi @ np.vstack([q1, _resonator(4.0, 0.01, rng.standard_normal(n))])
+    y += 0.02 * y.std(axis=1, keepdims=True) * rng.standard_normal(y.shape)
+    rec = identify_record(*_block(y), IdentifyOptions(method="ssi-cov", f_min_hz=0.5))
+    assert rec.modes.f_hz.size == 2, (rec.modes.f_hz, [d.describe() for d in rec.dropped])
+    assert 2.0 * 0.999 <= rec.modes.f_hz[0] <= 2.012 * 1.001
+    np.testing.assert_allclose(rec.modes.f_hz[1], 4.0, rtol=0.005)
+
+
 SHAPES = np.array([[1, 1, 1, 1], [1, -1, 1, -1], [1, 1, -1, -1], [1, -1, -1, 1]],
                   dtype=complex).T
 

@@ -360,3 +360,24 @@ def test_coherence_of_unrelated_inputs_is_debiased_to_zero() -> None:
     assert _coherence(u, y, 100.0, (1.0, 40.0)) < 0.05
     driven = sig.lfilter([1.0], [1.0, -1.2, 0.5], rng.standard_normal((4, 6)) @ u, axis=1)
     assert _coherence(u, driven + 0.01 * y, 100.0, (1.0, 40.0)) > 0.95
+
+
+def test_ssi_scales_channels_of_one_quantity_jointly_unless_far_apart() -> None:
+    from modal_twin.identification.record import JOINT_SCALE, scale_groups
+
+    rng = np.random.default_rng(0)
+    e = rng.standard_normal((5, 4000))
+    gains = np.array([1.0, 0.5, 0.2, 3.0, 0.01])  # three accelerations x5 apart; two strains
+    y = gains[:, None] * e / e.std(axis=1, keepdims=True)
+    q = ["acceleration"] * 3 + ["strain"] * 2
+    labels, note = scale_groups(y, q)
+    # accelerations: spread x5 <= x10, one scale; strains: x300 > x10, each its own
+    assert labels[:3] == ["acceleration"] * 3
+    assert labels[3] != labels[4] and all(lab.startswith("strain") for lab in labels[3:])
+    assert "3 acceleration channels scaled jointly (RMS spread x5.0, <= x10)" in note
+    assert "2 strain channels each to unit RMS (RMS spread x300.0, > x10)" in note
+    assert JOINT_SCALE == 10.0
+    # the boundary: exactly x10 is joint, just above it is not
+    y2 = np.array([[1.0, -1.0] * 50, [10.0, -10.0] * 50, [10.01, -10.01] * 50])
+    assert scale_groups(y2[:2], ["a", "a"])[0] == ["a", "a"]
+    assert len(set(scale_groups(y2[[0, 2]], ["a", "a"])[0])) == 2

@@ -102,3 +102,25 @@ def test_lag_sums_of_a_signal_with_itself(a: int, b: int, n_valid: int, L: int) 
     scale = np.sqrt(np.sum(z[:, a:b] ** 2, axis=1))[:, None] * np.sqrt(
         np.sum(z[:, a:] ** 2, axis=1))[None, :]
     assert np.max(np.abs(got - ref) / scale) < 1e-12
+
+
+@pytest.mark.parametrize(("a", "b", "n_valid", "L"), [(0, 1500, 1500, 400), (5, 900, 1000, 300),
+                                                      (0, 17, 3000, 5), (7, 2000, 2100, 60)])
+@pytest.mark.parametrize("same", [True, False])
+def test_lag_sums_many_lags_from_one_transform(monkeypatch: pytest.MonkeyPatch, a: int, b: int,
+                                               n_valid: int, L: int, same: bool) -> None:
+    # L^2 > WHOLE_RANGE (b - a): one transform of the range; the last case forced both ways
+    import modal_twin.identification._lagsums as ls
+
+    rng = np.random.default_rng(5)
+    z = rng.standard_normal((3, 3000)) * np.array([[1.0], [1e3], [1e-3]])
+    x = z if same else z[:2]
+    ref = _direct(x, z, L, a, b, n_valid)
+    scale = np.sqrt(np.sum(x[:, a:b] ** 2, axis=1))[:, None] * np.sqrt(
+        np.sum(z[:, a:] ** 2, axis=1))[None, :]
+    assert ls.WHOLE_RANGE * (b - a) < L * L or L == 60
+    for whole in (ls.WHOLE_RANGE, 0.0, np.inf):
+        monkeypatch.setattr(ls, "WHOLE_RANGE", whole)
+        got = lag_sums(x, z, L, a, b, n_valid)
+        assert got.shape == (L, x.shape[0], 3)
+        assert np.max(np.abs(got - ref) / scale) < 1e-12

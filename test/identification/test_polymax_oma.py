@@ -87,14 +87,6 @@ def test_no_mode_and_bad_shapes(chain_spectra) -> None:  # type: ignore[no-untyp
         spectral_support(_modes(e, e), f[:-1], S, sigma_w, 0.2)
 
 
-def test_fft_correlations_are_the_lag_sums() -> None:
-    from modal_twin.identification.polymax_oma import correlations_fft
-    from modal_twin.identification.ssi_cov import correlations
-
-    y = np.random.default_rng(2).standard_normal((3, 1500))
-    np.testing.assert_allclose(correlations_fft(y, 400), correlations(y, y, 400), atol=1e-12)
-
-
 def _wide_band_spectrum(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Seven modes 1.5-30 Hz (2 % damped) falling 15 dB each, 0.3-39.3 Hz, 5 % noise."""
     rng = np.random.default_rng(seed)
