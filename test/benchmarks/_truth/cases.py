@@ -474,6 +474,35 @@ NOISE_FORM_CASES: tuple[Case, ...] = (
 )
 NEW_CASES = NEW_CASES + NOISE_FORM_CASES
 
+# issue 20, item 3 (added 2026-11-26, session 10, run on the session-9 code 4c3e31e and on
+# the session-10 code: results/hidden_effects_interacting_session10.txt): interacting
+# effects of the kinds not yet covered -- two globals, a device beside a group at the
+# opposite corner, and a device beside a global on the car
+INTERACTING_CASES: tuple[Case, ...] = (
+    # two globals: 8 t on F1 (off its centre) and the storey-3 columns (F2-F3) at 0.7
+    Case("new_two_mass_F1_storey_3", "building",
+         (Hidden("mass", "F1", aliases=("m_F1",)), Hidden("stiffness", "columns:storey_3")),
+         lambda: BuildingOwn(edits=[
+             own_masses([("F1_2B", 5000.0), ("F1_B23", 3000.0)]),
+             own_weaken(lambda n1, n2: n1.startswith("F2_") and n2.startswith("F3_"), 0.7)]),
+         2.0, seed=91, new=True, quiet_pct=0.02),
+    # a device and a group: Bouc-Wen at RB2, the columns of line 1A at 0.6
+    Case("new_two_bw_RB2_line_1A", "building",
+         (Hidden("hysteresis", "RB2"), Hidden("stiffness", "columns:line_1A")),
+         lambda: BuildingOwn(laws={"RB2": _bw("RB2", 0.3, 0.012, 0.5, own=True)}, edits=[
+             own_weaken(lambda n1, n2: n1.endswith("_1A") and n2.endswith("_1A"), 0.6)]),
+         2.0, seed=92, new=True, quiet_pct=0.02),
+    # the car: friction (800 N) in the front secondary damper and the first bending mode
+    # damped at 5 % (the model: 2 %)
+    Case("new_veh_two_friction_front_carbody_damping", "vehicle",
+         (Hidden("friction", "secondary_front", aliases=_SEC_FRONT),
+          Hidden("damping", "carbody", aliases=_CARBODY)),
+         lambda: VehicleOwn(damper_law=(0, laws.ArctanFriction(800.0, 0.003)),
+                            bending_zeta_add=0.03, device_channels=True),
+         1.0, seed=93, new=True, quiet_pct=0.05),
+)
+NEW_CASES = NEW_CASES + INTERACTING_CASES
+
 
 DEVICE_QUANTITIES = ("dx", "dy", "dz", "fx", "fy", "fz")  # drift / stroke and force
 
