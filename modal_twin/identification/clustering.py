@@ -78,9 +78,9 @@ mode on a real record drift over the orders by more than those of adjacent order
 CUT_MAX = 0.1
 """Largest cut-off distance: noisier poles are not merged beyond it."""
 MIN_COLUMN = 3
+"""Fewest poles of a cluster listed as a column when not reported."""
 MAC_SPLIT = 0.9
 """Least MAC of two clusters over disjoint order ranges joined as one mode's column."""
-"""Fewest poles of a cluster listed as a column when not reported."""
 ZETA_MIN = 0.001
 """Least damping of a physical pole (0.1 %): a harmonic in the response or a noise pole
 near the unit circle shows as a column damped at about zero."""
