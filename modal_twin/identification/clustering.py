@@ -31,6 +31,10 @@ Reynders, Houbrechts & De Roeck (2012), on the poles of every model order of a
    record holds: a lightly damped structural mode is kept), then at most one pole
    per model order is kept (the nearest to the cluster's median pole), then poles whose
    damping lies more than three scaled median absolute deviations from the median.
+   Two clusters too short to count, one over low orders and one over higher ones, with
+   shapes of MAC above ``mac_split``, frequencies within the low part's half-power
+   bandwidth and the high part damped no more, are one mode's column broken where the
+   order first fits it (:func:`_join_order_split`), represented by the high-order part.
 5. **Physical modes**: a cluster is reported when it keeps at least ``n_min`` poles
    (``frac_orders`` of the model orders, at least 3, and ``rel_size`` of the largest
    cluster: physical modes form the large clusters, spurious poles the small ones, as
@@ -51,7 +55,7 @@ Every cluster of at least 3 poles that is not reported comes back as a
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.cluster.hierarchy as sch
@@ -75,6 +79,8 @@ CUT_MAX = 0.1
 """Largest cut-off distance: noisier poles are not merged beyond it."""
 MIN_COLUMN = 3
 """Fewest poles of a cluster listed as a column when not reported."""
+MAC_SPLIT = 0.9
+"""Least MAC of two clusters over disjoint order ranges joined as one mode's column."""
 ZETA_MIN = 0.001
 """Least damping of a physical pole (0.1 %): a harmonic in the response or a noise pole
 near the unit circle shows as a column damped at about zero."""
@@ -245,7 +251,8 @@ def cluster_modes(diagram: StabilizationDiagram, *, zeta_max: float = 0.2,
                   spectrum: Callable[[float, float, ComplexArray], bool] | None = None,
                   frac_orders: float = 0.2, rel_size: float = 0.35, mpc_min: float = 0.0,
                   zeta_cv_max: float = 1.0,
-                  rel_tol_dup: float = 0.02, mac_dup: float = 0.8) -> ClusteredModes:
+                  rel_tol_dup: float = 0.02, mac_dup: float = 0.8,
+                  mac_split: float = MAC_SPLIT) -> ClusteredModes:
     """Physical modes of a diagram by clustering its poles (module docstring).
 
     Parameters
@@ -278,6 +285,10 @@ def cluster_modes(diagram: StabilizationDiagram, *, zeta_max: float = 0.2,
     rel_tol_dup, mac_dup : float
         A cluster within ``rel_tol_dup`` in frequency of a larger reported one whose
         shape has MAC above ``mac_dup`` with it is a duplicate.
+    mac_split : float
+        Two clusters over disjoint order ranges whose shapes have MAC above it and whose
+        frequencies differ by less than the lower one's half-power bandwidth are one mode
+        (:func:`_join_order_split`).
 
     Returns
     -------
@@ -308,21 +319,15 @@ def cluster_modes(diagram: StabilizationDiagram, *, zeta_max: float = 0.2,
     np.fill_diagonal(D, 0.0)
     lab = sch.fcluster(sch.linkage(D[np.triu_indices(rep.size, 1)], method="single"),
                        t=cut, criterion="distance")
-    groups = []  # (all poles, those damped in range, those kept after outliers)
-    for c in np.unique(lab):
-        idx = rep[lab == c]
-        if idx.size >= MIN_COLUMN:  # fewer: scattered poles, not a column
-            z_lo = zeta_min
-            if (harmonic is not None and np.median(t.z[idx]) <= zeta_min
-                    and not harmonic(float(np.median(t.f[idx])))):
-                z_lo = 0.0  # a lightly damped mode of a randomly driven response
-            ok = idx[(t.z[idx] > z_lo) & (t.z[idx] < zeta_max)]
-            groups.append((idx, ok, _damping_inliers(_one_per_order(ok, t), t.z)))
+    groups = _groups(t, rep, lab, zeta_min, zeta_max, harmonic)
+    inside = [bool(lo <= np.median(t.f[g[0]]) <= hi) for g in groups]
+    groups = _join_order_split(groups, t, mac_split, max(n_min, int(np.ceil(rel_size * max(
+        (g[2].size for g, i in zip(groups, inside, strict=True) if i), default=0)))))
     inside = [bool(lo <= np.median(t.f[g[0]]) <= hi) for g in groups]
     n_min = max(n_min, int(np.ceil(rel_size * max(
         (g[2].size for g, i in zip(groups, inside, strict=True) if i), default=0))))
     cands, dropped = [], []
-    for (idx, ok, kept), within in zip(groups, inside, strict=True):
+    for (idx, ok, kept, top), within in zip(groups, inside, strict=True):
         span = (int(diagram.orders[t.order_ix[idx].min()]),
                 int(diagram.orders[t.order_ix[idx].max()]))
         fm0, zm0 = float(np.median(t.f[idx])), float(np.median(t.z[idx]))
@@ -342,7 +347,8 @@ def cluster_modes(diagram: StabilizationDiagram, *, zeta_max: float = 0.2,
                        f"{100 * rel_size:g} % of the largest cluster)")
             dropped.append(DroppedColumn(fm0, zm0, int(idx.size), span, why))
             continue
-        c_, why = _candidate(t, kept, span, mpc_min, zeta_cv_max, spectrum)
+        c_, why = _candidate(t, top, span, mpc_min, zeta_cv_max, spectrum)
+        c_ = replace(c_, size=int(kept.size))
         if why:
             dropped.append(DroppedColumn(c_.f_hz, c_.zeta, c_.size, span, why))
         else:
@@ -434,6 +440,77 @@ def _without_duplicates(cands: list[_Cluster], t: _Poles, rel_tol: float, mac_mi
         else:
             modes.append(c)
     return sorted(modes, key=lambda c_: c_.f_hz)
+
+
+_Group = tuple[IntArray, IntArray, IntArray, IntArray]
+"""A cluster: all its poles, those damped in range, those kept after the outliers, and
+those its representative is the median of (the kept ones but for a joined column)."""
+
+
+def _groups(t: _Poles, rep: IntArray, lab: IntArray, zeta_min: float, zeta_max: float,
+            harmonic: Callable[[float], bool] | None) -> list[_Group]:
+    """Return the clusters of at least :data:`MIN_COLUMN` poles with their outliers removed."""
+    groups = []
+    for c in np.unique(lab):
+        idx = rep[lab == c]
+        if idx.size >= MIN_COLUMN:  # fewer: scattered poles, not a column
+            z_lo = zeta_min
+            if (harmonic is not None and np.median(t.z[idx]) <= zeta_min
+                    and not harmonic(float(np.median(t.f[idx])))):
+                z_lo = 0.0  # a lightly damped mode of a randomly driven response
+            ok = idx[(t.z[idx] > z_lo) & (t.z[idx] < zeta_max)]
+            kept = _damping_inliers(_one_per_order(ok, t), t.z)
+            groups.append((idx, ok, kept, kept))
+    return groups
+
+
+def _join_order_split(groups: list[_Group], t: _Poles, mac_min: float, n_min: int
+                      ) -> list[_Group]:
+    r"""Join the clusters of one mode split by the model order (module docstring, step 4).
+
+    Below the order that fits every mode of the band a physical pole is biased (the model
+    lumps what it cannot fit into it) and it moves to its converged place as the order
+    grows: its column may then break into a low-order and a high-order cluster, each too
+    short to count. Two clusters ``a`` (lower orders) and ``b`` (higher), each a column
+    (at least :data:`MIN_COLUMN` poles after the outliers) and neither with the
+    ``n_min`` poles of a mode on its own, are one mode's column when no model order
+    has a pole in both, every order of ``a`` lies below every order of ``b``, their
+    median poles' shapes have MAC above ``mac_min``, their frequencies differ by less
+    than the half-power bandwidth :math:`2 \zeta_a f_a` of the lower part (two peaks of
+    one shape closer than that are one peak of the response) and the high-order part is
+    damped no more than the low-order one (an under-fitted pole lumps its neighbours'
+    energy into a wider peak and sharpens as it converges; a column of noise poles has
+    no such trend).
+    The joined cluster counts both parts' poles and is represented by the high-order
+    part (the 4th item of each group: the poles its median is taken over).
+    """
+    def med(g: _Group) -> tuple[float, float, int]:
+        k = g[3]
+        fm, zm = float(np.median(t.f[k])), float(np.median(t.z[k]))
+        lm = _lambda(np.array([fm]), np.array([zm]))[0]
+        return fm, zm, int(k[np.argmin(np.abs(_lambda(t.f[k], t.z[k]) - lm))])
+
+    out = list(groups)
+    joined = True
+    while joined:
+        joined = False
+        for i, a in enumerate(out):
+            for j, b in enumerate(out):
+                if i == j or not MIN_COLUMN <= a[2].size < n_min \
+                        or not MIN_COLUMN <= b[2].size < n_min \
+                        or t.order_ix[a[2]].max() >= t.order_ix[b[2]].min():
+                    continue
+                (fa, za, pa), (fb, zb, pb) = med(a), med(b)
+                mac = float(np.abs(t.u[:, pa].conj() @ t.u[:, pb]) ** 2)
+                if abs(fb - fa) < 2 * max(za, 0.0) * fa and zb <= za and mac > mac_min:
+                    out[i] = (np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]]),
+                              np.concatenate([a[2], b[2]]), b[3])
+                    del out[j]
+                    joined = True
+                    break
+            if joined:
+                break
+    return out
 
 
 def _one_per_order(idx: IntArray, t: _Poles) -> IntArray:

@@ -287,3 +287,37 @@ def test_a_column_with_no_peak_in_the_spectrum_is_not_a_mode() -> None:
     assert cm.modes.f_hz.tolist() == [2.0, 4.0]
     assert [round(c.f_hz, 1) for c in cm.dropped] == [3.0]
     assert cm.dropped[0].reason.startswith("no peak of its own in the spectrum")
+
+
+def _split_column(z_high: float, f_low: float = 3.72) -> list[tuple[float, float, np.ndarray,
+                                                                    range]]:
+    """Two full columns (1 and 2 Hz) and a 3.806 Hz mode whose column breaks by the order:
+    orders 1-4 under-fitted (``f_low``, 2.1 % damping, a shape of MAC 0.94 with the
+    mode's), orders 17-20 converged (3.806 Hz, ``z_high``), as Hayward 2021-11-17's
+    3.80 Hz mode under SSI-cov (3.725 / 3.808 Hz, 4 poles each)."""
+    drift = 1e-4 * np.arange(20)
+    bent = SHAPES[:, 2] + 0.25 * SHAPES[:, 1]
+    cols = [(1.0 * (1 + drift[k]), 0.02, SHAPES[:, 0], range(k, k + 1)) for k in range(20)]
+    cols += [(2.0 * (1 + drift[k]), 0.01, SHAPES[:, 1], range(k, k + 1)) for k in range(20)]
+    cols += [(f_low * (1 + drift[k]), 0.021, bent, range(k, k + 1)) for k in range(4)]
+    cols += [(3.806 * (1 + drift[k]), z_high, SHAPES[:, 2], range(k, k + 1))
+             for k in range(16, 20)]
+    return cols
+
+
+def test_a_column_split_by_the_order_is_one_mode_at_its_converged_poles() -> None:
+    cm = cluster_modes(stabilization_diagram(_sweep(_split_column(0.006))))
+    assert cm.n_min == 7  # each part (4 poles) too short on its own
+    np.testing.assert_allclose(cm.modes.f_hz, [1.00095, 2.0019, 3.806 * 1.00175], rtol=1e-9)
+    assert cm.modes.n_support.tolist() == [20, 20, 7]  # 3 + 4: order 4 has no next pole
+    assert cm.modes.zeta[2] == pytest.approx(0.006)  # the high-order part's
+    assert cm.dropped == ()
+
+
+@pytest.mark.parametrize(("z_high", "f_low"), [(0.03, 3.72), (0.006, 3.60)])
+def test_a_split_column_is_not_joined_when_the_parts_disagree(z_high: float,
+                                                              f_low: float) -> None:
+    # high-order part more damped than the low one; or 5.4 % apart, beyond 2 x 2.1 %
+    cm = cluster_modes(stabilization_diagram(_sweep(_split_column(z_high, f_low))))
+    np.testing.assert_allclose(cm.modes.f_hz, [1.00095, 2.0019], rtol=1e-9)
+    assert [d.reason.split(":")[0] for d in cm.dropped] == ["too few poles"] * 2

@@ -308,13 +308,14 @@ def test_berkeley_two_modes_and_the_1_6_hz_column_said(tmp_path: Path) -> None:
     assert rec.method == "ssi-cov" and any("fed back" in n for n in rec.notes)
     assert any("fed back by the structure" in w for w in rec.warnings)
     np.testing.assert_allclose(rec.modes.f_hz[:2], [1.023, 1.244], atol=0.002)
-    # input-output from the basement: the fixed-base building, 2 % higher; the clustering
-    # adds a 9.24 Hz cluster of 11 poles (MPC 0.31: complex; the references see FDD peaks
-    # at 9.08 / 9.43 Hz, SSI columns at 8.97 Hz)
+    # input-output from the basement: the fixed-base building, 2 % higher; the 1.60 Hz
+    # column issue 22 names, split by the order (3 poles at 1.595 Hz, then 6 at 1.583 Hz,
+    # less damped), is one mode; the clustering adds a 9.24 Hz cluster of 11 poles (MPC
+    # 0.31: complex; the references see FDD peaks at 9.08 / 9.43 Hz, SSI columns at 8.97)
     io = identify_record(block, chans, IdentifyOptions(directions=("x", "y"), method="n4sid"))
-    np.testing.assert_allclose(io.modes.f_hz[:2], [1.044, 1.265], atol=0.002)
-    assert io.modes.f_hz.size <= 3 and np.all(io.modes.f_hz[2:] > 9.0)
-    assert any(abs(d.f_hz - 1.60) < 0.02 for d in io.dropped)
+    np.testing.assert_allclose(io.modes.f_hz[:3], [1.044, 1.265, 1.583], atol=0.002)
+    assert io.modes.n_support[2] == 9
+    assert io.modes.f_hz.size <= 4 and np.all(io.modes.f_hz[3:] > 9.0)
     oo = identify_record(block, chans, IdentifyOptions(method="polymax", inputs=()))
     assert any("positive half-spectra" in n for n in oo.notes)
     assert np.min(np.abs(oo.modes.f_hz - 1.248)) < 0.01  # the second mode, output-only
