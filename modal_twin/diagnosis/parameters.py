@@ -396,19 +396,32 @@ class ParameterKind:
         return values[component]
 
     def joint(self, factory: ModelFactory, effect: EffectSpec) -> Piece | None:
-        """Return the value between its bounds (an added mass with its position: None)."""
-        if len(effect.params) > 1:
-            return None
-        v = float(effect.params[effect.component])
-        nom = factory.parameters()[effect.component]
+        """Return the value between its bounds; an added mass with its position and radius.
+
+        The position and radius between the floor's bounds (:meth:`parameter_info`), so a
+        mass found where another effect was still missing can move on its floor as well as
+        change its size.
+        """
+        name = effect.component
+        v = float(effect.params[name])
+        nom = factory.parameters()[name]
         lo = 0.0 if effect.law == "added_mass" else min(0.3 * nom, 0.5 * v)
         hi = max(5.0 * nom + 1.0, 2.0 * v)
-        name = effect.component
+        names = [name, *(n for n in _companions(factory, name) if n in effect.params)]
+        los, his = [lo], [hi]
+        for n in names[1:]:
+            info = factory.parameter_info(n)
+            los.append(info.lower)
+            his.append(info.upper)
+        lo_a, hi_a = np.asarray(los, float), np.asarray(his, float)
+        span = np.maximum(hi_a - lo_a, 1e-12)
+        x0 = np.clip([float(effect.params[n]) for n in names], lo_a + 1e-9 * span,
+                     hi_a - 1e-9 * span)
 
-        def one(x: FloatArray) -> dict[str, float]:
-            return {name: float(x[0])}
+        def to_params(x: FloatArray) -> dict[str, float]:
+            return {n: float(a) for n, a in zip(names, x, strict=True)}
 
-        return 1, one, np.array([v]), np.array([lo]), np.array([hi])
+        return len(names), to_params, x0, lo_a, hi_a
 
 
 PARAMETER = ParameterKind()

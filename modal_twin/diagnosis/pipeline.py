@@ -515,6 +515,9 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
     return out, rows
 
 
+MAX_PLACE_MOVES = 4  # moves of parameter changes' places per diagnosis at most
+
+
 def _places_rechosen(factory: ModelFactory, found: list[FittedEffect],
                      records: Sequence[Record], noises: Sequence[np.ndarray],
                      say: Callable[[str], None], mapper: Mapper
@@ -529,48 +532,51 @@ def _places_rechosen(factory: ModelFactory, found: list[FittedEffect],
     and judged as in a round. The move that lowers the whitened information criterion over
     every record (:func:`.judge.information_criterion`) most is made when it lowers it by
     more than the sampling tolerance (:func:`_sampling_tolerance`: a place is moved on
-    evidence, not on a tie), and the changes not moved are tried again with it in place
-    (a wrong place beside a right one bends the right one's rivals too: the clearest move
-    first).
+    evidence, not on a tie), every effect is refitted jointly, and every change is tried
+    again (a wrong place beside a right one bends the right one's rivals too: the clearest
+    move first; at most :data:`MAX_PLACE_MOVES`).
 
-    Returns the effects and, per change, its last trial as a round for the tables
-    (:data:`RoundRow`).
+    Returns the effects and the rounds for the tables (:data:`RoundRow`): one per move, then
+    each change's last trial.
     """
     out = list(found)
-    pending = [i for i, f in enumerate(found) if kind_of(f.effect.law) is KINDS["parameter"]]
-    rows: dict[int, RoundRow] = {}
+    movable = [i for i, f in enumerate(found) if kind_of(f.effect.law) is KINDS["parameter"]]
+    rows: list[RoundRow] = []
+    fit_on = (records[0], *records[2:])
 
     def ic(effects: Sequence[FittedEffect]) -> float:
         figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
         return information_criterion(figs, sum(g.n_params for g in effects), records)
 
-    while pending:
+    for _ in range(MAX_PLACE_MOVES + 1):
         ic_out = ic(out)
         _, tol = _sampling_tolerance(factory, out, records)
-        trials = [t for i in pending if (t := _rival_trial(factory, out, i, records, noises,
+        trials = [t for i in movable if (t := _rival_trial(factory, out, i, records, noises,
                                                             say, mapper, ic)) is not None]
-        if not trials:
+        best_trial = min(trials, key=lambda t: t[0], default=None)
+        if (best_trial is None or best_trial[1] is None or best_trial[0] >= ic_out - tol
+                or len(rows) >= MAX_PLACE_MOVES):
+            rows += [_place_row(out[t[2]], t, ic_out, tol, moved=False) for t in trials]
             break
-        for t in trials:
-            rows[t[2]] = _place_row(out[t[2]], t, ic_out, tol, moved=False)
-        best_trial = min(trials, key=lambda t: t[0])
-        ic_best, best, i, _ = best_trial
-        if best is None or ic_best >= ic_out - tol:
-            break
-        rows[i] = _place_row(out[i], best_trial, ic_out, tol, moved=True)
+        _, best, i, _, moved = best_trial
+        assert best is not None  # checked above
+        rows.append(_place_row(out[i], best_trial, ic_out, tol, moved=True))
         say(f"{out[i].family}: {best.place} fits better than {out[i].place}; taken instead")
-        out[i] = best
-        pending.remove(i)
-    return out, [rows[i] for i in sorted(rows)]
+        out = moved
+        # the others were fitted beside the place left: refitted with the new one before
+        # their rivals are tried again (each move lowers the criterion: no cycle)
+        out = refit_jointly(factory, out, fit_on, min_free=1)
+    return out, rows
 
 
-_RivalTrial = tuple[float, FittedEffect | None, int, tuple[FittedEffect, ...]]
+_RivalTrial = tuple[float, FittedEffect | None, int, tuple[FittedEffect, ...],
+                    list[FittedEffect]]
 
 
 def _place_row(f: FittedEffect, trial: _RivalTrial, ic_out: float, tol: float, *,
                moved: bool) -> RoundRow:
     """Return the round of the tables for the rival places of ``f``: fits, decision, reason."""
-    ic_best, best, _, ranked = trial
+    ic_best, best, _, ranked, _ = trial
     title = (f"the place of {f.family} at {f.place} chosen again among its rival places, "
              "the other effects in place")
     if best is None:
@@ -586,9 +592,10 @@ def _rival_trial(factory: ModelFactory, out: Sequence[FittedEffect], i: int,
                  records: Sequence[Record], noises: Sequence[np.ndarray],
                  say: Callable[[str], None], mapper: Mapper,
                  ic: Callable[[Sequence[FittedEffect]], float]) -> _RivalTrial | None:
-    """Return the best rival place of ``out[i]``: (criterion with it, it, i, ranked fits).
+    """Return the best rival place of ``out[i]``: (criterion, it, i, ranked fits, effects).
 
-    None when the change has no rival; the fit None (criterion inf) when no rival is usable.
+    The effects: ``out`` with it in place (:func:`_beside_others`). None when the change
+    has no rival; the fit None (criterion inf) when no rival is usable.
     """
     f = out[i]
     base = _apply_all(factory, [*out[:i], *out[i + 1:]])
@@ -602,12 +609,90 @@ def _rival_trial(factory: ModelFactory, out: Sequence[FittedEffect], i: int,
                                                         rnd.test)) for pc in rivals]
     ranked = tuple(rank([_judge(rnd, g, before, 0.01)
                          for g in _run_jobs(jobs, mapper, [], say)]))
-    scored = [(ic([*out[:i], g, *out[i + 1:]]), g) for g in ranked
-              if not g.rejected and not g.flags and g.effect.component != f.effect.component]
+    fit_on = (records[0], *records[2:])
+    scored = [(ic(t), g, t) for g in ranked
+              if not g.rejected and not g.flags and g.effect.component != f.effect.component
+              for t in [_beside_others(factory, out, i, g, fit_on)]]
     if not scored:
-        return float("inf"), None, i, ranked
-    ic_best, best = min(scored, key=lambda t: t[0])
-    return ic_best, best, i, ranked
+        return float("inf"), None, i, ranked, list(out)
+    ic_best, best, trial = min(scored, key=lambda t: t[0])
+    return ic_best, best, i, ranked, trial
+
+
+def _beside_others(factory: ModelFactory, out: Sequence[FittedEffect], i: int,
+                   g: FittedEffect, fit_on: Sequence[Record]) -> list[FittedEffect]:
+    """``out`` with ``g`` in place of ``out[i]``, the other parameter changes refitted with it.
+
+    Two parameter changes trade off (a mass on a floor and the stiffness of the storey
+    below it): a rival place fitted with the other held where it sat beside the place left
+    is judged at a wrong partner. So the parameter changes are refitted jointly with the
+    rival (:func:`.joint.refit_jointly`), the device laws held as found (their joint refit
+    follows a move).
+    """
+    trial = [*out[:i], g, *out[i + 1:]]
+    params = [k for k, e in enumerate(trial) if kind_of(e.effect.law) is KINDS["parameter"]]
+    if len(params) < 2:
+        return trial
+    held = _apply_all(factory, [e for k, e in enumerate(trial) if k not in params])
+    for k, e in zip(params, refit_jointly(held, [trial[k] for k in params], fit_on,
+                                          min_free=1), strict=True):
+        trial[k] = e
+    return trial
+
+
+N_PAIRED = 2  # parameter candidates of a last round tried with the effects found moved
+
+
+def _paired(factory: ModelFactory, found: list[FittedEffect], last: Diagnosis,
+            records: Sequence[Record], noises: Sequence[np.ndarray],
+            say: Callable[[str], None], mapper: Mapper
+            ) -> tuple[list[FittedEffect] | None, RoundRow | None]:
+    """``found`` with a parameter change the last round rejected, when both together say so.
+
+    Two global changes (a mass on one floor and a storey's stiffness) can be stood in for by
+    one change elsewhere (a mass on the roof with a large radius): the first round takes it,
+    and then no second change lowers every record's error alone, for the first holds the
+    model where each of them is only half right. So the best :data:`N_PAIRED` parameter
+    changes of the last round (by BIC, rejected or not; none flagged) are each taken beside
+    the effects found, all refitted jointly, every parameter change's place chosen again
+    among its rivals (:func:`_places_rechosen`) and refitted again; the best set replaces
+    ``found`` when its whitened information criterion over every record is lower by more
+    than its sampling tolerance. Only where ``found`` holds a parameter change (the one that
+    may stand in for two).
+
+    Returns the new effects (None: kept) and the round for the tables.
+    """
+    param = KINDS["parameter"]
+    cands = sorted((g for g in last.fitted if kind_of(g.effect.law) is param and not g.flags),
+                   key=lambda g: g.bic)[:N_PAIRED]
+    if not cands or not any(kind_of(f.effect.law) is param for f in found):
+        return None, None
+    fit_on = (records[0], *records[2:])
+
+    def ic(effects: Sequence[FittedEffect]) -> float:
+        figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
+        return information_criterion(figs, sum(g.n_params for g in effects), records)
+
+    ic_found = ic(found)
+    _, tol = _sampling_tolerance(factory, found, records)
+    trials = []
+    for g in cands:
+        say(f"{g.family} at {g.place} beside the effects found, each refitted and re-placed")
+        trial = refit_jointly(factory, [*found, g], fit_on, min_free=1)
+        trial, _ = _places_rechosen(factory, trial, records, noises, say, mapper)
+        trial = refit_jointly(factory, trial, fit_on, min_free=1)
+        trials.append((ic(trial), g, trial))
+    ic_best, g, best = min(trials, key=lambda t: t[0])
+    names = ", ".join(f"{f.family} at {f.place}" for f in best)
+    crit = (f"criterion {ic_found:.4f} -> {ic_best:.4f} (whitened information criterion over "
+            f"every record; taken when lower by more than {tol:.4f})")
+    title = ("the best rejected parameter changes of the last round each beside the effects "
+             "found, all refitted jointly and re-placed")
+    if ic_best < ic_found - tol:
+        say(f"taken together: {names}")
+        return best, (title, tuple(c for _, c, _ in trials), f"taken together: {names}, {crit}",
+                      g)
+    return None, (title, tuple(c for _, c, _ in trials), f"kept as found ({crit})", None)
 
 
 def _refitted_trial(factory: ModelFactory, trials: Sequence[_Trial],
@@ -681,6 +766,12 @@ def diagnose(
     titles = [_forward_title(i, found[:i]) for i in range(len(rounds))]  # as they ran
     table: list[RoundRow] = [(t, r.fitted, r.summary, r.best if i < len(found) else None)
                                 for i, (t, r) in enumerate(zip(titles, rounds, strict=True))]
+    if joint and d.significant and d.best is None and len(found) < max_effects:
+        paired, row = _paired(factory, found, d, rec_c, noises, say, mapper)
+        if row is not None:
+            table.append((f"round {len(table) + 1}: {row[0]}", *row[1:]))
+        if paired:
+            found, d = paired, replace(d, significant=False)  # its failure is answered
     if joint and len(found) > 1:
         found, again = _reselected(factory, found, records, rec_c, noises, say, n_fit=n_fit,
                                    gain_threshold=gain_threshold, mapper=mapper)
