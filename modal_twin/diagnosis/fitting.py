@@ -314,11 +314,16 @@ def _t_bilinear_hysteretic(start: dict[str, float], k: float) -> Transform:
 
 
 def _t_bouc_wen(start: dict[str, float], k: float) -> Transform:
-    """With its dashpot free (a device whose viscous part changed)."""
+    """With its dashpot free (a device whose viscous part changed).
+
+    ``uncoupled`` (each direction yielding on its own) as started: chosen by the screening
+    on the measured force, held in the fit, named (and counted) only where it is set.
+    """
     lu = np.log(start["uy"])
-    return (["uy", "alpha", "k", "c_factor"],
+    unc = {"uncoupled": 1.0} if start.get("uncoupled", 0.0) >= 0.5 else {}
+    return (["uy", "alpha", "k", "c_factor", *unc],
             lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2]),
-                       "c_factor": float(x[3])},
+                       "c_factor": float(x[3]), **unc},
             lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k,
                                 p.get("c_factor", 1.0)]),
             np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 1.3, 3.0]))
