@@ -207,6 +207,7 @@ SWITCHED_OFF: dict[str, dict[str, int]] = {
     "regularised_friction": {"kp": -1, "Fs": -1},
     "gap": {"n": -1, "g_neg": 1, "g": 1},
     "cubic": {"m": -1},
+    "elastic_mount": {"n": 1},  # the softening mount's sharpest knee: the bilinear spring
 }
 # bounds that are a physical end, not a fit stopped short, though not the classical form:
 # a slider with no dashpot beside it (a sliding bearing's friction is its whole damping)
