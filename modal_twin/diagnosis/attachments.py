@@ -9,8 +9,8 @@ Screening: the mount frequency on a log grid (damping ratio 5 %), each trial sim
 the training record; the share of the normalised residual energy the best trial removes is
 the score. Fit: ``(ln f, zeta)`` by ``scipy.optimize.least_squares`` on the training record,
 judged on the held-out record, with the BIC of :mod:`.fitting`; then the same with a mount
-that hardens (a power spring) and one that softens (a bilinear elastic spring), the lowest
-BIC kept.
+that hardens (a power spring) and one that softens (a bilinear spring with a rounded knee,
+Richard-Abbott), the lowest BIC kept.
 
 A factory offers the masses it can hang through ``attachments()`` and builds the plant of an
 ``EffectSpec(name, "elastic_mount", {"f_hz": f, "zeta": z})`` in ``plant(effects)``.
@@ -144,9 +144,13 @@ _FORMS: dict[str, tuple[tuple[str, Callable[[float], float], float, float, float
     # hardening power spring k d (1 + (|d| / u_h)^(m - 1))
     "hardening": (("u_h", np.exp, np.log(1e-5), np.log(1.0), np.log(1e-2)),
                   ("m", float, 2.0, 9.0, 3.0)),
-    # softening bilinear spring: k up to |d| = u_s, r k beyond (Eq. (9) of [004])
+    # softening spring: tangent k at rest, r k beyond |d| ~ u_s, the knee between of
+    # sharpness n (Richard-Abbott; n -> inf: the bilinear spring of Eq. (9) of [004]):
+    # rubber softens gradually, and a sharp knee left ~2 % of a tanh-softening mount's
+    # force where the rounded one leaves ~0.1 %
     "softening": (("u_s", np.exp, np.log(1e-6), np.log(1e-2), np.log(1e-4)),
-                  ("r", float, 0.05, 0.99, 0.5)),
+                  ("r", float, 0.05, 0.99, 0.5),
+                  ("n", np.exp, np.log(1.0), np.log(30.0), np.log(2.0))),
 }
 
 

@@ -323,7 +323,9 @@ class DeviceKind(PlacedEffect):
         def params(x: np.ndarray) -> dict[str, float]:
             return {n: v for n, v in to_p(x).items() if keep_all or n in names}
 
-        return len(names), params, x0, lo_x, hi_x
+        # the size is the coordinates', not the names': a parameter held as started (the
+        # gap's kp, the Bouc-Wen's uncoupled form) is named but has no coordinate
+        return x0.size, params, x0, lo_x, hi_x
 
 
 _Share = tuple[FloatArray, FloatArray] | None

@@ -207,6 +207,7 @@ SWITCHED_OFF: dict[str, dict[str, int]] = {
     "regularised_friction": {"kp": -1, "Fs": -1},
     "gap": {"n": -1, "g_neg": 1, "g": 1},
     "cubic": {"m": -1},
+    "elastic_mount": {"n": 1},  # the softening mount's sharpest knee: the bilinear spring
 }
 # bounds that are a physical end, not a fit stopped short, though not the classical form:
 # a slider with no dashpot beside it (a sliding bearing's friction is its whole damping)
@@ -314,11 +315,16 @@ def _t_bilinear_hysteretic(start: dict[str, float], k: float) -> Transform:
 
 
 def _t_bouc_wen(start: dict[str, float], k: float) -> Transform:
-    """With its dashpot free (a device whose viscous part changed)."""
+    """With its dashpot free (a device whose viscous part changed).
+
+    ``uncoupled`` (each direction yielding on its own) as started: chosen by the screening
+    on the measured force, held in the fit, named (and counted) only where it is set.
+    """
     lu = np.log(start["uy"])
-    return (["uy", "alpha", "k", "c_factor"],
+    unc = {"uncoupled": 1.0} if start.get("uncoupled", 0.0) >= 0.5 else {}
+    return (["uy", "alpha", "k", "c_factor", *unc],
             lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2]),
-                       "c_factor": float(x[3])},
+                       "c_factor": float(x[3]), **unc},
             lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k,
                                 p.get("c_factor", 1.0)]),
             np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 1.3, 3.0]))

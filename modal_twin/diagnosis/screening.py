@@ -69,8 +69,11 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
         return ([{"ub": g * u_max, "ratio": r} for g in (0.2, 0.4, 0.6) for r in (0.5, 0.75)]
                 + [{"k": 10.0 * k, "ratio": r, "ub": g * u_max} for g in (0.005, 0.02)
                    for r in (0.03, 0.1)])
-    if law == "bouc_wen":
-        return [{"uy": g * u_max, "alpha": a} for g in (0.2, 0.4, 0.6) for a in (0.05, 0.5)]
+    if law == "bouc_wen":  # one circular yield surface (Eq. (10) of [004]) first, then
+        # each direction yielding on its own (two orthogonal dampers): the measured force
+        # tells them apart where both directions yield (a tie keeps the first)
+        return [{"uy": g * u_max, "alpha": a, **unc} for unc in ({}, {"uncoupled": 1.0})
+                for g in (0.2, 0.4, 0.6) for a in (0.05, 0.5)]
     if law == "cubic":  # Duffing, and a stiffer power (the shape's scale is fitted)
         u = max(u_max, 1e-9)
         return [{"k3": s * 0.3 * k / u ** (m - 1.0), "m": m} for s in (-1.0, 1.0)

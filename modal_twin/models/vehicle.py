@@ -57,7 +57,13 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.craig_bampton import CBReduction, craig_bampton
-from modal_twin.models.devices import BilinearElastic, CubicSpring, Device, LinearDevice
+from modal_twin.models.devices import (
+    BilinearElastic,
+    CubicSpring,
+    Device,
+    LinearDevice,
+    SmoothBilinearSpring,
+)
 from modal_twin.models.fe import FEAssembly, FEModel
 from modal_twin.models.plant import Plant, Source
 from modal_twin.models.reduced import DeviceAttachment, ReducedSystem
@@ -484,8 +490,9 @@ class VehicleModel:
 
         A hardening mount is a power spring (:class:`CubicSpring`, exponent ``m``), a
         softening one a bilinear elastic spring (:class:`BilinearElastic`, ``kb = r k``
-        beyond ``u_s``), each with the mount's dashpot; a law given for the item's hanger
-        replaces its spring and dashpot.
+        beyond ``u_s``; with a sharpness ``n`` its rounded knee,
+        :class:`SmoothBilinearSpring`), each with the mount's dashpot; a law given for the
+        item's hanger replaces its spring and dashpot.
         """
         elastic = [e for e in self.spec.equipment if e.mount == "elastic"]
         atts = []
@@ -497,6 +504,9 @@ class VehicleModel:
                 k3 = e.k_mount / e.u_h_mount ** (e.m_mount - 1.0)
                 dev = CubicSpring(e.k_mount, k3, [e.c_mount], name=f"mount_{e.name}",
                                   m=e.m_mount)
+            elif e.u_s_mount > 0.0 and e.r_mount < 1.0 and e.n_mount > 0.0:
+                dev = SmoothBilinearSpring(e.k_mount, e.r_mount * e.k_mount, e.u_s_mount,
+                                           [e.c_mount], name=f"mount_{e.name}", n=e.n_mount)
             elif e.u_s_mount > 0.0 and e.r_mount < 1.0:
                 dev = BilinearElastic(e.k_mount, e.r_mount * e.k_mount, e.u_s_mount,
                                       [e.c_mount], name=f"mount_{e.name}")

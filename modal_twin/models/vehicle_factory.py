@@ -193,7 +193,8 @@ class VehicleFactory:
                                      u_h=float(e.params.get("u_h", 0.0)),
                                      m=float(e.params.get("m", 3.0)),
                                      u_s=float(e.params.get("u_s", 0.0)),
-                                     r=float(e.params.get("r", 1.0)))
+                                     r=float(e.params.get("r", 1.0)),
+                                     n=float(e.params.get("n", 0.0)))
         plant = build_vehicle(spec, theta=self.theta or None, site_devices=devices,
                               device_channels=tuple(sites))
         plant = replace(plant, name=f"{plant.name}#{self.label}") if self.label else plant

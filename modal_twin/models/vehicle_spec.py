@@ -88,6 +88,11 @@ class EquipmentSpec:
         stage); 0: no softening (default), m.
     r_mount : float
         Tangent stiffness beyond ``u_s`` over ``k``, in (0, 1].
+    n_mount : float
+        Sharpness of that softening's knee: 0 (default) the sharp bilinear spring above;
+        else the Richard-Abbott curve ``r k d + (1 - r) k d / (1 + |d / u_s|^n)^(1/n)``
+        with the same asymptotes (Eq. (1) of Richard & Abbott (1975), rubber that softens
+        gradually; n in [0.5, 100], large n the bilinear one).
     """
 
     name: str
@@ -100,6 +105,7 @@ class EquipmentSpec:
     m_mount: float = 3.0
     u_s_mount: float = 0.0
     r_mount: float = 1.0
+    n_mount: float = 0.0
 
     @property
     def k_mount(self) -> float:
@@ -237,11 +243,12 @@ class VehicleSpec:
 
 def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float, *,
                       u_h: float = 0.0, m: float = 3.0, u_s: float = 0.0,
-                      r: float = 1.0) -> VehicleSpec:
+                      r: float = 1.0, n: float = 0.0) -> VehicleSpec:
     """Return a copy of ``spec`` with equipment ``name`` on elastic mounts (f_hz, zeta).
 
-    ``u_h > 0`` makes the mount harden, ``u_s > 0`` with ``r < 1`` soften
-    (:class:`EquipmentSpec`); not both.
+    ``u_h > 0`` makes the mount harden, ``u_s > 0`` with ``r < 1`` soften, with a sharp
+    knee (``n = 0``) or a rounded one of sharpness ``n`` (:class:`EquipmentSpec`); not
+    both.
 
     The "elastic attachment" candidate of the diagnosis (Fig. 3b of [002]).
 
@@ -266,9 +273,12 @@ def equipment_mounted(spec: VehicleSpec, name: str, f_hz: float, zeta: float, *,
         msg = (f"u_s, r: expected u_s >= 0 m, r in (0, 1] and not both u_s and u_h, got "
                f"{u_s!r}, {r!r} (u_h {u_h!r})")
         raise ModelError(msg)
+    if not (n == 0.0 or 0.5 <= n <= 100.0):
+        msg = f"n: expected 0 (a sharp knee) or a sharpness in [0.5, 100], got {n!r}"
+        raise ModelError(msg)
     eq = tuple(replace(e, mount="elastic", f_mount_hz=float(f_hz), zeta_mount=float(zeta),
                        u_h_mount=float(u_h), m_mount=float(m), u_s_mount=float(u_s),
-                       r_mount=float(r))
+                       r_mount=float(r), n_mount=float(n))
                if e.name == name else e for e in spec.equipment)
     return replace(spec, equipment=eq)
 

@@ -18,10 +18,11 @@ device and sample), one branch per kind code of the device registry
 (:data:`modal_twin.models.devices.registry.KINDS`); a code without a branch stops the block
 with ``STATUS_UNKNOWN_KIND`` (test/twin/test_kernel_laws.py runs every registry law through
 the kernel and through the law's own implementation). The Bouc-Wen devices advance their
-hysteretic variables together (:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`).
-The law functions are compiled on their own, without the loop's fast-math flags, so every
-law returns exactly what :meth:`Device.evaluate` returns (test/twin/test_simulator.py
-checks it bitwise).
+hysteretic variables together (:func:`modal_twin.models.devices.bouc_wen.bw_advance_many`,
+which reads the SDP's ``uncoupled`` slot ``BW_UNCOUPLED``; numba's cache of this file does
+not see a change in that one: clear it after one). The law functions are compiled on
+their own, without the loop's fast-math flags, so every law returns exactly what
+:meth:`Device.evaluate` returns (test/twin/test_simulator.py checks it bitwise).
 """
 
 from __future__ import annotations

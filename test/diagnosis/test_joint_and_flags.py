@@ -77,6 +77,25 @@ def test_joint_refit_of_a_record_with_channels_the_model_lacks(factory: Building
     assert got["m_F3"] == pytest.approx(truth["m_F3"], rel=0.01)
 
 
+def test_joint_refit_of_a_law_with_a_held_parameter(factory: BuildingFactory) -> None:
+    # a device law with a parameter held as started (the uncoupled Bouc-Wen: named, no
+    # coordinate) before a mass: the joint refit cut the mass's coordinate off by one
+    # ("IndexError: index 0 is out of bounds"); now the mass is recovered, the form kept
+    nominal = factory.parameters()
+    bw = EffectSpec("SDP1", "bouc_wen", {"uy": 0.004, "alpha": 0.1, "k": 3.8e6,
+                                         "c_factor": 0.3, "uncoupled": 1.0})
+    truth = {"m_F3": 1.25 * nominal["m_F3"]}
+    r = record_of(factory, {}, seed=3)
+    plant = factory.with_theta(truth).plant([bw])
+    train = Record(FS, r.input_names, r.inputs, r.channel_names, simulate_record(plant, r),
+                   "bw")
+    first = [FittedEffect(bw, 5, 1.0, 1.0, 1.0, 0.0, 1, 0.0),
+             found("m_F3", 1.45 * nominal["m_F3"])]
+    out = refit_jointly(factory, first, train)
+    assert out[0].effect.params["uncoupled"] == 1.0
+    assert out[1].effect.params["m_F3"] == pytest.approx(truth["m_F3"], rel=0.01)
+
+
 def test_a_single_effect_is_left_as_found(factory: BuildingFactory) -> None:
     train = record_of(factory, {}, seed=2)
     one = [found("m_F1", 20000.0)]

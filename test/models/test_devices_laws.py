@@ -116,6 +116,30 @@ def test_bouc_wen_sdp_vs_solve_ivp() -> None:
     assert np.all(err < 0.01)
 
 
+def test_bouc_wen_sdp_uncoupled_is_two_uniaxial_laws() -> None:
+    # uncoupled: each direction its own variable. Monotonic loading from rest in x with
+    # A = 1, beta = gamma = b has the closed form z = tanh(sqrt(2 b) u) / sqrt(2 b)
+    # (dz/du = 1 - 2 b z^2), whatever y does; coupled (Eq. (10) of [004]) the same x
+    # loading yields earlier when y has loaded z_y (the circular yield surface)
+    b, k, alpha = 0.5 / 0.01**2, 4e6, 0.05
+    ux = np.linspace(0.0, 0.05, 5001)
+    uy = 0.03 * np.sin(np.linspace(0.0, 6.0 * np.pi, ux.size))  # y cycles beyond its yield
+    unc = BoucWenSDP(1.0, b, b, np.diag([k, k]), alpha, [0.0, 0.0], uncoupled=True)
+    cpl = BoucWenSDP(1.0, b, b, np.diag([k, k]), alpha, [0.0, 0.0])
+    zx = np.tanh(np.sqrt(2 * b) * ux) / np.sqrt(2 * b)
+    f_ref = k * (alpha * ux + (1 - alpha) * zx)
+    f_unc = unc.respond(np.vstack([ux, uy])).f
+    np.testing.assert_allclose(f_unc[0], f_ref, rtol=1e-6, atol=1e-6 * k * 0.01)
+    # y alone: its own uniaxial loop, the same as with x at rest
+    f_y_alone = unc.respond(np.vstack([0 * ux, uy])).f[1]
+    np.testing.assert_allclose(f_unc[1], f_y_alone, rtol=1e-12, atol=1e-9)
+    f_cpl = cpl.respond(np.vstack([ux, uy])).f
+    assert np.max(np.abs(f_cpl[0] - f_ref)) > 0.05 * np.max(np.abs(f_ref))
+    # along one direction the two forms are one law (the cross terms vanish with z_y = 0)
+    one = np.vstack([0.04 * np.sin(np.linspace(0.0, 4.0 * np.pi, 801)), np.zeros(801)])
+    np.testing.assert_array_equal(unc.respond(one).f, cpl.respond(one).f)
+
+
 def test_bouc_wen_amplitude_limits() -> None:
     d = BoucWenSDP(1.0, 635.0, 1102.0, np.diag([4e6, 4e6]), 0.1, [0.0, 0.0])
     small = d.respond(np.vstack([np.linspace(0, 1e-5, 11), np.zeros(11)]))

@@ -294,7 +294,8 @@ def test_batched_bouc_wen_equals_the_law() -> None:
 
     devs = [table10_esb("ESB1", W=1.1e6), table10_sdp(),
             BoucWenESB(30.0, 5.0, 40.0, [1e3, 2e3], W=2e6, mu0=0.05, mu1=-0.3, mu2=0.2, S=0.2),
-            BoucWenSDP(1.0, 300.0, 900.0, np.array([[2e6, 3e5], [3e5, 1e6]]), 0.2, [1e3, 1e3])]
+            BoucWenSDP(1.0, 300.0, 900.0, np.array([[2e6, 3e5], [3e5, 1e6]]), 0.2, [1e3, 1e3]),
+            BoucWenSDP(1.0, 300.0, 900.0, np.diag([2e6, 1e6]), 0.1, [1e3, 1e3], uncoupled=True)]
     nd = len(devs)
     params = np.array([d.params for d in devs])
     idx = np.arange(nd, dtype=np.int64)

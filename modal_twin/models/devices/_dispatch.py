@@ -37,7 +37,8 @@ def evaluate_law(kind, p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitt
 
     The KIND_* are module-level ints, which numba freezes as compile-time constants: the
     comparisons compile to the same code as literals. numba's disk cache is keyed on this
-    file only: after changing a code in base.py, touch this file (and twin/kernels.py).
+    file only: after changing a code in base.py, or a law in its own file (the Bouc-Wen
+    ``uncoupled`` slot), touch this file (and twin/kernels.py).
     """
     if kind == KIND_LINEAR:
         law_linear(p, s, u, v, f, Kt, Ct, s_new)

@@ -31,6 +31,7 @@ from modal_twin.errors import ModelError, OptionError
 from modal_twin.models.devices.base import KIND_BW_ESB, KIND_BW_SDP, Device, carry_state
 
 __all__ = [
+    "BW_UNCOUPLED",
     "BoucWenESB",
     "BoucWenSDP",
     "bouc_wen_history",
@@ -46,23 +47,34 @@ __all__ = [
     "table10_sdp",
 ]
 
+#: Parameter slot of both Bouc-Wen kinds that uncouples the directions (1: each its own
+#: uniaxial variable; 0, the default of every parameter vector: Eq. (10) of [004]). The
+#: ESB's vector ends at slot 9 (W), so its slot stays 0.
+BW_UNCOUPLED = 10
+
 
 @njit(cache=True)
-def bw_rate(A, beta, gamma, zx, zy, dx, dy):  # pragma: no cover - jitted
-    """Return (dZx, dZy) for a displacement increment (dx, dy), Eqs. (10a)-(10b) of [004]."""
+def bw_rate(A, beta, gamma, zx, zy, dx, dy, kappa=1.0):  # pragma: no cover - jitted
+    """Return (dZx, dZy) for a displacement increment (dx, dy), Eqs. (10a)-(10b) of [004].
+
+    ``kappa`` scales the terms that couple the directions: 1 is Eq. (10) of [004] (one
+    circular yield surface), 0 two independent uniaxial variables (two orthogonal
+    dampers). With ``kappa = 1`` the numbers are bitwise those of Eq. (10) (``1.0 * x``
+    is ``x`` exactly).
+    """
     rx = (
         A * dx
         - beta * abs(dx * zx) * zx
         - gamma * dx * zx * zx
-        - beta * abs(dy * zy) * zx
-        - gamma * dy * zx * zy
+        - kappa * beta * abs(dy * zy) * zx
+        - kappa * gamma * dy * zx * zy
     )  # Eq. (10a) of [004]
     ry = (
         A * dy
         - beta * abs(dy * zy) * zy
         - gamma * dy * zy * zy
-        - beta * abs(dx * zx) * zy
-        - gamma * dx * zx * zy
+        - kappa * beta * abs(dx * zx) * zy
+        - kappa * gamma * dx * zx * zy
     )  # Eq. (10b) of [004]
     return rx, ry
 
@@ -78,12 +90,12 @@ def _bw_nsub(A, beta, gamma, dx, dy):  # pragma: no cover - jitted
 
 
 @njit(cache=True)
-def _bw_rk4(A, beta, gamma, zx, zy, hx, hy):  # pragma: no cover - jitted
+def _bw_rk4(A, beta, gamma, zx, zy, hx, hy, kappa):  # pragma: no cover - jitted
     """One classical RK4 step of Eqs. (10a)-(10b) of [004] along the increment (hx, hy)."""
-    k1x, k1y = bw_rate(A, beta, gamma, zx, zy, hx, hy)
-    k2x, k2y = bw_rate(A, beta, gamma, zx + 0.5 * k1x, zy + 0.5 * k1y, hx, hy)
-    k3x, k3y = bw_rate(A, beta, gamma, zx + 0.5 * k2x, zy + 0.5 * k2y, hx, hy)
-    k4x, k4y = bw_rate(A, beta, gamma, zx + k3x, zy + k3y, hx, hy)
+    k1x, k1y = bw_rate(A, beta, gamma, zx, zy, hx, hy, kappa)
+    k2x, k2y = bw_rate(A, beta, gamma, zx + 0.5 * k1x, zy + 0.5 * k1y, hx, hy, kappa)
+    k3x, k3y = bw_rate(A, beta, gamma, zx + 0.5 * k2x, zy + 0.5 * k2y, hx, hy, kappa)
+    k4x, k4y = bw_rate(A, beta, gamma, zx + k3x, zy + k3y, hx, hy, kappa)
     zx += (k1x + 2.0 * k2x + 2.0 * k3x + k4x) / 6.0
     zy += (k1y + 2.0 * k2y + 2.0 * k3y + k4y) / 6.0
     return zx, zy
@@ -190,14 +202,17 @@ def bouc_wen_history(
 
 
 @njit(cache=True)
-def _bw_tangent(A, beta, gamma, dx, dy, zx, zy):  # pragma: no cover - jitted
-    """Instantaneous tangent d(Z')/d(u') at the end state, Eqs. (10a)-(10b) differentiated."""
+def _bw_tangent(A, beta, gamma, dx, dy, zx, zy, kappa):  # pragma: no cover - jitted
+    """Instantaneous tangent d(Z')/d(u') at the end state, Eqs. (10a)-(10b) differentiated.
+
+    ``kappa``: the coupling of :func:`bw_rate` (it scales the cross terms d01, d10).
+    """
     sx = 1.0 if dx > 0.0 else (-1.0 if dx < 0.0 else 0.0)
     sy = 1.0 if dy > 0.0 else (-1.0 if dy < 0.0 else 0.0)
     d00 = A - beta * sx * abs(zx) * zx - gamma * zx * zx
-    d01 = -beta * sy * abs(zy) * zx - gamma * zx * zy
+    d01 = kappa * (-beta * sy * abs(zy) * zx - gamma * zx * zy)
     d11 = A - beta * sy * abs(zy) * zy - gamma * zy * zy
-    d10 = -beta * sx * abs(zx) * zy - gamma * zx * zy
+    d10 = kappa * (-beta * sx * abs(zx) * zy - gamma * zx * zy)
     return d00, d01, d10, d11
 
 
@@ -218,12 +233,13 @@ def _bw_advance(p, s, u, s_new):  # pragma: no cover - jitted
     else:
         hx = dx / nsub
         hy = dy / nsub
+    kappa = 1.0 - p[BW_UNCOUPLED]  # ESB: the slot is never set (0), so Eq. (10) itself
     for _ in range(nsub):
-        zx, zy = _bw_rk4(A, beta, gamma, zx, zy, hx, hy)
+        zx, zy = _bw_rk4(A, beta, gamma, zx, zy, hx, hy, kappa)
     carry_state(s, u, s_new)
     s_new[2] = zx
     s_new[3] = zy
-    return _bw_tangent(A, beta, gamma, dx, dy, zx, zy)
+    return _bw_tangent(A, beta, gamma, dx, dy, zx, zy, kappa)
 
 
 @njit(cache=True)
@@ -275,7 +291,8 @@ def bw_advance_many(idx, params, states, uv, s_new, tan, work, nsub):  # pragma:
             if it < nsub[j]:
                 d = idx[j]
                 k1x, k1y = bw_rate(params[d, 0], params[d, 1], params[d, 2], work[2, j],
-                                   work[3, j], work[0, j], work[1, j])
+                                   work[3, j], work[0, j], work[1, j],
+                                   1.0 - params[d, BW_UNCOUPLED])
                 work[4, j] = k1x
                 work[5, j] = k1y
         for r in (4, 6):  # k2 at z + k1 / 2 into rows 6-7, k3 at z + k2 / 2 into rows 8-9
@@ -284,7 +301,8 @@ def bw_advance_many(idx, params, states, uv, s_new, tan, work, nsub):  # pragma:
                     d = idx[j]
                     kx, ky = bw_rate(params[d, 0], params[d, 1], params[d, 2],
                                      work[2, j] + 0.5 * work[r, j],
-                                     work[3, j] + 0.5 * work[r + 1, j], work[0, j], work[1, j])
+                                     work[3, j] + 0.5 * work[r + 1, j], work[0, j], work[1, j],
+                                     1.0 - params[d, BW_UNCOUPLED])
                     work[r + 2, j] = kx
                     work[r + 3, j] = ky
         for j in range(m):
@@ -293,7 +311,8 @@ def bw_advance_many(idx, params, states, uv, s_new, tan, work, nsub):  # pragma:
                 k3x = work[8, j]
                 k3y = work[9, j]
                 k4x, k4y = bw_rate(params[d, 0], params[d, 1], params[d, 2], work[2, j] + k3x,
-                                   work[3, j] + k3y, work[0, j], work[1, j])
+                                   work[3, j] + k3y, work[0, j], work[1, j],
+                                   1.0 - params[d, BW_UNCOUPLED])
                 work[2, j] += (work[4, j] + 2.0 * work[6, j] + 2.0 * k3x + k4x) / 6.0
                 work[3, j] += (work[5, j] + 2.0 * work[7, j] + 2.0 * k3y + k4y) / 6.0
     for j in range(m):
@@ -308,7 +327,7 @@ def bw_advance_many(idx, params, states, uv, s_new, tan, work, nsub):  # pragma:
         s_new[d, 3] = zy
         d00, d01, d10, d11 = _bw_tangent(params[d, 0], params[d, 1], params[d, 2],
                                          uv[2 * d] - states[d, 0], uv[2 * d + 1] - states[d, 1],
-                                         zx, zy)
+                                         zx, zy, 1.0 - params[d, BW_UNCOUPLED])
         tan[d, 0] = d00
         tan[d, 1] = d01
         tan[d, 2] = d10
@@ -361,7 +380,7 @@ def bw_esb_force(p, v, f, Kt, Ct, s_new, d00, d01, d10, d11, c_press):  # pragma
 
 @njit(cache=True)
 def law_bw_sdp(p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
-    """SDP, Eq. (11b) of [004]; p = [A, beta, gamma, cx, cy, alpha, kxx, kxy, kyy]."""
+    """SDP, Eq. (11b) of [004]; p = [A, beta, gamma, cx, cy, alpha, kxx, kxy, kyy, 0, unc]."""
     d00, d01, d10, d11 = _bw_advance(p, s, u, s_new)
     bw_sdp_force(p, u, v, f, Kt, Ct, s_new, d00, d01, d10, d11)
 
@@ -468,6 +487,12 @@ class BoucWenSDP(Device):
         Viscous damping (cxx, cyy), N s/m.
     name : str
         Label.
+    uncoupled : bool
+        False (default): Eq. (10) of [004], one variable pair with a circular yield
+        surface. True: each direction its own uniaxial variable (Eq. (10a) without the
+        terms in the other direction): two orthogonal dampers, each yielding at its own
+        drift, as a pair of uniaxial devices (the terms scaled by ``kappa`` in
+        :func:`bw_rate`).
     """
 
     kind = KIND_BW_SDP
@@ -482,6 +507,7 @@ class BoucWenSDP(Device):
         c: list[float],
         *,
         name: str = "SDP",
+        uncoupled: bool = False,
     ) -> None:
         c = [float(x) for x in c]
         _check_bw(A, beta, gamma, c)
@@ -493,7 +519,8 @@ class BoucWenSDP(Device):
             msg = f"alpha: expected 0 <= alpha <= 1, got {alpha}"
             raise ModelError(msg)
         super().__init__(
-            [A, beta, gamma, c[0], c[1], alpha, K[0, 0], K[0, 1], K[1, 1]], n_dir=2, name=name
+            [A, beta, gamma, c[0], c[1], alpha, K[0, 0], K[0, 1], K[1, 1], 0.0,
+             1.0 if uncoupled else 0.0], n_dir=2, name=name
         )
 
     def reference_damping(self) -> FloatArray:

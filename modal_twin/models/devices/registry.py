@@ -252,7 +252,7 @@ def _abs_prandtl(p: dict[str, Any], site: Site) -> Device:
 _STICK_SLIP = {"mu_s": 0.09, "mu_k": 0.06, "kt_factor": 1.0}
 _BILINEAR = {"ratio": 0.75, "ub": 0.03}
 _SMOOTH_BILINEAR = {"ratio": 0.75, "ub": 0.03, "n": 2.0}
-_BOUC_WEN = {"alpha": 0.3, "uy": 0.03, "c_factor": 1.0}
+_BOUC_WEN = {"alpha": 0.3, "uy": 0.03, "c_factor": 1.0, "uncoupled": 0.0}
 _CUBIC = {"k3": 0.0}
 _GAP = {"g": 0.01, "kp": 0.0}
 _REG_FRICTION = {"kp": 0.0, "v_s": 0.05, "v_reg": 0.005, "c_factor": 1.0}
@@ -333,14 +333,19 @@ def _rel_smooth_bilinear(p: dict[str, Any], site: Site) -> Device:
 
 
 def _rel_bouc_wen(p: dict[str, Any], site: Site) -> Device:
-    """z saturates at sqrt(A / (beta + gamma)) = uy with A = 1, beta = gamma."""
+    """z saturates at sqrt(A / (beta + gamma)) = uy with A = 1, beta = gamma.
+
+    ``uncoupled`` 1: each direction yields on its own (two orthogonal dampers, no circular
+    yield surface; :class:`BoucWenSDP`); 0: Eq. (10) of [004].
+    """
     scale = _take(p, "k", _kmean(site)) / _kmean(site)
     uy = _take(p, "uy", _BOUC_WEN["uy"])
     b = 0.5 / uy**2
     c_factor = _take(p, "c_factor", _BOUC_WEN["c_factor"])  # the dashpot beside it
     return BoucWenSDP(1.0, b, b, np.diag(scale * np.asarray(site.k, float)),
                       _take(p, "alpha", _BOUC_WEN["alpha"]),
-                      [c_factor * float(v) for v in site.c], name=site.name)
+                      [c_factor * float(v) for v in site.c], name=site.name,
+                      uncoupled=_take(p, "uncoupled", _BOUC_WEN["uncoupled"]) >= 0.5)
 
 
 def _rel_cubic(p: dict[str, Any], site: Site) -> Device:
@@ -413,9 +418,10 @@ _ENTRIES = (
              ("k", "ratio", "ub"), _BILINEAR,
              build_relative=_rel_bilinear(BilinearHysteretic)),
     LawEntry("bouc_wen", BoucWenSDP, law_bw_sdp, ("hysteresis",),
-             ("A", "beta", "gamma", "K", "alpha", "c"), _NOM_C, "Eqs. (10), (11b) of [004]",
-             _abs_bw_sdp, ("k", "uy", "alpha", "c_factor"), _BOUC_WEN, aliases=("bouc_wen_sdp",),
-             build_relative=_rel_bouc_wen),
+             ("A", "beta", "gamma", "K", "alpha", "c", "uncoupled"),
+             {**_NOM_C, "uncoupled": 0}, "Eqs. (10), (11b) of [004]",
+             _abs_bw_sdp, ("k", "uy", "alpha", "c_factor", "uncoupled"), _BOUC_WEN,
+             aliases=("bouc_wen_sdp",), build_relative=_rel_bouc_wen),
     LawEntry("bouc_wen_esb", BoucWenESB, law_bw_esb, ("friction", "hysteresis"),
              ("A", "beta", "gamma", "c", "W", "mu0", "mu1", "mu2", "S"),
              {"c": "nominal c", "W": "auto (carried weight)", "mu0": 0.0606, "mu1": -0.5883,
