@@ -1,11 +1,9 @@
-"""Launcher: start / stop, node death, signal forwarding, malformed scenarios."""
+"""Launcher: start / stop, node death, malformed scenarios (signal forwarding: test_loopback)."""
 
 from __future__ import annotations
 
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -70,24 +68,6 @@ def test_node_death_is_named_and_fails_the_run(domain_id: int, tmp_path: Path) -
     assert res.exit_code == 1
     assert "node 'excitation' died" in res.message
     assert "kind: expected one of" in res.message  # the node's own error, from its log
-
-
-@pytest.mark.ros
-def test_sigterm_is_forwarded_and_bag_is_closed(domain_id: int, tmp_path: Path) -> None:
-    scen = _write(tmp_path, SCENARIO.format(duration=0, kind="random"))
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "modal_twin.cli", "launch", str(scen), "--run-dir",
-         str(tmp_path / "run")], stdout=subprocess.PIPE, text=True)
-    assert proc.stdout is not None
-    for line in proc.stdout:
-        if "up and matched" in line:
-            break
-    time.sleep(1.0)
-    proc.send_signal(signal.SIGTERM)
-    assert proc.wait(30) == 0
-    assert (tmp_path / "run" / "bag" / "metadata.yaml").is_file()
-    out = subprocess.run(["pgrep", "-f", str(tmp_path / "run")], capture_output=True)
-    assert out.stdout == b""  # no node outlived the launcher
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,9 @@
-"""Launched nodes bind UDP on 127.0.0.1 only unless ``--network``; Ctrl-C exits 130."""
+"""Launched nodes bind UDP on 127.0.0.1 only unless ``--network``; Ctrl-C exits 130;
+SIGTERM is forwarded (exit 0, the bag closed, no node left).
+
+Two launches serve these checks: the loopback-only one ends with Ctrl-C (SIGINT), the
+``--network`` one with SIGTERM.
+"""
 
 from __future__ import annotations
 
@@ -69,16 +74,42 @@ def launch_until_matched(tmp_path: Path, *extra: str) -> subprocess.Popen[str]:
     pytest.fail(f"the launch did not come up (exit {proc.returncode})")
 
 
+@pytest.fixture(scope="module")
+def network_launch(tmp_path_factory: pytest.TempPathFactory
+                   ) -> tuple[dict[int, set[str]], int, Path]:
+    """A ``--network`` launch, sent SIGTERM once up and matched: the UDP addresses of its
+    nodes, the launcher's exit code and the folder of the run."""
+    from modal_twin.launch import free_domain_id
+
+    tmp = tmp_path_factory.mktemp("network")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("ROS_DOMAIN_ID", str(free_domain_id()))
+    try:
+        proc = launch_until_matched(tmp, "--network")
+        try:
+            addrs = {pid: udp_addresses(pid) for pid in children(proc.pid)}
+        finally:
+            proc.send_signal(signal.SIGTERM)
+            code = proc.wait(60)
+    finally:
+        mp.undo()
+    return addrs, code, tmp / "run"
+
+
 @pytest.mark.ros
 @pytest.mark.parametrize("network", [False, True])
 def test_launched_nodes_bind_the_loopback_only_unless_network(
-        domain_id: int, tmp_path: Path, network: bool) -> None:
-    proc = launch_until_matched(tmp_path, *(["--network"] if network else []))
-    try:
-        addrs = {pid: udp_addresses(pid) for pid in children(proc.pid)}
-    finally:
-        proc.send_signal(signal.SIGTERM if network else signal.SIGINT)
-        code = proc.wait(60)
+        domain_id: int, tmp_path: Path, network: bool, request: pytest.FixtureRequest
+) -> None:
+    if network:  # the launch that test_sigterm_is_forwarded_and_bag_is_closed ends
+        addrs, _, _ = request.getfixturevalue("network_launch")
+    else:
+        proc = launch_until_matched(tmp_path)
+        try:
+            addrs = {pid: udp_addresses(pid) for pid in children(proc.pid)}
+        finally:
+            proc.send_signal(signal.SIGINT)
+            code = proc.wait(60)
     assert len(addrs) == 2  # the excitation node and the recorder
     assert all(addrs.values())  # each holds its DDS sockets
     bound = set().union(*addrs.values())
@@ -87,6 +118,16 @@ def test_launched_nodes_bind_the_loopback_only_unless_network(
     else:
         assert bound == {"127.0.0.1"}, addrs
         ctrl_c_exits_130(code, tmp_path)  # the same launch serves both (one launch fewer)
+
+
+@pytest.mark.ros
+def test_sigterm_is_forwarded_and_bag_is_closed(
+        network_launch: tuple[dict[int, set[str]], int, Path]) -> None:
+    _, code, run = network_launch
+    assert code == 0
+    assert (run / "bag" / "metadata.yaml").is_file()
+    out = subprocess.run(["pgrep", "-f", str(run)], capture_output=True, check=False)
+    assert out.stdout == b""  # no node outlived the launcher
 
 
 def ctrl_c_exits_130(code: int, tmp_path: Path) -> None:
