@@ -39,7 +39,7 @@ from modal_twin.models.loading import ModelFactory
 from modal_twin.models.plant import Plant
 
 __all__ = ["KINDS", "PARAMETER", "PARAMETER_LAWS", "ParameterCandidate", "ParameterKind",
-           "fit_parameter", "rival_places", "screen_parameters"]
+           "device_site", "fit_parameter", "rival_places", "screen_parameters"]
 
 KINDS = {"m_": "added_mass", "E_": "stiffness", "EI_": "stiffness", "k_": "stiffness",
          "c_": "damping"}
@@ -151,6 +151,18 @@ def _place_class(factory: ModelFactory, name: str) -> str:
     except (ModalTwinError, AttributeError):
         return ""
     return _PLACE_CLASS.get(family, family)
+
+
+def device_site(factory: ModelFactory, name: str) -> str | None:
+    """Return the device site a rate parameter belongs to (``k_ESB1_x`` -> ``ESB1``), or None.
+
+    The longest site name that follows the parameter's prefix whole.
+    """
+    if not name.startswith(("k_", "c_")):
+        return None
+    rest = name[2:]
+    hits = [s for s in getattr(factory, "sites", {}) if rest == s or rest.startswith(f"{s}_")]
+    return max(hits, key=len) if hits else None
 
 
 def rival_places(factory: ModelFactory, effect: EffectSpec) -> list[ParameterCandidate]:
@@ -344,7 +356,8 @@ class ParameterKind:
     def facts(self, rnd: Round, effect: EffectSpec) -> Facts:
         """Return the model's parameter values (an added mass is judged against its floor's)."""
         return Facts(rnd.factory.parameters(),
-                     evidence_family=rnd.evidence_family.get(effect.component, ""))
+                     evidence_family=rnd.evidence_family.get(
+                         device_site(rnd.factory, effect.component) or effect.component, ""))
 
     def family(self, effect: EffectSpec, facts: Facts) -> str:
         """``mass``, ``stiffness`` or ``damping``."""
@@ -358,8 +371,17 @@ class ParameterKind:
         return _place_in_name(effect.component)
 
     def flags(self, effect: EffectSpec, facts: Facts) -> tuple[str, ...]:
-        """Flag an added mass that is negative, or below 1 % of the floor mass it joins."""
+        """Flag an added mass that is negative, or below 1 % of the floor mass it joins.
+
+        And a change of a device's rate (``k_ESB1_x``) where the force measured across that
+        device is its nominal law's to its noise (the evidence names nothing there,
+        :func:`.device_kind.screen`): the device's own force refutes it, whatever it does
+        for the accelerations (it stands in for a form gap elsewhere).
+        """
         if effect.law != "added_mass":
+            if facts.evidence_family == "nothing" and effect.component.startswith(("k_", "c_")):
+                return (f"refuted: the force measured at the device of {effect.component} is "
+                        "its nominal law's to its noise",)
             return ()
         nominal = facts.values
         name = effect.component

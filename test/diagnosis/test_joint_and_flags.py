@@ -444,3 +444,22 @@ def test_two_globals_one_change_stood_in_for_are_taken_together(
     device = FittedEffect(EffectSpec("ESB1", "stick_slip", {"Fk": 1.0}), 1, 1.0, 1.0, 1.0, 0.0,
                           1, 0.0)
     assert _paired(factory, [device], last, recs, noises, said.append, map) == (None, None)
+
+
+def test_a_device_rate_its_own_measured_force_refutes_is_flagged(
+        factory: BuildingFactory) -> None:
+    # issue 20 (new_microslip_iwan_RB1 at seed offset 400): a -4 % stiffness at ESB1 filled
+    # a form gap at RB1, while ESB1's measured force was its nominal law's to its noise
+    from modal_twin.diagnosis.parameters import PARAMETER, device_site
+
+    assert device_site(factory, "k_ESB1_x") == "ESB1"
+    assert device_site(factory, "c_RB1_y") == "RB1"
+    assert device_site(factory, "kst_2") is None and device_site(factory, "k_XX1_x") is None
+    change = EffectSpec("k_ESB1_x", "stiffness", {"k_ESB1_x": 0.96})
+    values = factory.parameters()
+    refuted = PARAMETER.flags(change, Facts(values, evidence_family="nothing"))
+    assert len(refuted) == 1 and refuted[0].startswith("refuted: the force measured")
+    assert PARAMETER.flags(change, Facts(values, evidence_family="")) == ()  # no force channel
+    assert PARAMETER.flags(change, Facts(values, evidence_family="stiffness")) == ()
+    storey = EffectSpec("kst_2", "stiffness", {"kst_2": 0.6})
+    assert PARAMETER.flags(storey, Facts(values, evidence_family="nothing")) == ()
