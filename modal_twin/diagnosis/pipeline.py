@@ -363,6 +363,17 @@ def _apply_all(factory: ModelFactory, found: Sequence[FittedEffect]) -> ModelFac
 _Trial = tuple[float, FittedEffect, list[FittedEffect], Any]
 
 
+def _criterion(factory: ModelFactory, records: Sequence[Record],
+               noises: Sequence[np.ndarray], effects: Sequence[FittedEffect]) -> float:
+    """Whitened information criterion over every record of the model with ``effects``.
+
+    :func:`.judge.information_criterion` of :func:`.judge.figures_on`, a parameter per
+    fitted coordinate of each effect.
+    """
+    figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
+    return information_criterion(figs, sum(g.n_params for g in effects), records)
+
+
 def _effective_samples(plant: Plant, records: Sequence[Record]) -> list[float]:
     """Return what each record's residual under ``plant`` is worth in independent samples.
 
@@ -476,9 +487,7 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
     out = list(found)
     rows: list[RoundRow] = []
 
-    def ic(effects: Sequence[FittedEffect]) -> float:
-        figs = figures_on(_apply_all(factory, effects).plant(), rec_c, noises)
-        return information_criterion(figs, sum(g.n_params for g in effects), rec_c)
+    ic = partial(_criterion, factory, rec_c, noises)
 
     ic_out: float | None = None  # of ``out``, simulated once and again only when it changes
     for i, f in enumerate(found[:-1]):
@@ -544,28 +553,25 @@ def _places_rechosen(factory: ModelFactory, found: list[FittedEffect],
     rows: list[RoundRow] = []
     fit_on = (records[0], *records[2:])
 
-    def ic(effects: Sequence[FittedEffect]) -> float:
-        figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
-        return information_criterion(figs, sum(g.n_params for g in effects), records)
+    ic = partial(_criterion, factory, records, noises)
 
-    for _ in range(MAX_PLACE_MOVES + 1):
+    for n_moves in range(MAX_PLACE_MOVES + 1):
         ic_out = ic(out)
         _, tol = _sampling_tolerance(factory, out, records)
         trials = [t for i in movable if (t := _rival_trial(factory, out, i, records, noises,
                                                             say, mapper, ic)) is not None]
         best_trial = min(trials, key=lambda t: t[0], default=None)
-        if (best_trial is None or best_trial[1] is None or best_trial[0] >= ic_out - tol
-                or len(rows) >= MAX_PLACE_MOVES):
+        best = None if best_trial is None else best_trial[1]
+        if (best_trial is None or best is None or best_trial[0] >= ic_out - tol
+                or n_moves == MAX_PLACE_MOVES):
             rows += [_place_row(out[t[2]], t, ic_out, tol, moved=False) for t in trials]
             break
-        _, best, i, _, moved = best_trial
-        assert best is not None  # checked above
+        i = best_trial[2]
         rows.append(_place_row(out[i], best_trial, ic_out, tol, moved=True))
         say(f"{out[i].family}: {best.place} fits better than {out[i].place}; taken instead")
-        out = moved
         # the others were fitted beside the place left: refitted with the new one before
         # their rivals are tried again (each move lowers the criterion: no cycle)
-        out = refit_jointly(factory, out, fit_on, min_free=1)
+        out = refit_jointly(factory, best_trial[4], fit_on, min_free=1)
     return out, rows
 
 
@@ -669,9 +675,7 @@ def _paired(factory: ModelFactory, found: list[FittedEffect], last: Diagnosis,
         return None, None
     fit_on = (records[0], *records[2:])
 
-    def ic(effects: Sequence[FittedEffect]) -> float:
-        figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
-        return information_criterion(figs, sum(g.n_params for g in effects), records)
+    ic = partial(_criterion, factory, records, noises)
 
     ic_found = ic(found)
     _, tol = _sampling_tolerance(factory, found, records)
