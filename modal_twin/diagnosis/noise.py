@@ -218,7 +218,7 @@ def effective_samples(residual: FloatArray, *, lags: float = 2.0) -> float:
     estimates' own scatter, about ``1 / N`` each, adds little), less that white-noise bias;
     the autocorrelation from the FFT of each row (``residual``: one series, or channels by
     samples, then the median over the channels). Used by the backward elimination
-    (:func:`.pipeline._without_idle`) and the coloured-noise test (:func:`redundancy_sd`).
+    (:func:`.refine.without_idle`) and the coloured-noise test (:func:`redundancy_sd`).
     """
     r = np.atleast_2d(np.asarray(residual, float))
     per_row = _effective_samples_rows(r, lags)

@@ -44,18 +44,27 @@ from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
 from modal_twin.diagnosis.joint import refit_jointly
 from modal_twin.diagnosis.judge import (
     figures_on,
-    information_criterion,
-    judge,
     labelled,
     rank,
     record_noise_floors,
-    worse_tolerance,
 )
 from modal_twin.diagnosis.kinds import KINDS, kind_of
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
-from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures, effective_samples
-from modal_twin.diagnosis.parameters import fit_parameter, rival_places
+from modal_twin.diagnosis.noise import SIGNIFICANT_RATIO, ErrorFigures
 from modal_twin.diagnosis.record import Record
+from modal_twin.diagnosis.refine import (
+    Mapper,
+    RoundRow,
+    apply_all,
+    apply_effect,
+    fit_records,
+    judged,
+    paired,
+    places_rechosen,
+    run_jobs,
+    whitened_criterion,
+    without_idle,
+)
 from modal_twin.diagnosis.where import WhereReport, where_it_fails
 from modal_twin.errors import ModalTwinError
 from modal_twin.models.loading import ModelFactory
@@ -64,9 +73,6 @@ from modal_twin.models.plant import Plant
 __all__ = ["Diagnosis", "diagnose", "diagnose_round"]
 
 log = logging.getLogger(__name__)
-
-Mapper = Callable[..., Iterable[Any]]
-
 
 @dataclass(frozen=True, slots=True)
 class Diagnosis:
@@ -286,11 +292,11 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
         jobs += kind.jobs(rnd, candidates[name])
     if only:
         jobs = [j for j in jobs if j[0].endswith(f" at {only}")]
-    fitted = [f for f in _run_jobs(jobs, mapper, skipped, say)
+    fitted = [f for f in run_jobs(jobs, mapper, skipped, say)
               if (f.effect.component, f.effect.law) not in set(exclude)]
     # a later round must earn its effect: 5 % lower, not 1 %
     lower_by = 0.05 if factory.base_effects or set(exclude) else 0.01
-    ranked = rank([_judge(rnd, f, before, lower_by) for f in fitted], rnd.evidence_family)
+    ranked = rank([judged(rnd, f, before, lower_by) for f in fitted], rnd.evidence_family)
     return Diagnosis(True, _round_summary(ranked, sig), where, tuple(ranked), tuple(skipped),
                      modal, candidates, before, before)
 
@@ -322,150 +328,6 @@ def _round_summary(ranked: Sequence[FittedEffect], sig: Sequence[str]) -> str:
             f"(x{b.records[1][3]:.2f} the noise floor)")
 
 
-def _run_jobs(jobs: Sequence[Job], mapper: Mapper,
-              skipped: list[str], say: Callable[[str], None]) -> list[FittedEffect]:
-    say(f"fitting {len(jobs)} candidates by simulation")
-    out: list[FittedEffect] = []
-    for (label, _), res in zip(jobs, mapper(_call, [j for _, j in jobs]), strict=True):
-        if isinstance(res, str):
-            skipped.append(f"{label}: {res}")
-        else:
-            out.append(res)
-    return out
-
-
-def _call(job: Callable[[], FittedEffect]) -> FittedEffect | str:
-    """Run one fit; a refused fit comes back as its message (executors keep going)."""
-    try:
-        return job()
-    except (ModalTwinError, ValueError, np.linalg.LinAlgError) as err:
-        return str(err)
-
-
-def _judge(rnd: Round, f: FittedEffect, before: Sequence[ErrorFigures], lower_by: float
-           ) -> FittedEffect:
-    kind = kind_of(f.effect.law)
-    return judge(f, kind.plant(rnd.factory, f.effect), before, rnd.records, rnd.noise,
-                 facts=kind.facts(rnd, f.effect), place=kind.place(f.effect, rnd.factory),
-                 lower_by=lower_by)
-
-
-def _apply(factory: ModelFactory, f: FittedEffect) -> ModelFactory:
-    return kind_of(f.effect.law).apply(factory, f.effect)
-
-
-def _apply_all(factory: ModelFactory, found: Sequence[FittedEffect]) -> ModelFactory:
-    for f in found:
-        factory = _apply(factory, f)
-    return factory
-
-
-_Trial = tuple[float, FittedEffect, list[FittedEffect], Any]
-
-
-def _criterion(factory: ModelFactory, records: Sequence[Record],
-               noises: Sequence[np.ndarray], effects: Sequence[FittedEffect]) -> float:
-    """Whitened information criterion over every record of the model with ``effects``.
-
-    :func:`.judge.information_criterion` of :func:`.judge.figures_on`, a parameter per
-    fitted coordinate of each effect.
-    """
-    figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
-    return information_criterion(figs, sum(g.n_params for g in effects), records)
-
-
-def _effective_samples(plant: Plant, records: Sequence[Record]) -> list[float]:
-    """Return what each record's residual under ``plant`` is worth in independent samples.
-
-    :func:`.noise.effective_samples` of the residual on the scored part of each record.
-    """
-    return [effective_samples(r.scored - simulate_record(plant, r)[:, r.skip:])
-            for r in records]
-
-
-def _sampling_tolerance(factory: ModelFactory, found: Sequence[FittedEffect],
-                        records: Sequence[Record]) -> tuple[list[float], float]:
-    """Return each record's effective samples and the criterion's sampling tolerance.
-
-    :func:`_effective_samples` of the residual of the model with ``found``, and
-    ``ln(1 + tol)``, ``tol`` the mean over the records of :func:`.judge.worse_tolerance`
-    (one record's RMS that much higher is within what another record of the test gives).
-    """
-    n_eff = _effective_samples(_apply_all(factory, found).plant(), records)
-    return n_eff, float(np.log1p(np.mean([worse_tolerance(r, n)
-                                          for r, n in zip(records, n_eff, strict=True)])))
-
-
-def _without_idle(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
-                  noises: Sequence[np.ndarray], say: Callable[[str], None], *,
-                  refit: bool = True) -> tuple[list[FittedEffect], list[str]]:
-    """Backward elimination after the joint refit: (effects kept, why each other was dropped).
-
-    Each effect in turn is set back to its nominal (the others keep their joint fit) and the
-    whitened information criterion over every record compared
-    (:func:`.judge.information_criterion`: training, held-out and other levels alike, a
-    penalty per parameter). The effect whose removal worsens it least is dropped when that
-    is no more than the sampling tolerance of an RMS (``ln(1 + tol)``: one record's figure
-    ``tol`` higher, ``tol`` the mean over the records of :func:`.judge.worse_tolerance`,
-    three standard errors, at least 1 %). Both count each record's samples by what the
-    residual of the model with every effect found is worth
-    (:func:`.noise.effective_samples`): as many as it has when that residual is the noise,
-    fewer when it is smooth model error (then small gains are within what another record
-    of the same test would change, and an extra effect riding on them is dropped);
-    the search repeats on the rest. An effect found early can stand in for one found later
-    (a column line for the storey it belongs to), and a small change that helped the
-    training record only can ride along with the real ones: after the joint refit either is
-    dropped, and the reason said.
-
-    The others' joint fit may lean on the effect under trial (an extra one soaks up what a
-    law fitted beside it left, e.g. a dashpot elsewhere taking over the viscous part of a
-    friction law, which the joint refit then moved to it): when even the weakest effect
-    seems needed, the rest without each in turn (weakest first) is refitted jointly
-    (:func:`_refitted_trial`, from their values in the joint fit) and compared again
-    (``refit``); the first one whose rest so refitted is back within the tolerance is
-    dropped, the rest kept at its refitted values.
-    """
-    keep = list(found)
-    dropped: list[str] = []
-    n_eff, tol = _sampling_tolerance(factory, found, records)
-
-    def criterion(effects: Sequence[FittedEffect]) -> tuple[float, tuple[ErrorFigures, ...]]:
-        figs = figures_on(_apply_all(factory, effects).plant(), records, noises)
-        return information_criterion(figs, sum(f.n_params for f in effects), records,
-                                     n_eff), figs
-
-    while len(keep) > 1:
-        ic_all, figs_all = criterion(keep)
-        trials = []
-        for f in keep:
-            rest = [g for g in keep if g is not f]
-            ic_rest, figs_rest = criterion(rest)
-            trials.append((ic_rest - ic_all, f, rest, figs_rest))
-        trials.sort(key=lambda t: t[0])
-        delta, f, rest, figs_rest = trials[0]
-        refitted = ""
-        if delta > tol and refit:
-            delta, f, rest, figs_rest = _refitted_trial(factory, trials, records, criterion,
-                                                        ic_all, tol)
-            refitted = ", the rest refitted"
-        if delta > tol:
-            break
-        rms = ", ".join(f"{a.record or 'record'} x{a.score:.2f} -> x{b.score:.2f}"
-                        for a, b in zip(figs_all, figs_rest, strict=True))
-        why = (f"{f.family} at {f.place} ({f.effect.law}): without it{refitted} the "
-               f"information criterion changes by {delta:+.4f} (drop at <= {tol:.4f}; "
-               f"whitened RMS {rms})")
-        say(f"dropped {why}")
-        dropped.append(why)
-        keep = rest
-    return keep, dropped
-
-
-# a round of the tables: its heading, its ranked fits, its decision and the fit it took
-# (None: none; a round that chose a device law again: the law taken in place of the first)
-RoundRow = tuple[str, tuple[FittedEffect, ...], str, FittedEffect | None]
-
-
 def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Sequence[Record],
                 rec_c: Sequence[Record], noises: Sequence[np.ndarray],
                 say: Callable[[str], None], **round_kw: Any
@@ -487,14 +349,14 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
     out = list(found)
     rows: list[RoundRow] = []
 
-    ic = partial(_criterion, factory, rec_c, noises)
+    ic = partial(whitened_criterion, factory, rec_c, noises)
 
     ic_out: float | None = None  # of ``out``, simulated once and again only when it changes
     for i, f in enumerate(found[:-1]):
         if kind_of(f.effect.law) is not KINDS["device"]:
             continue
         others = out[:i] + out[i + 1:]
-        d = diagnose_round(_apply_all(factory, others), records, only=f.effect.component,
+        d = diagnose_round(apply_all(factory, others), records, only=f.effect.component,
                            **round_kw)
         with_ = ", ".join(f"{g.family} at {g.place} ({g.effect.law})" for g in others)
         title = (f"the law at {f.place} chosen again ({f.effect.law}, found in round "
@@ -522,200 +384,6 @@ def _reselected(factory: ModelFactory, found: list[FittedEffect], records: Seque
                 decision = f"{head} (the best fit there, {best.effect.law}: {crit}, not lower)"
         rows.append((title, d.fitted, decision, taken))
     return out, rows
-
-
-MAX_PLACE_MOVES = 4  # moves of parameter changes' places per diagnosis at most
-
-
-def _places_rechosen(factory: ModelFactory, found: list[FittedEffect],
-                     records: Sequence[Record], noises: Sequence[np.ndarray],
-                     say: Callable[[str], None], mapper: Mapper
-                     ) -> tuple[list[FittedEffect], list[RoundRow]]:
-    """``found`` with the place of each parameter change chosen again among its rivals.
-
-    A parameter change is placed by the screening's linear sensitivities at the model of
-    its round, on a residual still bent by the laws fitted before it (a friction fitted
-    while a storey's stiffness was wrong takes part of it): a column line can be chosen for
-    its storey. So each is fitted again at every rival place (:func:`.parameters.rival_places`:
-    the same law at the same level, from the same change) with the other effects in place
-    and judged as in a round. The move that lowers the whitened information criterion over
-    every record (:func:`.judge.information_criterion`) most is made when it lowers it by
-    more than the sampling tolerance (:func:`_sampling_tolerance`: a place is moved on
-    evidence, not on a tie), every effect is refitted jointly, and every change is tried
-    again (a wrong place beside a right one bends the right one's rivals too: the clearest
-    move first; at most :data:`MAX_PLACE_MOVES`).
-
-    Returns the effects and the rounds for the tables (:data:`RoundRow`): one per move, then
-    each change's last trial.
-    """
-    out = list(found)
-    movable = [i for i, f in enumerate(found) if kind_of(f.effect.law) is KINDS["parameter"]]
-    rows: list[RoundRow] = []
-    fit_on = (records[0], *records[2:])
-
-    ic = partial(_criterion, factory, records, noises)
-
-    for n_moves in range(MAX_PLACE_MOVES + 1):
-        ic_out = ic(out)
-        _, tol = _sampling_tolerance(factory, out, records)
-        trials = [t for i in movable if (t := _rival_trial(factory, out, i, records, noises,
-                                                            say, mapper, ic)) is not None]
-        best_trial = min(trials, key=lambda t: t[0], default=None)
-        best = None if best_trial is None else best_trial[1]
-        if (best_trial is None or best is None or best_trial[0] >= ic_out - tol
-                or n_moves == MAX_PLACE_MOVES):
-            rows += [_place_row(out[t[2]], t, ic_out, tol, moved=False) for t in trials]
-            break
-        i = best_trial[2]
-        rows.append(_place_row(out[i], best_trial, ic_out, tol, moved=True))
-        say(f"{out[i].family}: {best.place} fits better than {out[i].place}; taken instead")
-        # the others were fitted beside the place left: refitted with the new one before
-        # their rivals are tried again (each move lowers the criterion: no cycle)
-        out = refit_jointly(factory, best_trial[4], fit_on, min_free=1)
-    return out, rows
-
-
-_RivalTrial = tuple[float, FittedEffect | None, int, tuple[FittedEffect, ...],
-                    list[FittedEffect]]
-
-
-def _place_row(f: FittedEffect, trial: _RivalTrial, ic_out: float, tol: float, *,
-               moved: bool) -> RoundRow:
-    """Return the round of the tables for the rival places of ``f``: fits, decision, reason."""
-    ic_best, best, _, ranked, _ = trial
-    title = (f"the place of {f.family} at {f.place} chosen again among its rival places, "
-             "the other effects in place")
-    if best is None:
-        return title, ranked, f"{f.family} kept at {f.place} (no rival place is usable)", None
-    crit = (f"criterion {ic_out:.4f} -> {ic_best:.4f} at {best.place} (whitened information "
-            f"criterion over every record; moved when lower by more than {tol:.4f})")
-    if moved:
-        return title, ranked, f"{f.family} moved: {f.place} -> {best.place}, {crit}", best
-    return title, ranked, f"{f.family} kept at {f.place} ({crit})", None
-
-
-def _rival_trial(factory: ModelFactory, out: Sequence[FittedEffect], i: int,
-                 records: Sequence[Record], noises: Sequence[np.ndarray],
-                 say: Callable[[str], None], mapper: Mapper,
-                 ic: Callable[[Sequence[FittedEffect]], float]) -> _RivalTrial | None:
-    """Return the best rival place of ``out[i]``: (criterion, it, i, ranked fits, effects).
-
-    The effects: ``out`` with it in place (:func:`_beside_others`). None when the change
-    has no rival; the fit None (criterion inf) when no rival is usable.
-    """
-    f = out[i]
-    base = _apply_all(factory, [*out[:i], *out[i + 1:]])
-    rivals = rival_places(base, f.effect)
-    if len(rivals) < 2:
-        return None
-    say(f"{f.family} at {f.place}: fitting it at {len(rivals) - 1} rival places")
-    rnd = Round(base, records, base.plant(), noises, (), [], say)
-    before = figures_on(rnd.nominal, records, noises)
-    jobs: list[Job] = [(f"{pc.kind} {pc.name}", partial(fit_parameter, base, pc, rnd.fit_on,
-                                                        rnd.test)) for pc in rivals]
-    ranked = tuple(rank([_judge(rnd, g, before, 0.01)
-                         for g in _run_jobs(jobs, mapper, [], say)]))
-    fit_on = (records[0], *records[2:])
-    scored = [(ic(t), g, t) for g in ranked
-              if not g.rejected and not g.flags and g.effect.component != f.effect.component
-              for t in [_beside_others(factory, out, i, g, fit_on)]]
-    if not scored:
-        return float("inf"), None, i, ranked, list(out)
-    ic_best, best, trial = min(scored, key=lambda t: t[0])
-    return ic_best, best, i, ranked, trial
-
-
-def _beside_others(factory: ModelFactory, out: Sequence[FittedEffect], i: int,
-                   g: FittedEffect, fit_on: Sequence[Record]) -> list[FittedEffect]:
-    """``out`` with ``g`` in place of ``out[i]``, the other parameter changes refitted with it.
-
-    Two parameter changes trade off (a mass on a floor and the stiffness of the storey
-    below it): a rival place fitted with the other held where it sat beside the place left
-    is judged at a wrong partner. So the parameter changes are refitted jointly with the
-    rival (:func:`.joint.refit_jointly`), the device laws held as found (their joint refit
-    follows a move).
-    """
-    trial = [*out[:i], g, *out[i + 1:]]
-    params = [k for k, e in enumerate(trial) if kind_of(e.effect.law) is KINDS["parameter"]]
-    if len(params) < 2:
-        return trial
-    held = _apply_all(factory, [e for k, e in enumerate(trial) if k not in params])
-    for k, e in zip(params, refit_jointly(held, [trial[k] for k in params], fit_on,
-                                          min_free=1), strict=True):
-        trial[k] = e
-    return trial
-
-
-N_PAIRED = 2  # parameter candidates of a last round tried with the effects found moved
-
-
-def _paired(factory: ModelFactory, found: list[FittedEffect], last: Diagnosis,
-            records: Sequence[Record], noises: Sequence[np.ndarray],
-            say: Callable[[str], None], mapper: Mapper
-            ) -> tuple[list[FittedEffect] | None, RoundRow | None]:
-    """``found`` with a parameter change the last round rejected, when both together say so.
-
-    Two global changes (a mass on one floor and a storey's stiffness) can be stood in for by
-    one change elsewhere (a mass on the roof with a large radius): the first round takes it,
-    and then no second change lowers every record's error alone, for the first holds the
-    model where each of them is only half right. So the best :data:`N_PAIRED` parameter
-    changes of the last round (by BIC, rejected or not; none flagged) are each taken beside
-    the effects found, all refitted jointly, every parameter change's place chosen again
-    among its rivals (:func:`_places_rechosen`) and refitted again; the best set replaces
-    ``found`` when its whitened information criterion over every record is lower by more
-    than its sampling tolerance. Only where ``found`` holds a parameter change (the one that
-    may stand in for two).
-
-    Returns the new effects (None: kept) and the round for the tables.
-    """
-    param = KINDS["parameter"]
-    cands = sorted((g for g in last.fitted if kind_of(g.effect.law) is param and not g.flags),
-                   key=lambda g: g.bic)[:N_PAIRED]
-    if not cands or not any(kind_of(f.effect.law) is param for f in found):
-        return None, None
-    fit_on = (records[0], *records[2:])
-
-    ic = partial(_criterion, factory, records, noises)
-
-    ic_found = ic(found)
-    _, tol = _sampling_tolerance(factory, found, records)
-    trials = []
-    for g in cands:
-        say(f"{g.family} at {g.place} beside the effects found, each refitted and re-placed")
-        trial = refit_jointly(factory, [*found, g], fit_on, min_free=1)
-        trial, _ = _places_rechosen(factory, trial, records, noises, say, mapper)
-        trial = refit_jointly(factory, trial, fit_on, min_free=1)
-        trials.append((ic(trial), g, trial))
-    ic_best, g, best = min(trials, key=lambda t: t[0])
-    names = ", ".join(f"{f.family} at {f.place}" for f in best)
-    crit = (f"criterion {ic_found:.4f} -> {ic_best:.4f} (whitened information criterion over "
-            f"every record; taken when lower by more than {tol:.4f})")
-    title = ("the best rejected parameter changes of the last round each beside the effects "
-             "found, all refitted jointly and re-placed")
-    if ic_best < ic_found - tol:
-        say(f"taken together: {names}")
-        return best, (title, tuple(c for _, c, _ in trials), f"taken together: {names}, {crit}",
-                      g)
-    return None, (title, tuple(c for _, c, _ in trials), f"kept as found ({crit})", None)
-
-
-def _refitted_trial(factory: ModelFactory, trials: Sequence[_Trial],
-                    records: Sequence[Record],
-                    criterion: Callable[[Sequence[FittedEffect]], tuple[float, Any]],
-                    ic_all: float, tol: float) -> _Trial:
-    """Return the first trial (weakest first) whose rest refitted without it is within tol.
-
-    Each rest is refitted jointly (:func:`.joint.refit_jointly`) on the training record and
-    the other levels; the last trial refitted when none is within ``tol``.
-    """
-    out = trials[0]
-    for _, f, rest, _ in trials:
-        rest = refit_jointly(factory, rest, (records[0], *records[2:]), min_free=1)
-        ic_rest, figs_rest = criterion(rest)
-        out = (ic_rest - ic_all, f, rest, figs_rest)
-        if out[0] <= tol:
-            break
-    return out
 
 
 def diagnose(
@@ -757,7 +425,7 @@ def diagnose(
     rounds = [first]
     while d.significant and d.best is not None and len(found) < max_effects:
         found.append(d.best)
-        current = _apply(current, d.best)
+        current = apply_effect(current, d.best)
         say(f"effect {len(found)}: {d.best.family} at {d.best.place}; looking for the next")
         exclude = {(f.effect.component, f.effect.law) for f in found}
         d = diagnose_round(current, records, n_fit=n_fit, gain_threshold=gain_threshold,
@@ -771,27 +439,27 @@ def diagnose(
     table: list[RoundRow] = [(t, r.fitted, r.summary, r.best if i < len(found) else None)
                                 for i, (t, r) in enumerate(zip(titles, rounds, strict=True))]
     if joint and d.significant and d.best is None and len(found) < max_effects:
-        paired, row = _paired(factory, found, d, rec_c, noises, say, mapper)
+        pairs, row = paired(factory, found, d.fitted, rec_c, noises, say, mapper)
         if row is not None:
             table.append((f"round {len(table) + 1}: {row[0]}", *row[1:]))
-        if paired:
-            found, d = paired, replace(d, significant=False)  # its failure is answered
+        if pairs:
+            found, d = pairs, replace(d, significant=False)  # its failure is answered
     if joint and len(found) > 1:
         found, again = _reselected(factory, found, records, rec_c, noises, say, n_fit=n_fit,
                                    gain_threshold=gain_threshold, mapper=mapper)
-        found, moved = _places_rechosen(factory, found, rec_c, noises, say, mapper)
+        found, moved = places_rechosen(factory, found, rec_c, noises, say, mapper)
         again += moved
         table += [(f"round {len(table) + k + 1}: {t}", fits, why, took)
                   for k, (t, fits, why, took) in enumerate(again)]
         say("refitting all effects found jointly")
         found = _relabelled(factory, first, rec_c, noises,
-                            refit_jointly(factory, found, (records[0], *records[2:])))
+                            refit_jointly(factory, found, fit_records(records)))
     dropped: list[str] = []
     if len(found) > 1:
-        found, dropped = _without_idle(factory, found, rec_c, noises, say, refit=joint)
+        found, dropped = without_idle(factory, found, rec_c, noises, say, refit=joint)
         if dropped and joint:  # the rest may have been refitted without the dropped
             found = _relabelled(factory, first, rec_c, noises, found)
-    after = figures_on(_apply_all(factory, found).plant(), rec_c, noises)
+    after = figures_on(apply_all(factory, found).plant(), rec_c, noises)
     names = ", ".join(f"{f.family_text()} at {f.place}" for f in found)
     b, a = first.before[1], after[1]
     summary = (f"missing: {names} -- held-out NRMSE {100 * b.median_nrmse:.2f} % -> "

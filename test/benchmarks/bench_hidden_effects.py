@@ -94,8 +94,8 @@ RB2 beside the columns of line 1A at 0.6; the car's front damper friction beside
 bending mode damped at 5 %), run on the session-9 code before any change for them: 2 of 3
 right; the two globals named as one mass at the roof (2.55x the floor, a false claim), the
 car right but at 4.13x (``results/hidden_effects_interacting_session10.txt``). After the
-places of parameter changes are chosen again and paired (``pipeline._places_rechosen``,
-``pipeline._paired``): 3 of 3 (the two globals at 1.00x; the car still 4.15x,
+places of parameter changes are chosen again and paired (``refine.places_rechosen``,
+``refine.paired``): 3 of 3 (the two globals at 1.00x; the car still 4.15x,
 ``results/hidden_effects_new_session10.txt``).
 
 Run::

@@ -142,7 +142,7 @@ def test_parameter_std_marks_only_the_undetermined_ones() -> None:
 
 def test_an_effect_the_others_made_idle_is_dropped(factory: BuildingFactory) -> None:
     from modal_twin.diagnosis.judge import record_noise_floor
-    from modal_twin.diagnosis.pipeline import _without_idle
+    from modal_twin.diagnosis.refine import without_idle
 
     nominal = factory.parameters()
     truth = {"m_F3": 1.25 * nominal["m_F3"]}
@@ -151,14 +151,14 @@ def test_an_effect_the_others_made_idle_is_dropped(factory: BuildingFactory) -> 
     # a mass found first at F1, refitted back to its nominal value: it does nothing
     idle = found("m_F1", nominal["m_F1"])
     real = found("m_F3", truth["m_F3"])
-    keep, dropped = _without_idle(factory, [idle, real], recs, noises, print)
+    keep, dropped = without_idle(factory, [idle, real], recs, noises, print)
     assert keep == [real]
     assert len(dropped) == 1 and dropped[0].startswith(" at ")  # found(): no family, place
     # two effects that both act are both kept
     truth2 = {**truth, "m_F1": 1.3 * nominal["m_F1"]}
     recs2 = [record_of(factory, truth2, seed=s) for s in (5, 6)]
     both = [found("m_F1", truth2["m_F1"]), real]
-    assert _without_idle(factory, both, recs2, noises, print) == (both, [])
+    assert without_idle(factory, both, recs2, noises, print) == (both, [])
 
 
 def test_information_criterion_closed_form() -> None:
@@ -184,7 +184,7 @@ def test_backward_elimination_drops_a_forced_extra_effect(factory: BuildingFacto
     # beside it (storey 2 columns at 0.8); after the joint refit the extra one does nothing
     # the noise can tell and is dropped, the real one kept at its true value
     from modal_twin.diagnosis.judge import record_noise_floor
-    from modal_twin.diagnosis.pipeline import _without_idle
+    from modal_twin.diagnosis.refine import without_idle
 
     nominal = factory.parameters()
     truth = {"m_F3": 1.25 * nominal["m_F3"]}
@@ -194,7 +194,7 @@ def test_backward_elimination_drops_a_forced_extra_effect(factory: BuildingFacto
               FittedEffect(EffectSpec("kst_2", "stiffness", {"kst_2": 0.8}), 1, 1.0, 1.0, 1.0,
                            0.0, 1, 0.0, family="stiffness", place="storey 2")]
     joint = refit_jointly(factory, forced, recs[0])
-    keep, dropped = _without_idle(factory, joint, recs, noises, print)
+    keep, dropped = without_idle(factory, joint, recs, noises, print)
     assert [f.effect.component for f in keep] == ["m_F3"]
     assert keep[0].effect.params["m_F3"] == pytest.approx(truth["m_F3"], rel=0.01)
     assert len(dropped) == 1 and dropped[0].startswith("stiffness at storey 2 (stiffness)")
@@ -276,7 +276,7 @@ def test_an_extra_effect_that_only_props_up_a_stuck_fit_is_dropped(factory: Buil
     # without it, that mass alone explains the records to the noise: the extra is dropped
     # and the F3 mass kept at its true value
     from modal_twin.diagnosis.judge import figures_on, information_criterion, record_noise_floor
-    from modal_twin.diagnosis.pipeline import _without_idle
+    from modal_twin.diagnosis.refine import without_idle
 
     nominal = factory.parameters()
     truth = {"m_F3": 1.25 * nominal["m_F3"]}
@@ -294,12 +294,12 @@ def test_an_extra_effect_that_only_props_up_a_stuck_fit_is_dropped(factory: Buil
                                                 noises), len(effects), recs)
 
     assert ic([stuck]) - ic([stuck, extra]) > 1.0  # without a refit it looks needed
-    keep, dropped = _without_idle(factory, [stuck, extra], recs, noises, print)
+    keep, dropped = without_idle(factory, [stuck, extra], recs, noises, print)
     assert [f.effect.component for f in keep] == ["m_F3"]
     assert keep[0].effect.params["m_F3"] == pytest.approx(truth["m_F3"], rel=0.01)
     assert len(dropped) == 1 and "the rest refitted" in dropped[0]
     # without the refit of the rest (the mechanism before), the extra one stays
-    keep_old, _ = _without_idle(factory, [stuck, extra], recs, noises, print, refit=False)
+    keep_old, _ = without_idle(factory, [stuck, extra], recs, noises, print, refit=False)
     assert len(keep_old) == 2
 
 
@@ -383,7 +383,7 @@ def _judged(factory: BuildingFactory, name: str, start: float, recs: list) -> Fi
 def test_a_column_line_named_for_its_storey_is_moved_to_the_storey(
         factory: BuildingFactory) -> None:
     from modal_twin.diagnosis.judge import record_noise_floor
-    from modal_twin.diagnosis.pipeline import _places_rechosen
+    from modal_twin.diagnosis.refine import places_rechosen
 
     values = factory.parameters()
     truth = {"kst_2": 0.6, "m_R": 1.2 * values["m_R"]}
@@ -394,7 +394,7 @@ def test_a_column_line_named_for_its_storey_is_moved_to_the_storey(
     with_mass = factory.with_theta({"m_R": truth["m_R"]})
     line = _judged(with_mass, "kcol_3B", 0.8, recs)  # the wrong place, fitted as well as it can
     said: list[str] = []
-    out, rows = _places_rechosen(factory, [mass, line], recs, noises, said.append, map)
+    out, rows = places_rechosen(factory, [mass, line], recs, noises, said.append, map)
     # one move, then both changes tried again with it in place (refitted jointly): kept
     assert [r[2].split(",")[0].split(" (c")[0] for r in rows] == [
         "stiffness moved: kcol_3B -> storey 2 (F1-F2)", "mass kept at floor R",
@@ -408,7 +408,7 @@ def test_a_column_line_named_for_its_storey_is_moved_to_the_storey(
     assert len(rows[0][1]) == sum(n.startswith(("E_", "kcol_", "kst_")) for n in values)
     # at its right place it stays, the decision says so with the criterion
     right = _judged(with_mass, "kst_2", 0.8, recs)
-    out, rows = _places_rechosen(factory, [mass, right], recs, noises, said.append, map)
+    out, rows = places_rechosen(factory, [mass, right], recs, noises, said.append, map)
     assert out[1] is right and rows[1][3] is None
     assert rows[1][2].startswith("stiffness kept at kst_2 (criterion ")
     assert np.isfinite(float(rows[1][2].split("criterion ")[1].split(" ")[0]))
@@ -421,7 +421,8 @@ def test_two_globals_one_change_stood_in_for_are_taken_together(
     # could not lower every record's error; taken beside it, all refitted and re-placed,
     # the two are found at their places and values
     from modal_twin.diagnosis.judge import record_noise_floor
-    from modal_twin.diagnosis.pipeline import Diagnosis, _paired
+    from modal_twin.diagnosis.pipeline import Diagnosis
+    from modal_twin.diagnosis.refine import paired
 
     truth = {"madd_F1": 6000.0, "madd_F1_x": 8.0, "madd_F1_y": 7.0, "kst_3": 0.7}
     recs = [noisy(record_of(factory, truth, seed=s), 1.0, s) for s in (61, 62)]
@@ -433,7 +434,7 @@ def test_two_globals_one_change_stood_in_for_are_taken_together(
     last = Diagnosis(True, "no candidate lowers the error on every record", None,  # type: ignore[arg-type]
                      (storey,), ())
     said: list[str] = []
-    out, row = _paired(factory, [stand_in], last, recs, noises, said.append, map)
+    out, row = paired(factory, [stand_in], last.fitted, recs, noises, said.append, map)
     assert out is not None and row is not None
     assert row[2].startswith("taken together: ") and row[3] is storey
     got = {f.effect.component: f.effect.params for f in out}
@@ -443,7 +444,7 @@ def test_two_globals_one_change_stood_in_for_are_taken_together(
     # nothing to pair where the found effects hold no parameter change
     device = FittedEffect(EffectSpec("ESB1", "stick_slip", {"Fk": 1.0}), 1, 1.0, 1.0, 1.0, 0.0,
                           1, 0.0)
-    assert _paired(factory, [device], last, recs, noises, said.append, map) == (None, None)
+    assert paired(factory, [device], last.fitted, recs, noises, said.append, map) == (None, None)
 
 
 def test_a_device_rate_its_own_measured_force_refutes_is_flagged(

@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 
 import modal_twin.diagnosis.pipeline as pipeline
+import modal_twin.diagnosis.refine as refine
 from modal_twin.diagnosis.fitting import FittedEffect
 from modal_twin.diagnosis.pipeline import Diagnosis, _reselected
 from modal_twin.models.effects import EffectSpec
@@ -61,9 +62,10 @@ def test_each_early_device_law_is_chosen_again_with_its_decision(
         return 5.0 - (("RB1", "bouc_wen") in figs) + 0.5 * (("SDP1", "stick_slip") in figs)
 
     monkeypatch.setattr(pipeline, "diagnose_round", given_round)
-    monkeypatch.setattr(pipeline, "_apply_all", lambda factory, effects: World(effects))
-    monkeypatch.setattr(pipeline, "figures_on", lambda plant, records, noises: plant)
-    monkeypatch.setattr(pipeline, "information_criterion", criterion)
+    for module in (pipeline, refine):  # the rounds' model, and the criterion's
+        monkeypatch.setattr(module, "apply_all", lambda factory, effects: World(effects))
+    monkeypatch.setattr(refine, "figures_on", lambda plant, records, noises: plant)
+    monkeypatch.setattr(refine, "information_criterion", criterion)
     said: list[str] = []
     out, rows = _reselected(World(), found, [], [], [], said.append)
     assert tried == ["RB1", "ESB1", "SDP1", "SDP2"]  # devices before the last, in order
