@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from modal_twin.exit_codes import ExitCode
-from modal_twin.identification.record import METHODS, SELECTIONS
+from modal_twin.method_names import METHODS, SELECTIONS
 from modal_twin.paths import check_new_in
 from modal_twin.progress import step
 

@@ -86,6 +86,7 @@ from modal_twin.identification.stabilization import (
     select_modes,
     stabilization_diagram,
 )
+from modal_twin.method_names import METHODS, OUTPUT_ONLY, SELECTIONS
 from modal_twin.signal_block import SignalBlock
 
 __all__ = [
@@ -107,12 +108,6 @@ __all__ = [
     "welch_segment",
 ]
 
-METHODS = ("n4sid", "ssi-cov", "polymax")
-"""The methods, as every caller spells them."""
-OUTPUT_ONLY = ("ssi-cov",)
-"""The methods that use no input."""
-SELECTIONS = ("clusters", "stability")
-"""Mode selections: clustering of the poles (default) or the stability rule of [004]."""
 MPC_MIN = 0.2
 """Smallest median MPC of a reported cluster: below it the shape's entries scatter almost
 evenly round the complex plane, like noise. Low on purpose: a non-proportionally damped
