@@ -33,8 +33,6 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
-import contextlib
-import io
 import json
 import sys
 import tempfile
@@ -47,14 +45,10 @@ import scipy.cluster.hierarchy as sch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _truth.modal_reference import agreed_modes, fdd_peaks, ssi_cov_columns
+from bench_real_modes import RECORDS as BENCH_RECORDS
+from bench_real_modes import ROOT, _cli
 
-ROOT = Path(__file__).resolve().parents[2]
-RECORDS = [
-    ("hayward 2021-04-26", "csmip58658_hayward_bridge_2021-04-26.zip", True),
-    ("hayward 2021-11-17", "csmip58658_hayward_bridge_2021-11-17.zip", True),
-    ("berkeley 2018-01-04", "nsmp1103_berkeley_building_2018-01-04.zip", False),
-    ("rio dell 2021-12-20", "csmip89324_riodell_overpass_2021-12-20.zip", False),
-]
+RECORDS = [r for r in BENCH_RECORDS if not r[0].endswith("no map")]  # the same channels
 REF_ORDERS = tuple(range(10, 61, 2))
 
 
@@ -215,8 +209,6 @@ def _record(bag: Path, tag: str) -> tuple[list[str], dict[str, dict[str, str]]]:
 
 
 def main() -> int:
-    from modal_twin.cli import main as cli
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
     a = ap.parse_args()
@@ -231,9 +223,7 @@ def main() -> int:
             bag = Path(tmp) / tag.replace(" ", "_")
             extra = ["--map", str(ROOT / "config" / "channel_maps" / "csmip58658_hayward.yaml")
                      ] if with_map else []
-            with contextlib.redirect_stdout(io.StringIO()), \
-                    contextlib.redirect_stderr(io.StringIO()):
-                cli(["import", str(eq / zname), "--out", str(bag), *extra])
+            _cli("import", str(eq / zname), "--out", str(bag), *extra)
             lines, summary[tag] = _record(bag, tag)
             print("\n".join(lines), flush=True)
     print(json.dumps(summary))
