@@ -22,7 +22,8 @@ Then, per missed mode, the product's poles within 3 % (order, f, zeta, MPC, dist
 next order), and how the reference's agreed set moves with its own block rows (r-2..r+2).
 
 usage: python test/benchmarks/trace_real_modes.py [--shared ../shared]
-Last line: JSON, per record and agreed mode (Hz), the code of each step S1..S6.
+Last line: JSON, per record the agreed modes (Hz), the band (Hz) and per agreed mode the code
+of each step S1..S6 and whether the reference agrees on it again at rows r-2, r-1, r+1, r+2.
 """
 
 from __future__ import annotations
@@ -205,7 +206,10 @@ def _record(bag: Path, tag: str) -> tuple[list[str], dict[str, dict[str, str]]]:
             seen[a] += "+" if a2.size and np.min(np.abs(a2 / a - 1)) <= 0.005 else "."
     out.append("   each agreed mode again within 0.5 % at rows r-2, r-1, r+1, r+2: "
                + ", ".join(f"{a:.3f} {v}" for a, v in seen.items()))
-    return out, {f"{a:.3f}": row | {"ref_rows_pm2": seen[a]} for a, row in table.items()}
+    return out, {"steps_by_agreed_mode_hz": {f"{a:.3f}": row | {"ref_rows_pm2": seen[a]}
+                                             for a, row in table.items()},
+                 "agreed_hz": [round(float(a), 3) for a in agreed],
+                 "band_hz": [round(band[0], 3), round(band[1], 3)]}
 
 
 def main() -> int:
