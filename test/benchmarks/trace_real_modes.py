@@ -33,7 +33,6 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse
 import json
 import sys
 import tempfile
@@ -47,7 +46,7 @@ import scipy.cluster.hierarchy as sch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _truth.modal_reference import agreed_modes, fdd_peaks, ssi_cov_columns
 from bench_real_modes import RECORDS as BENCH_RECORDS
-from bench_real_modes import ROOT, _cli
+from bench_real_modes import earthquakes, imported
 
 RECORDS = [r for r in BENCH_RECORDS if not r[0].endswith("no map")]  # the same channels
 REF_ORDERS = tuple(range(10, 61, 2))
@@ -143,7 +142,7 @@ def _poles_near(diag: Any, f0: float, rel: float = 0.03) -> list[str]:
             f"{t.d_next[k]:.4f}" for k in np.nonzero(np.abs(t.f / f0 - 1) <= rel)[0]]
 
 
-def _record(bag: Path, tag: str) -> tuple[list[str], dict[str, dict[str, str]]]:
+def _record(bag: Path, tag: str) -> tuple[list[str], dict[str, Any]]:
     from modal_twin.acquisition.decimation import decimate
     from modal_twin.identification.record import (
         STRICT,
@@ -213,21 +212,13 @@ def _record(bag: Path, tag: str) -> tuple[list[str], dict[str, dict[str, str]]]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
-    a = ap.parse_args()
-    eq = a.shared / "realdata" / "earthquakes"
-    if not eq.is_dir():
-        print(f"{eq} is absent; nothing to trace")
+    eq = earthquakes(__doc__.splitlines()[0])
+    if eq is None:
         return 0
     summary = {}
     warnings.simplefilter("ignore", RuntimeWarning)
     with tempfile.TemporaryDirectory() as tmp:
-        for tag, zname, with_map in RECORDS:
-            bag = Path(tmp) / tag.replace(" ", "_")
-            extra = ["--map", str(ROOT / "config" / "channel_maps" / "csmip58658_hayward.yaml")
-                     ] if with_map else []
-            _cli("import", str(eq / zname), "--out", str(bag), *extra)
+        for tag, bag in imported(tmp, eq, RECORDS):
             lines, summary[tag] = _record(bag, tag)
             print("\n".join(lines), flush=True)
     print(json.dumps(summary))
