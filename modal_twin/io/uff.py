@@ -466,19 +466,38 @@ def read_uff55(path: str | Path) -> dict[str, Any]:
             "channels": chans, "channel_shapes": ch_shapes, "geometry": geo}
 
 
+_TIME_TYPES = {"force": (13, "N"), "acceleration": (12, "m/s2"), "velocity": (11, "m/s"),
+               "displacement": (8, "m")}
+"""Quantity -> UFF 58 ordinate data type and unit label (record 9 / 10) written."""
+
+
 def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
-                    rsp: list[tuple[int, int]], ref: list[tuple[int, int]]) -> Path:
+                    rsp: list[tuple[int, int]], ref: list[tuple[int, int]],
+                    rsp_quantity: Sequence[str] | None = None,
+                    ref_quantity: Sequence[str] | None = None) -> Path:
     """Write FRFs ``H (n_out, n_in, n_f)`` as UFF 58 function type 4.
 
-    ``rsp[o]`` / ``ref[i]`` are (node, direction code) of output o / input i.
+    ``rsp[o]`` / ``ref[i]`` are (node, direction code) of output o / input i. The ordinate
+    numerator's specific data type (record 9) is output o's quantity, the denominator's
+    (record 10) input i's: by default acceleration over excitation force (12 / 13, an
+    accelerance); a base-driven record's FRF of acceleration over ground acceleration says
+    12 / 12. A quantity without a code is written as 0 (unknown).
     """
     import pyuff
 
+    n_q = rsp_quantity if rsp_quantity is not None else ["acceleration"] * len(rsp)
+    d_q = ref_quantity if ref_quantity is not None else ["force"] * len(ref)
+    if len(n_q) != len(rsp) or len(d_q) != len(ref):
+        msg = (f"write_uff58_frf: {len(rsp)} outputs / {len(ref)} inputs, "
+               f"{len(n_q)} / {len(d_q)} quantities")
+        raise SignalError(msg)
     p = Path(path)
     u = pyuff.UFF(str(p))
     sets = []
     for o, (rn, rd) in enumerate(rsp):
+        num_type, num_unit = _TIME_TYPES.get(n_q[o], (0, "NONE"))
         for i, (qn, qd) in enumerate(ref):
+            den_type, den_unit = _TIME_TYPES.get(d_q[i], (0, "NONE"))
             sets.append(pyuff.prepare_58(
                 binary=0, id1=f"FRF {rn}{_DIRS.get(rd, '')}/{qn}{_DIRS.get(qd, '')}",
                 id2="modal_twin H1", id3="NONE", id4="NONE", id5="NONE",
@@ -488,21 +507,16 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
                 abscissa_min=float(f_hz[0]), abscissa_inc=float(f_hz[1] - f_hz[0]),
                 z_axis_value=0.0, abscissa_spec_data_type=18, abscissa_len_unit_exp=0,
                 abscissa_force_unit_exp=0, abscissa_temp_unit_exp=0,
-                abscissa_axis_units_lab="Hz", ordinate_spec_data_type=12,
+                abscissa_axis_units_lab="Hz", ordinate_spec_data_type=num_type,
                 ordinate_len_unit_exp=0, ordinate_force_unit_exp=0, ordinate_temp_unit_exp=0,
-                ordinate_axis_units_lab="SI", orddenom_spec_data_type=12,
+                ordinate_axis_units_lab=num_unit, orddenom_spec_data_type=den_type,
                 orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
-                orddenom_axis_units_lab="SI", z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
+                orddenom_axis_units_lab=den_unit, z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
                 z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE",
                 data=np.asarray(H[o, i], dtype=complex), x=np.asarray(f_hz, dtype=float),
                 return_full_dict=True))
     u.write_sets(sets, mode="overwrite")
     return p
-
-
-_TIME_TYPES = {"force": (13, "N"), "acceleration": (12, "m/s2"), "velocity": (11, "m/s"),
-               "displacement": (8, "m")}
-"""Quantity -> UFF 58 ordinate data type and unit label of a written time record."""
 
 
 def write_uff58_time(path: str | Path, channels: Sequence[ChannelSpec], fs_hz: float,

@@ -76,6 +76,8 @@ def test_the_impact_mode_writes_the_closed_form_frf_matrix_and_rejects_a_bounce(
     frf, hits = write_hammer_result(tmp_path / "impact", res)
     sets = pyuff.UFF(str(frf)).read_sets()
     assert len(sets) == 4
+    assert {(s["ordinate_spec_data_type"], s["orddenom_spec_data_type"]) for s in sets} == {
+        (12, 13)}  # acceleration over excitation force
     f = np.asarray(sets[0]["x"])
     band = (f > 2.0) & (f < 40.0)
     ref = accelerance(f[band])

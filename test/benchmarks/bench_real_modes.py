@@ -30,6 +30,7 @@ import io
 import json
 import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -62,24 +63,38 @@ def _modes(folder: Path) -> np.ndarray:
         else np.zeros(0)
 
 
+def earthquakes(description: str) -> Path | None:
+    """The earthquake folder under ``--shared``; None, said, when it is absent."""
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
+    eq: Path = ap.parse_args().shared / "realdata" / "earthquakes"
+    if not eq.is_dir():
+        print(f"{eq} is absent; nothing to compare")
+        return None
+    return eq
+
+
+def imported(tmp: str, eq: Path, records: list[tuple[str, str, bool]] = RECORDS
+             ) -> Iterator[tuple[str, Path]]:
+    """Import each record as a user would (Hayward with the shipped map where asked)."""
+    for tag, zname, with_map in records:
+        bag = Path(tmp) / tag.replace(" ", "_")
+        extra = ["--map", str(ROOT / "config" / "channel_maps" / "csmip58658_hayward.yaml")
+                 ] if with_map else []
+        _cli("import", str(eq / zname), "--out", str(bag), *extra)
+        yield tag, bag
+
+
 def main() -> int:
     from modal_twin.acquisition.decimation import decimate
     from modal_twin.io.imported import read_imported
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
-    a = ap.parse_args()
-    eq = a.shared / "realdata" / "earthquakes"
-    if not eq.is_dir():
-        print(f"{eq} is absent; nothing to compare")
+    eq = earthquakes(__doc__.splitlines()[0])
+    if eq is None:
         return 0
     summary = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for tag, zname, with_map in RECORDS:
-            bag = Path(tmp) / tag.replace(" ", "_")
-            extra = ["--map", str(ROOT / "config" / "channel_maps" / "csmip58658_hayward.yaml")
-                     ] if with_map else []
-            _cli("import", str(eq / zname), "--out", str(bag), *extra)
+        for tag, bag in imported(tmp, eq):
             found = {}
             for m in ("default", "n4sid", "ssi-cov", "polymax"):
                 out = Path(tmp) / f"{bag.name}_{m}"

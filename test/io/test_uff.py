@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import pyuff
 
-from modal_twin.errors import ConfigError
+from modal_twin.errors import ConfigError, SignalError
 from modal_twin.io.uff import (
     rate_from_increment,
     read_uff,
@@ -98,6 +98,32 @@ def test_uff58_frf_round_trip_through_pyuff(tmp_path: Path) -> None:
     u = read_uff(p)
     assert [s["func_type"] for s in u.spectra] == [4, 4]
     assert u.time == ()
+    # records 9 / 10: an accelerance by default, acceleration (12) over excitation force (13)
+    assert [(r["ordinate_spec_data_type"], r["orddenom_spec_data_type"]) for r in raw] == [
+        (12, 13), (12, 13)]
+    assert [(r["ordinate_axis_units_lab"].strip(), r["orddenom_axis_units_lab"].strip())
+            for r in raw] == [("m/s2", "N"), ("m/s2", "N")]
+    assert [r["abscissa_spec_data_type"] for r in raw] == [18, 18]  # frequency
+
+
+def test_uff58_frf_data_types_follow_the_channels(tmp_path: Path) -> None:
+    """A base-driven record's FRF is acceleration over ground acceleration (12 / 12); a
+    velocity over force mobility 11 / 13; a quantity without a code 0 (unknown)."""
+    fr = np.linspace(1.0, 4.0, 4)
+    H = np.ones((2, 2, 4), dtype=complex)
+    p = write_uff58_frf(tmp_path / "b.uff", fr, H, [(1, 1), (2, 1)], [(3, 1), (4, 3)],
+                        ["acceleration", "velocity"], ["acceleration", "force"])
+    raw = pyuff.UFF(str(p)).read_sets()
+    assert [(r["rsp_node"], r["ref_node"], r["ordinate_spec_data_type"],
+             r["orddenom_spec_data_type"]) for r in raw] == [
+        (1, 3, 12, 12), (1, 4, 12, 13), (2, 3, 11, 12), (2, 4, 11, 13)]
+    q = write_uff58_frf(tmp_path / "u.uff", fr, H[:1, :1], [(1, 1)], [(3, 1)],
+                        ["strain gauge"], ["force"])
+    one = pyuff.UFF(str(q)).read_sets()  # one set: a dict
+    assert (one["ordinate_spec_data_type"], one["orddenom_spec_data_type"]) == (0, 13)
+    with pytest.raises(SignalError, match="2 outputs / 2 inputs, 1 / 2 quantities"):
+        write_uff58_frf(tmp_path / "x.uff", fr, H, [(1, 1), (2, 1)], [(3, 1), (4, 3)],
+                        ["acceleration"], ["force", "force"])
 
 
 def test_not_uff(tmp_path: Path) -> None:
