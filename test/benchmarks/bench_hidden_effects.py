@@ -98,6 +98,17 @@ places of parameter changes are chosen again and paired (``refine.places_rechose
 ``refine.paired``): 3 of 3 (the two globals at 1.00x; the car still 4.15x,
 ``results/hidden_effects_new_session10.txt``).
 
+Twelve wider cases added in session 11 (``WIDER_CASES``; ``--new`` now runs 46 cases):
+combinations, places, levels and drives no other case uses, as an outside tester would
+choose them -- friction at ESB2 beside a gain on one accelerometer axis, Bouc-Wen at two
+isolators with different yields, the lowest storey's columns, the columns of line 3A, 6 t
+on the roof off its centre, a weak friction (4-5 % of the bearing's RMS restoring force)
+near 2 % noise, a control at 5 % 1/f noise, a 5 s record (Hertz contact at SDP1), a
+narrow-band drive (0.9-1.1 Hz; sinh hardening at RB1), and the car: a worn primary damper
+beside a softening mount, a control at 380 / 250 km/h, friction in the rear damper. Run
+first on main's 72d4827 before any change for them, at seed offsets 0 and 100
+(``results/hidden_effects_wider_seed0_session11_before.txt``, ``..._seed100_...``).
+
 Run::
 
     PYTHONPATH=. OMP_NUM_THREADS=1 .venv/bin/python test/benchmarks/bench_hidden_effects.py

@@ -430,3 +430,59 @@ def test_car3d_hung_box_truth_equals_library_plant_and_its_hanger_law_acts(
     assert c_fit == pytest.approx(c, rel=0.05)
     assert np.max(np.abs(f - k * d)) > 0.1 * np.max(np.abs(f))  # not the linear spring
     assert np.std(ys[0] - y[0]) > 0.05 * np.std(y[0])  # the floor sees it
+
+
+def test_wider_cases_carry_what_they_state() -> None:
+    """Session 11's ``WIDER_CASES``: the narrow-band drive stays in its band, the weak
+    friction slides at ``mu_k W`` (4-5 % of the bearing's RMS restoring force), the worn
+    primary damper of wheelset 1 carries ``k s + 0.4 c s'`` and its neighbour the nominal
+    force, and the device-beside-sensor case is right only with a gain on that axis."""
+    from _truth.building_own import BuildingOwn
+    from _truth.cases import NEW_CASES, WIDER_CASES, records
+    from bench_hidden_effects import score_strict
+    from scipy import signal
+
+    assert len(WIDER_CASES) >= 8 and NEW_CASES[-len(WIDER_CASES):] == WIDER_CASES
+    cases = {c.name: c for c in WIDER_CASES}
+    # a narrow-band drive: 0.9-1.1 Hz holds nearly all the table's power
+    fs = 500.0
+    a = table_random(40.0, fs, 0.5, 7, (0.9, 1.1))
+    f, p = signal.welch(a[0], fs, nperseg=16384)
+    assert p[(f > 0.8) & (f < 1.2)].sum() / p.sum() > 0.9
+    # the weak friction: sliding force mu_k W beside the nominal spring and dashpot
+    weak = cases["new_wide_weak_friction_ESB1"]
+    law = weak.build().laws["ESB1"]
+    w = BuildingOwn().weight("ESB1")
+    v = np.array([0.3, 0.0])
+    f_fric = law.force(np.zeros(2), v, np.zeros(0))[0][0] - law.c[0] * v[0]
+    assert f_fric == pytest.approx(0.0018 * w, rel=1e-3)
+    rec = records(weak, quick=True)["train"]
+    names = rec.channel_names
+    restoring = law.k[0] * rec.data[names.index("ESB1_dx")]
+    assert 0.03 < f_fric / np.sqrt(np.mean(restoring**2)) < 0.06
+    # the worn primary damper (wheelset 1 at 40 % of c), the others nominal
+    car_case = cases["new_wide_veh_primary_wear_w1_mount_softening"]
+    car = car_case.build()
+    fs = 200.0
+    u = track_inputs(car.axle_x, 300.0, 3.0, fs, 1.5e-3, seed=5)
+    y = car.simulate(u, fs)
+    names = car.channel_names()
+    k_p, c_p = float(car.values["primary"]["k"]), float(car.values["primary"]["c"])
+
+    def misfit(i: int, keep: float) -> float:
+        s, force = y[names.index(f"primary_{i}_dz")], y[names.index(f"primary_{i}_fz")]
+        lin = k_p * s + keep * c_p * np.gradient(s, 1.0 / fs)
+        return float(_nrmse(lin[None, 10:-10], force[None, 10:-10])[0])
+
+    assert misfit(1, 0.4) < 0.05 < misfit(1, 1.0)
+    assert misfit(2, 1.0) < 0.05 < misfit(2, 0.4)
+
+    def eff(family: str, place: str, law: str = "x") -> dict:
+        return {"family": family, "place": place, "law": law, "params": {}}
+
+    both = cases["new_wide_stribeck_ESB2_gain_F2_C1_x"]
+    right = [eff("friction", "ESB2"), eff("sensor", "F2_C1_x", "sensor_gain")]
+    assert score_strict(both, {"effects": right})["both"]
+    assert not score_strict(both, {"effects": right[:1]})["both"]
+    assert not score_strict(both, {"effects": [right[0], eff("sensor", "F2_C1_x",
+                                                             "sensor_delay")]})["both"]

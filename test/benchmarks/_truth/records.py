@@ -29,11 +29,13 @@ FloatArray = np.ndarray
 _W = np.array([1.0, 1.0, 0.3, 0.0, 0.0, 0.0])
 
 
-def table_random(seconds: float, fs_hz: float, rms: float, seed: int) -> FloatArray:
-    """Band-limited (0.2-20 Hz) Gaussian table accelerations (6, nt), x/y RMS ``rms``."""
+def table_random(seconds: float, fs_hz: float, rms: float, seed: int,
+                 band_hz: tuple[float, float] = (0.2, 20.0)) -> FloatArray:
+    """Band-limited (``band_hz``, default 0.2-20 Hz; a narrow band gives a near-harmonic
+    drive) Gaussian table accelerations (6, nt), x/y RMS ``rms``."""
     nt = round(seconds * fs_hz)
     rng = np.random.default_rng(seed)
-    sos = signal.butter(4, [0.2, 20.0], btype="band", fs=fs_hz, output="sos")
+    sos = signal.butter(4, list(band_hz), btype="band", fs=fs_hz, output="sos")
     a = signal.sosfiltfilt(sos, rng.standard_normal((6, nt)), axis=1)
     a /= a.std(axis=1, keepdims=True)
     return a * signal.windows.tukey(nt, 0.1) * (_W * rms)[:, None]
