@@ -47,6 +47,8 @@ ABSOLUTE = {
     "bouc_wen": {"A": 1.0, "beta": 0.5 / 0.03**2, "gamma": 0.5 / 0.03**2,
                  "K": [[2.0e6, 0.0], [0.0, 3.0e6]], "alpha": 0.3},
     "bouc_wen_esb": {"A": 47.13, "beta": 10.41, "gamma": 36.72},
+    # the relative default: 0.2 of the nominal k per direction stays at full slip
+    "iwan": {"k": list(0.8 * K_NOM), "kr": list(0.2 * K_NOM), "uy": 0.03},
     "cubic": {"k1": 2e6, "k1y": 3e6, "k3": 0.0},  # the mean k kept per direction
     "gap": {"k": 2.5e6, "g": 0.01},
     "prandtl": {"Fs": 1.0e4, "Kb": 5.0e5},
@@ -126,6 +128,7 @@ def test_every_law_builds_from_effect_params(law: str) -> None:
     ("bilinear", {"k": 2.5e6}),
     ("bilinear_hysteretic", {"k": 2.5e6}),
     ("bouc_wen", {}),
+    ("iwan", {}),
     ("cubic", {"k": 2.5e6}),
     ("gap", {"k": 2.5e6}),
     ("maxwell", {}),
@@ -189,13 +192,13 @@ def test_kind_codes_equal_the_dispatch() -> None:
 def test_law_names_by_family_and_form() -> None:
     assert law_names(relative=True) == EFFECT_LAWS == (
         "linear", "stick_slip", "regularised_friction", "bilinear", "smooth_bilinear",
-        "bilinear_hysteretic", "bouc_wen", "cubic", "gap", "maxwell")
+        "bilinear_hysteretic", "bouc_wen", "iwan", "cubic", "gap", "maxwell")
     assert law_names(family="friction") == ("stick_slip", "regularised_friction",
                                             "bilinear_hysteretic", "bouc_wen_esb", "prandtl")
     assert law_names(family="hardening") == ("bilinear", "smooth_bilinear", "cubic")
     assert law_names(family="damping") == ("linear", "maxwell")
     assert set(law_names(family="hysteresis")) == {
-        "bilinear_hysteretic", "bouc_wen", "bouc_wen_esb", "prandtl"}
+        "bilinear_hysteretic", "bouc_wen", "iwan", "bouc_wen_esb", "prandtl"}
 
 
 def test_errors_name_the_value() -> None:
