@@ -184,8 +184,11 @@ def test_kind_codes_equal_the_dispatch() -> None:
         out_l = [np.zeros(2), np.zeros((2, 2)), np.zeros((2, 2)), np.zeros(N_STATE)]
         evaluate_law(e.kind, dev.params, s, u, v, *out_d)
         e.law(dev.params, s, u, v, *out_l)
+        # to the last bit but one: the dispatch compiles each law inside one function, where
+        # LLVM may fuse a multiply-add the law's own compilation does not (smooth_bilinear's
+        # force moved by one ulp once the iwan branch was added)
         for a, b in zip(out_d, out_l, strict=True):
-            np.testing.assert_array_equal(a, b, err_msg=law)
+            np.testing.assert_allclose(a, b, rtol=1e-14, atol=0.0, err_msg=law)
         assert np.any(out_d[0] != 0.0), law  # the law did run
 
 
