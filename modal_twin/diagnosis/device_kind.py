@@ -45,7 +45,7 @@ __all__ = ["DEVICE", "FAMILY_LAWS", "DeviceCandidate", "DeviceKind", "behaviour_
 # a family beside its own: stick-slip also makes a loop, a gap also hardens)
 FAMILY_LAWS: Mapping[str, tuple[str, ...]] = {
     "friction": ("stick_slip", "regularised_friction", "bilinear_hysteretic"),
-    "hysteresis": ("bouc_wen", "bilinear_hysteretic", "stick_slip"),
+    "hysteresis": ("bouc_wen", "iwan", "bilinear_hysteretic", "stick_slip"),
     "softening": ("bilinear", "smooth_bilinear", "cubic"),
     "hardening": ("cubic", "bilinear", "gap"),
     "gap": ("gap", "cubic"),

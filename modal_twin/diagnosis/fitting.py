@@ -330,6 +330,22 @@ def _t_bouc_wen(start: dict[str, float], k: float) -> Transform:
             np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 1.3, 3.0]))
 
 
+def _t_iwan(start: dict[str, float], k: float) -> Transform:
+    """Full-slip drift (log), residual share, stuck stiffness and dashpot, as ``bouc_wen``.
+
+    ``isotropic`` (one joint in x and y) as started: chosen by the screening on the
+    measured force, held in the fit, named only where it is set.
+    """
+    lu = np.log(start["uy"])
+    iso = {"isotropic": 1.0} if start.get("isotropic", 0.0) >= 0.5 else {}
+    return (["uy", "alpha", "k", "c_factor", *iso],
+            lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2]),
+                       "c_factor": float(x[3]), **iso},
+            lambda p: np.array([np.log(p["uy"]), p.get("alpha", 0.2), p.get("k", k) / k,
+                                p.get("c_factor", 1.0)]),
+            np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 2.0, 3.0]))
+
+
 def _t_cubic(start: dict[str, float], k: float) -> Transform:
     """Power spring ``k3 u |u|^(m-1) = sign k (|u| / u_h)^(m-1) u``: u_h, k, m free."""
     sign = 1.0 if start["k3"] >= 0 else -1.0
@@ -390,6 +406,7 @@ _TRANSFORMS: dict[str, Callable[[dict[str, float], float], Transform]] = {
     "smooth_bilinear": _t_smooth_bilinear,
     "bilinear_hysteretic": _t_bilinear_hysteretic,
     "bouc_wen": _t_bouc_wen,
+    "iwan": _t_iwan,
     "cubic": _t_cubic,
     "gap": _t_gap,
     "linear": _t_linear,

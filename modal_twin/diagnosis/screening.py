@@ -74,6 +74,11 @@ def parameter_grid(law: str, u_max: float, f_max: float, k: float, weight: float
         # tells them apart where both directions yield (a tie keeps the first)
         return [{"uy": g * u_max, "alpha": a, **unc} for unc in ({}, {"uncoupled": 1.0})
                 for g in (0.2, 0.4, 0.6) for a in (0.05, 0.5)]
+    if law == "iwan":  # microslip: full slip within the drift seen or beyond it; each
+        # direction with the nominal anisotropy, then one joint in x and y (a tie keeps the
+        # first)
+        return [{"uy": g * u_max, "alpha": a, **iso} for iso in ({}, {"isotropic": 1.0})
+                for g in (0.5, 1.0, 2.0) for a in (0.1, 0.4)]
     if law == "cubic":  # Duffing, and a stiffer power (the shape's scale is fitted)
         u = max(u_max, 1e-9)
         return [{"k3": s * 0.3 * k / u ** (m - 1.0), "m": m} for s in (-1.0, 1.0)

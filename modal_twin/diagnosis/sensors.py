@@ -38,6 +38,7 @@ import numpy as np
 from scipy import signal
 
 from modal_twin._types import FloatArray
+from modal_twin.channels import device_channels
 from modal_twin.diagnosis.effect_kind import Job, PlacedEffect, Round
 from modal_twin.diagnosis.fitting import FittedEffect, record_nmse, simulate_record
 from modal_twin.diagnosis.record import Record
@@ -290,12 +291,18 @@ class SensorKind(PlacedEffect):
         return SENSOR_LAWS
 
     def screen(self, rnd: Round) -> tuple[SensorCandidate, ...]:
-        """:func:`screen_sensors` among the significant channels of the training record."""
+        """:func:`screen_sensors` among the significant channels of the training record.
+
+        Not the drift and force channels of a device whose law an earlier round fitted
+        (:func:`_fitted_through`): that law was fitted through them, and a gain there
+        trades off with its stiffness (it stood in for what a law of another form left).
+        """
         train = rnd.train
+        held = _fitted_through(rnd)
         return tuple(screen_sensors(train.channel_names, train.scored,
                                     simulate_record(rnd.nominal, train)[:, train.skip:],
-                                    rnd.significant, fs_hz=train.fs_hz,
-                                    t0_s=train.skip / train.fs_hz))
+                                    [c for c in rnd.significant if c not in held],
+                                    fs_hz=train.fs_hz, t0_s=train.skip / train.fs_hz))
 
     def jobs(self, rnd: Round, candidates: tuple[Any, ...]) -> list[Job]:
         """Return the best ``n_fit`` (closed form, on the training record)."""
@@ -322,6 +329,14 @@ class SensorKind(PlacedEffect):
     def _refusal(law: str, component: str) -> str:
         return (f"{law} at {component}: a sensor effect is found by the diagnosis, not "
                 "fitted from a start (modal-twin diagnose, or effects add --auto)")
+
+
+def _fitted_through(rnd: Round) -> set[str]:
+    """Return the drift and force channels of the sites whose device law the model holds."""
+    chans = rnd.nominal.channels
+    sites = {e.component for e in rnd.factory.base_effects if e.component in rnd.factory.sites}
+    return {c for site in sites for role in ("device_drift", "device_force")
+            for c in device_channels(chans, site, role)}
 
 
 SENSOR = SensorKind()

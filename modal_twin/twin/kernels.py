@@ -41,6 +41,7 @@ from modal_twin.models.devices.base import (
     KIND_COULOMB,
     KIND_CUBIC,
     KIND_GAP,
+    KIND_IWAN,
     KIND_LINEAR,
     KIND_MAXWELL,
     KIND_PRANDTL,
@@ -51,6 +52,7 @@ from modal_twin.models.devices.bouc_wen import bw_advance_many, bw_esb_force, bw
 from modal_twin.models.devices.coulomb import law_coulomb
 from modal_twin.models.devices.cubic import law_cubic
 from modal_twin.models.devices.gap import law_gap
+from modal_twin.models.devices.iwan import law_iwan
 from modal_twin.models.devices.linear import law_linear
 from modal_twin.models.devices.maxwell import law_maxwell
 from modal_twin.models.devices.prandtl import law_prandtl
@@ -521,6 +523,8 @@ def run_block(  # noqa: C901 (one loop on purpose, see above)
                     law_maxwell(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 elif kind == KIND_SMOOTH_BILINEAR:
                     law_smooth_bilinear(pd, sd, ud, vd, fd, Kt, Ct, sn)
+                elif kind == KIND_IWAN:
+                    law_iwan(pd, sd, ud, vd, fd, Kt, Ct, sn)
                 else:
                     return STATUS_UNKNOWN_KIND, d
                 for a in range(2):

@@ -15,6 +15,7 @@ from modal_twin.models.devices.bouc_wen import BoucWenESB, BoucWenSDP, table10_e
 from modal_twin.models.devices.coulomb import CoulombFriction
 from modal_twin.models.devices.cubic import CubicSpring
 from modal_twin.models.devices.gap import GapSpring
+from modal_twin.models.devices.iwan import IwanJoint
 from modal_twin.models.devices.linear import LinearDevice, table6_updated
 from modal_twin.models.devices.maxwell import MaxwellDamper
 from modal_twin.models.devices.prandtl import PrandtlJoint, table2_mode_bay
@@ -30,6 +31,7 @@ __all__ = [
     "Device",
     "DeviceResponse",
     "GapSpring",
+    "IwanJoint",
     "LinearDevice",
     "MaxwellDamper",
     "PrandtlJoint",

@@ -13,6 +13,7 @@ from modal_twin.models.devices.base import (
     KIND_COULOMB,
     KIND_CUBIC,
     KIND_GAP,
+    KIND_IWAN,
     KIND_LINEAR,
     KIND_MAXWELL,
     KIND_PRANDTL,
@@ -23,6 +24,7 @@ from modal_twin.models.devices.bouc_wen import law_bw_esb, law_bw_sdp
 from modal_twin.models.devices.coulomb import law_coulomb
 from modal_twin.models.devices.cubic import law_cubic
 from modal_twin.models.devices.gap import law_gap
+from modal_twin.models.devices.iwan import law_iwan
 from modal_twin.models.devices.linear import law_linear
 from modal_twin.models.devices.maxwell import law_maxwell
 from modal_twin.models.devices.prandtl import law_prandtl
@@ -32,7 +34,7 @@ __all__ = ["drive_law", "evaluate_law"]
 
 
 @njit(cache=True)
-def evaluate_law(kind, p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitted
+def evaluate_law(kind, p, s, u, v, f, Kt, Ct, s_new):  # noqa: C901  # pragma: no cover - jitted
     """Call the law of ``kind`` (base.KIND_*); outputs written in place.
 
     The KIND_* are module-level ints, which numba freezes as compile-time constants: the
@@ -62,6 +64,8 @@ def evaluate_law(kind, p, s, u, v, f, Kt, Ct, s_new):  # pragma: no cover - jitt
         law_maxwell(p, s, u, v, f, Kt, Ct, s_new)
     elif kind == KIND_SMOOTH_BILINEAR:
         law_smooth_bilinear(p, s, u, v, f, Kt, Ct, s_new)
+    elif kind == KIND_IWAN:
+        law_iwan(p, s, u, v, f, Kt, Ct, s_new)
     else:
         msg = "unknown device kind"
         raise ValueError(msg)

@@ -31,6 +31,7 @@ __all__ = [
     "KIND_COULOMB",
     "KIND_CUBIC",
     "KIND_GAP",
+    "KIND_IWAN",
     "KIND_LINEAR",
     "KIND_MAXWELL",
     "KIND_PRANDTL",
@@ -86,9 +87,10 @@ KIND_COULOMB = 7
 KIND_GAP = 8
 KIND_MAXWELL = 9
 KIND_SMOOTH_BILINEAR = 10
+KIND_IWAN = 11
 
 N_PARAM = 12
-N_STATE = 8
+N_STATE = 70  # the Iwan joint keeps 34 per direction (models.devices.iwan)
 
 
 @dataclass(frozen=True, slots=True)

@@ -40,6 +40,7 @@ from modal_twin.models.devices.bouc_wen import BoucWenESB, BoucWenSDP, law_bw_es
 from modal_twin.models.devices.coulomb import CoulombFriction, law_coulomb
 from modal_twin.models.devices.cubic import CubicSpring, law_cubic
 from modal_twin.models.devices.gap import GapSpring, law_gap
+from modal_twin.models.devices.iwan import IwanJoint, law_iwan
 from modal_twin.models.devices.linear import LinearDevice, law_linear
 from modal_twin.models.devices.maxwell import MaxwellDamper, law_maxwell
 from modal_twin.models.devices.prandtl import PrandtlJoint, law_prandtl
@@ -186,6 +187,13 @@ def _abs_smooth_bilinear(p: dict[str, Any], site: Site) -> Device:
                                 name=site.name, **p)
 
 
+def _abs_iwan(p: dict[str, Any], site: Site) -> Device:
+    """Absolute form: k, kr per direction (one value: both), uy, c (default the nominal c)."""
+    c = _c(p, site)
+    return IwanJoint(p.pop("k"), p.pop("kr", 0.0), float(p.pop("uy")), c, name=site.name,
+                     **p)
+
+
 def _abs_bw_esb(p: dict[str, Any], site: Site) -> Device:
     c = _c(p, site)
     W = p.pop("W", "auto")
@@ -253,6 +261,7 @@ _STICK_SLIP = {"mu_s": 0.09, "mu_k": 0.06, "kt_factor": 1.0}
 _BILINEAR = {"ratio": 0.75, "ub": 0.03}
 _SMOOTH_BILINEAR = {"ratio": 0.75, "ub": 0.03, "n": 2.0}
 _BOUC_WEN = {"alpha": 0.3, "uy": 0.03, "c_factor": 1.0, "uncoupled": 0.0}
+_IWAN = {"alpha": 0.2, "uy": 0.03, "c_factor": 1.0, "isotropic": 0.0}
 _CUBIC = {"k3": 0.0}
 _GAP = {"g": 0.01, "kp": 0.0}
 _REG_FRICTION = {"kp": 0.0, "v_s": 0.05, "v_reg": 0.005, "c_factor": 1.0}
@@ -348,6 +357,26 @@ def _rel_bouc_wen(p: dict[str, Any], site: Site) -> Device:
                       uncoupled=_take(p, "uncoupled", _BOUC_WEN["uncoupled"]) >= 0.5)
 
 
+def _rel_iwan(p: dict[str, Any], site: Site) -> Device:
+    """Build the relative form of the Iwan joint (the parameters of ``bouc_wen``).
+
+    Stuck stiffness ``k`` (mean), of which ``alpha`` stays as the residual spring at full
+    slip (the Jenkins elements ``(1 - alpha) k``), full slip at ``uy``, the dashpot
+    ``c_factor`` times the nominal one.
+
+    ``isotropic`` 1: the same joint in x and y (one contact, ``k`` in both); 0: each
+    direction keeps the nominal spring's anisotropy about ``k``.
+    """
+    kn = np.asarray(site.k, float)[:2]
+    if _take(p, "isotropic", _IWAN["isotropic"]) >= 0.5:
+        kn = np.full(2, _kmean(site))
+    kk = _take(p, "k", _kmean(site)) / _kmean(site) * kn if _kmean(site) > 0 else kn
+    alpha = _take(p, "alpha", _IWAN["alpha"])
+    c_factor = _take(p, "c_factor", _IWAN["c_factor"])
+    return IwanJoint(list((1.0 - alpha) * kk), list(alpha * kk), _take(p, "uy", _IWAN["uy"]),
+                     [c_factor * float(v) for v in site.c], name=site.name)
+
+
 def _rel_cubic(p: dict[str, Any], site: Site) -> Device:
     # k: the mean linear stiffness; each direction keeps the nominal spring's anisotropy
     kx, ky = _take(p, "k", _kmean(site)) / _kmean(site) * np.asarray(site.k, float)[:2]
@@ -422,6 +451,11 @@ _ENTRIES = (
              {**_NOM_C, "uncoupled": 0}, "Eqs. (10), (11b) of [004]",
              _abs_bw_sdp, ("k", "uy", "alpha", "c_factor", "uncoupled"), _BOUC_WEN,
              aliases=("bouc_wen_sdp",), build_relative=_rel_bouc_wen),
+    LawEntry("iwan", IwanJoint, law_iwan, ("hysteresis",), ("k", "kr", "uy", "c"),
+             {**_NOM_C, "kr": 0.0}, "Iwan (1966) parallel Jenkins elements, uniform slip "
+             "density (Segalman 2005, chi = 0): parabolic backbone, Masing branches, "
+             "Madelung memory", _abs_iwan, ("k", "alpha", "uy", "c_factor", "isotropic"), _IWAN,
+             build_relative=_rel_iwan),
     LawEntry("bouc_wen_esb", BoucWenESB, law_bw_esb, ("friction", "hysteresis"),
              ("A", "beta", "gamma", "c", "W", "mu0", "mu1", "mu2", "S"),
              {"c": "nominal c", "W": "auto (carried weight)", "mu0": 0.0606, "mu1": -0.5883,
