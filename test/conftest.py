@@ -6,6 +6,7 @@ import os
 import re
 import shutil
 import subprocess
+from collections.abc import Iterator
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # 2 shared cores: BLAS threads only contend
@@ -38,17 +39,18 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 
 @pytest.fixture
-def domain_id(monkeypatch: pytest.MonkeyPatch) -> int:
+def domain_id(monkeypatch: pytest.MonkeyPatch) -> Iterator[int]:
     """A ROS_DOMAIN_ID of this test's own (set in the environment for child processes).
 
-    One that no process on this host uses at that moment (another test run, a demo), so
-    two graphs never see each other's nodes.
+    Reserved until the test ends (:func:`modal_twin.domain.reserve_domain`): no other
+    process here (a parallel worker, another test run, a demo) draws it meanwhile, so two
+    graphs never see each other's nodes.
     """
-    from modal_twin.launch import free_domain_id
+    from modal_twin.domain import reserve_domain
 
-    d = free_domain_id()
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(d))
-    return d
+    with reserve_domain() as r:
+        monkeypatch.setenv("ROS_DOMAIN_ID", str(r.domain_id))
+        yield r.domain_id
 
 
 @pytest.fixture
