@@ -8,8 +8,13 @@ setup:
 demo: setup
 	@OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) -m modal_twin.cli demo
 
+# The tests run in WORKERS parallel processes (pytest-xdist), each test file whole on one
+# worker (--dist loadfile: a file's module fixtures are built once). Every ROS graph reserves
+# its own domain (modal_twin.domain), so the workers' graphs never meet.
+WORKERS ?= 3
 test: lint
-	@OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -p no:cacheprovider --durations=25
+	@OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -p no:cacheprovider --durations=25 \
+		-n $(WORKERS) --dist loadfile
 
 bench: setup
 	@for b in test/benchmarks/bench_*.py; do echo "== $$b"; OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) $$b || exit 1; done

@@ -4,7 +4,8 @@ Wait until they are up and matched, supervise them, stop them cleanly.
 
 - Every node runs as its own process with ``--ros-args -r __node:=<name>
   --params-file <run>/params/<name>.yaml`` and logs to ``<run>/logs/<name>.log``.
-- A run gets its own ``ROS_DOMAIN_ID`` (unless one is set), so parallel runs never meet.
+- A run gets its own ``ROS_DOMAIN_ID`` (unless one is set), reserved until it stops
+  (:func:`modal_twin.domain.reserve_domain`), so parallel runs never meet.
 - Ready = every node visible in the graph, every node has said ``ready`` on
   ``/diagnostics`` (a node says ``starting: ...`` while it builds its model and compiles its
   kernels) and every topic that one launched node publishes and another subscribes has
@@ -28,7 +29,6 @@ from __future__ import annotations
 
 import logging
 import os
-import random
 import signal
 import subprocess
 import sys
@@ -42,6 +42,7 @@ from typing import Any
 import rclpy
 from rclpy.context import Context
 
+from modal_twin.domain import DomainReservation, reserve_domain
 from modal_twin.errors import ConfigError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.io.ros import dds_env
@@ -51,7 +52,7 @@ from modal_twin.runtime import runtime_env
 from modal_twin.scenario import Scenario, load_scenario, with_parameters
 from modal_twin.validation import check_name
 
-__all__ = ["LaunchResult", "Launcher", "free_domain_id", "launch"]
+__all__ = ["LaunchResult", "Launcher", "launch"]
 
 log = logging.getLogger(__name__)
 
@@ -62,41 +63,6 @@ the launcher waits until every node reports (on /diagnostics, ``matched <topic>`
 each topic it publishes has matched all its launched readers: the later hops (rig ->
 acquisition -> recorder and twin) are matched before the first block, however loaded the
 machine; the excitation itself waits for the readers of /excitation/signal."""
-
-
-# RTPS port mapping (Fast DDS defaults): every port of domain d lies in
-# [PB + DG d, PB + DG (d + 1)); d <= 232 keeps them below 65536
-_PORT_BASE, _DOMAIN_GAIN, _MAX_DOMAIN = 7400, 250, 232
-
-
-def _udp_ports_in_use() -> set[int]:
-    """Local UDP ports bound on this host (``/proc/net/udp``, ``udp6``; empty elsewhere)."""
-    ports: set[int] = set()
-    for table in ("/proc/net/udp", "/proc/net/udp6"):
-        try:
-            lines = Path(table).read_text().splitlines()[1:]
-        except OSError:
-            continue
-        for line in lines:
-            fields = line.split()
-            if len(fields) > 1 and ":" in fields[1]:
-                ports.add(int(fields[1].rsplit(":", 1)[1], 16))
-    return ports
-
-
-def free_domain_id(rng: random.Random | None = None) -> int:
-    """Draw a ROS domain id that no process on this host uses, at random from 1..232.
-
-    A domain is in use when any UDP port of its RTPS range is bound (a participant's
-    discovery or data locators). Two graphs on one host in one domain see each other's
-    nodes: a launcher could start another run's excitation (seen: a demo's training
-    record got a second drive from a test's launcher that drew the same id).
-    """
-    pick = rng or random.SystemRandom()
-    used = _udp_ports_in_use()
-    busy = {(p - _PORT_BASE) // _DOMAIN_GAIN for p in used if p >= _PORT_BASE}
-    free = [d for d in range(1, _MAX_DOMAIN + 1) if d not in busy]
-    return pick.choice(free) if free else pick.randint(1, _MAX_DOMAIN)
 
 
 def _die_with_parent() -> None:
@@ -178,8 +144,12 @@ class Launcher:
         name = check_name(scenario.name, "launch.name")  # it names the run folder
         self.run_dir = run_dir or Path(RUNS) / f"{stamp}_{name}"
         env_domain = os.environ.get("ROS_DOMAIN_ID")
-        if domain_id is None:
-            domain_id = int(env_domain) if env_domain else free_domain_id()
+        self._domain: DomainReservation | None = None  # held until stop(), when drawn here
+        if domain_id is None and env_domain:
+            domain_id = int(env_domain)
+        elif domain_id is None:
+            self._domain = reserve_domain()
+            domain_id = self._domain.domain_id
         self.domain_id = domain_id
         self.say = say
         self.record = record and bool(scenario.record_topics)
@@ -271,6 +241,8 @@ class Launcher:
                     alive = [n for n in alive if self.procs[n].poll() is None]
                 if not alive:
                     break
+        if self._domain is not None:  # the graph is gone: its domain is free again
+            self._domain.release()
 
     # -- readiness ---------------------------------------------------------------------
     def _readers(self, topic: str) -> int:

@@ -6,6 +6,7 @@ import os
 import re
 import shutil
 import subprocess
+from collections.abc import Iterator
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # 2 shared cores: BLAS threads only contend
@@ -13,7 +14,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import pytest
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
 
 
 def _ros_available() -> bool:
@@ -37,18 +39,33 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(skip)
 
 
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Under pytest-xdist (``make test``): compile the twin's numba kernels once, here in
+    the controller, before the workers start (xdist starts them after this hook), so that
+    on a fresh checkout the workers load them from numba's disk cache instead of each
+    compiling the same kernels at once (~20 s of CPU each on this machine)."""
+    config = session.config
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    from modal_twin.diagnosis.fitting import warm_up_kernels
+    from modal_twin.models.loading import load_model
+
+    warm_up_kernels(load_model(ROOT / "config" / "structures" / "building.yaml").plant())
+
+
 @pytest.fixture
-def domain_id(monkeypatch: pytest.MonkeyPatch) -> int:
+def domain_id(monkeypatch: pytest.MonkeyPatch) -> Iterator[int]:
     """A ROS_DOMAIN_ID of this test's own (set in the environment for child processes).
 
-    One that no process on this host uses at that moment (another test run, a demo), so
-    two graphs never see each other's nodes.
+    Reserved until the test ends (:func:`modal_twin.domain.reserve_domain`): no other
+    process here (a parallel worker, another test run, a demo) draws it meanwhile, so two
+    graphs never see each other's nodes.
     """
-    from modal_twin.launch import free_domain_id
+    from modal_twin.domain import reserve_domain
 
-    d = free_domain_id()
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(d))
-    return d
+    with reserve_domain() as r:
+        monkeypatch.setenv("ROS_DOMAIN_ID", str(r.domain_id))
+        yield r.domain_id
 
 
 @pytest.fixture

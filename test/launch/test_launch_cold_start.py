@@ -37,7 +37,7 @@ DONE = re.compile(r"compiling kernels \.\.\. done in ([0-9.]+) s")
 
 def _launch(tmp: Path, cache: Path, *, ready_timeout_s: float | None = None,
             only: str = ""):
-    from modal_twin.launch import Launcher, free_domain_id
+    from modal_twin.launch import Launcher
     from modal_twin.scenario import load_scenario, with_parameters
 
     sc = load_scenario(S2)
@@ -48,7 +48,7 @@ def _launch(tmp: Path, cache: Path, *, ready_timeout_s: float | None = None,
         sc = replace(sc, nodes=tuple(n for n in sc.nodes if n.name == only), record_topics=())
     lines: list[str] = []
     mp = pytest.MonkeyPatch()
-    mp.setenv("ROS_DOMAIN_ID", str(free_domain_id()))
+    mp.delenv("ROS_DOMAIN_ID", raising=False)  # the launcher reserves its own
     mp.setenv("NUMBA_CACHE_DIR", str(cache))
     try:
         res = Launcher(sc, run_dir=tmp / "run", say=lines.append).run()

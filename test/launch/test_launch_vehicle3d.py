@@ -41,11 +41,11 @@ def run_bag(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFac
     starts the track only then (test_launch_cold_start.py), so a fresh checkout records
     the whole run too.
     """
-    from modal_twin.launch import Launcher, free_domain_id
+    from modal_twin.launch import Launcher
     from modal_twin.scenario import load_scenario, with_parameters
 
     mp = pytest.MonkeyPatch()
-    mp.setenv("ROS_DOMAIN_ID", str(free_domain_id()))
+    mp.delenv("ROS_DOMAIN_ID", raising=False)  # the launcher reserves its own
     try:
         sc = load_scenario(ROOT / "config" / "scenarios" / f"{request.param}.yaml")
         sc = with_parameters(replace(sc, duration_s=16.0), "excitation", duration_s=8.0)

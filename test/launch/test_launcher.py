@@ -127,28 +127,26 @@ def test_cli_foreign_input_no_traceback(tmp_path: Path, cmd: list[str]) -> None:
     assert str(f) in out.stderr
 
 
-def test_a_launcher_draws_a_domain_no_process_here_uses() -> None:
-    """Every domain but one has a bound UDP port in its RTPS range: that one is drawn."""
-    import socket
+@pytest.mark.ros
+def test_a_launcher_holds_the_domain_it_drew_until_it_stops(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """No ROS_DOMAIN_ID set: the launcher reserves one, no other process can lock it until
+    the launcher stops (modal_twin.domain; the draws themselves: test/test_domain.py)."""
+    import os
 
-    from modal_twin.launch import free_domain_id
+    from modal_twin import domain
+    from modal_twin.launch import Launcher
 
-    held = []
-    try:
-        for d in range(1, 233):
-            if d == 77:
-                continue
-            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            try:
-                s.bind(("127.0.0.1", 7400 + 250 * d + 9))
-            except OSError:  # bound by another process already: in use anyway
-                s.close()
-                continue
-            held.append(s)
-        assert {free_domain_id() for _ in range(5)} == {77}
-    finally:
-        for s in held:
-            s.close()
+    locks = tmp_path / "locks"  # this test's own: no other process draws from it
+    monkeypatch.setattr(domain, "domain_lock_folder", lambda: locks)
+    monkeypatch.delenv("ROS_DOMAIN_ID", raising=False)
+    sc = load_scenario(_write(tmp_path, SCENARIO.format(duration=1.0, kind="random")))
+    lau = Launcher(sc, run_dir=tmp_path / "run", say=lambda s: None)
+    assert domain._try_lock(locks, lau.domain_id) is None  # held by the launcher
+    lau.stop()
+    fd = domain._try_lock(locks, lau.domain_id)
+    assert fd is not None  # given back
+    os.close(fd)
 
 
 def test_launch_set_overrides_one_node_parameter_and_refuses_a_bad_one() -> None:

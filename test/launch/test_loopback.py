@@ -79,11 +79,9 @@ def network_launch(tmp_path_factory: pytest.TempPathFactory
                    ) -> tuple[dict[int, set[str]], int, Path]:
     """A ``--network`` launch, sent SIGTERM once up and matched: the UDP addresses of its
     nodes, the launcher's exit code and the folder of the run."""
-    from modal_twin.launch import free_domain_id
-
     tmp = tmp_path_factory.mktemp("network")
     mp = pytest.MonkeyPatch()
-    mp.setenv("ROS_DOMAIN_ID", str(free_domain_id()))
+    mp.delenv("ROS_DOMAIN_ID", raising=False)  # the launcher reserves its own
     try:
         proc = launch_until_matched(tmp, "--network")
         try:

@@ -97,7 +97,14 @@ def _mutate(path: str, value: object) -> dict:
     return doc
 
 
-_DELETE = object()
+class _Delete:
+    """The key is removed (its id is the same in every process: pytest-xdist compares them)."""
+
+    def __repr__(self) -> str:
+        return "<deleted>"
+
+
+_DELETE = _Delete()
 
 CASES = [
     ("masses/0/m", _DELETE, ConfigError, r"masses\[0\]: missing key 'm'"),
