@@ -37,7 +37,12 @@ from modal_twin.errors import SignalError
 from modal_twin.exit_codes import ExitCode
 from modal_twin.paths import atomic_file, check_new
 
-__all__ = ["last_metrics", "metrics_consistent", "register", "ride_lines", "run"]
+__all__ = ["STALL_S", "last_metrics", "metrics_consistent", "register", "ride_lines", "run"]
+
+STALL_S = 30.0
+"""Default ``--stall`` of ``--live``: the replay's own default (``replay_node --stall``)."""
+STALL_RANGE_S = (1.0, 3600.0)
+"""Allowed ``--stall`` values, s."""
 
 log = logging.getLogger(__name__)
 
@@ -56,6 +61,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--live", action="store_true",
                    help="replay the bag into a twin node (ROS) instead of simulating offline")
     p.add_argument("--rate", type=float, default=4.0, help="--live: replay rate (x real time)")
+    p.add_argument("--stall", type=float, default=STALL_S,
+                   help="--live: seconds without an answer from the twin after which the "
+                        "replay goes on unpaced (said, and counted)")
     p.add_argument("--run-dir", type=Path, default=None,
                    help="--live: folder of the run (default runs/<time>_twin_<bag>)")
     p.set_defaults(func=run)
@@ -175,11 +183,12 @@ def record_span(bag: Path) -> tuple[int, int, int]:
 
 
 def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | None,
-                     fs_hz: float, say: Any = print) -> LiveRun:
+                     fs_hz: float, say: Any = print, stall_s: float = STALL_S) -> LiveRun:
     """Replay the frames (and channel map) of ``bag`` into a twin node running ``model``.
 
     The replay is paced by the twin's answers (``/twin/residual``), so every block is
-    processed in order at any load; the twin scores the whole stream (``window_s`` 0). The
+    processed in order at any load (a twin silent for ``stall_s`` lets the replay go on
+    unpaced, said in its log); the twin scores the whole stream (``window_s`` 0). The
     run stops once the replay has ended (every block answered) and the twin's metrics have
     spanned the record's first to last sample for one more metrics period (or, when some
     samples never arrive, two metrics periods after the replay's end).
@@ -205,7 +214,8 @@ def replay_into_twin(model: Path, bag: Path, *, rate: float, run_dir: Path | Non
     seconds = record[2] / fs_hz
     nodes = (NodeSpec("replay", "replay_node", {},
                       (str(bag), "--rate", str(rate), "--topics", "/measurement/frames",
-                       "/measurement/channels", "--paced-by", "/twin/residual"),
+                       "/measurement/channels", "--paced-by", "/twin/residual",
+                       "--stall", str(stall_s)),
                       one_shot=True),
              NodeSpec("twin", "twin_node", {"model_file": str(model.resolve()), "fs_hz": fs_hz,
                                             "window_s": 0.0}))
@@ -281,6 +291,11 @@ def live(a: argparse.Namespace) -> int:
     if not (math.isfinite(a.rate) and 0.05 <= a.rate <= 100.0):
         print(f"modal-twin residual: --rate {a.rate} outside [0.05, 100]", file=sys.stderr)
         return ExitCode.USAGE
+    lo, hi = STALL_RANGE_S
+    if not (math.isfinite(a.stall) and lo <= a.stall <= hi):
+        print(f"modal-twin residual: --stall {a.stall} outside [{lo:g}, {hi:g}] s",
+              file=sys.stderr)
+        return ExitCode.USAGE
     if a.json is not None:
         check_new(a.json, a.force)  # before the work
     first = next((m for _, _, m in read_messages(a.bag, ["/measurement/frames"])), None)
@@ -289,7 +304,7 @@ def live(a: argparse.Namespace) -> int:
         return ExitCode.USAGE
     try:
         run = replay_into_twin(a.model, a.bag, rate=a.rate, run_dir=a.run_dir,
-                               fs_hz=float(first.sample_rate_hz))
+                               fs_hz=float(first.sample_rate_hz), stall_s=a.stall)
     except ModalTwinError as err:
         print(f"modal-twin residual: {err}", file=sys.stderr)
         return ExitCode.FAILED
