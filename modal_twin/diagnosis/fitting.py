@@ -24,25 +24,13 @@ from scipy.optimize import least_squares
 from modal_twin._types import FloatArray
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
-from modal_twin.models.devices.base import KIND_COULOMB
 from modal_twin.models.effects import EffectSpec
 from modal_twin.models.loading import ModelFactory
 from modal_twin.models.plant import Plant
 from modal_twin.twin.simulator import Simulator
 
-__all__ = [
-    "FittedEffect",
-    "SimulationObjective",
-    "fit_effect",
-    "held_between_samples",
-    "judge_fit",
-    "normalised_residual",
-    "record_nmse",
-    "simulate_record",
-    "substeps",
-    "threshold_start",
-    "warm_up_kernels",
-]
+__all__ = ["FittedEffect", "SimulationObjective", "fit_effect", "judge_fit", "normalised_residual",
+           "record_nmse", "simulate_record", "threshold_start", "warm_up_kernels"]
 
 log = logging.getLogger(__name__)
 
@@ -100,12 +88,7 @@ class FittedEffect:
 
 
 def simulate_record(plant: Plant, rec: Record) -> FloatArray:
-    """Plant channels (rows of ``rec.channel_names`` it has) driven by ``rec.inputs``.
-
-    With :func:`substeps` ``k > 1`` the plant is stepped ``k`` times per sample on the
-    inputs held linearly between samples (the simulator's own first-order hold) and read
-    at the record's samples.
-    """
+    """Plant channels (rows of ``rec.channel_names`` it has) driven by ``rec.inputs``."""
     have = [n for n in plant.input_names if n in rec.input_names]
     if not have:
         msg = (f"record {rec.source!r}: none of the model's inputs {list(plant.input_names)} "
@@ -113,53 +96,10 @@ def simulate_record(plant: Plant, rec: Record) -> FloatArray:
         raise OptionError(msg)
     ag = plant.input_matrix(rec.input_names, rec.inputs)  # unmeasured inputs: zero
     _say_missing(rec.source, [n for n in plant.input_names if n not in have])
-    k = substeps(plant, rec.fs_hz)
-    sim = Simulator(plant.system, 1.0 / (k * rec.fs_hz), modal_histories=False)
-    y = plant.measure(sim.step_block(held_between_samples(ag, k)),
-                      plant.delay_line(k * rec.fs_hz))[:, ::k]
+    sim = Simulator(plant.system, 1.0 / rec.fs_hz, modal_histories=False)
+    y = plant.measure(sim.step_block(ag), plant.delay_line(rec.fs_hz))
     names = plant.channel_names
     return y[[names.index(n) for n in rec.channel_names]]
-
-
-# a friction law switches its force within a fraction of a sample when the stroke turns;
-# the simulator holds each device force linearly over a step (modal-foh), so the switch
-# lands in the modes whose period spans a few steps: above a quarter of the step rate the
-# hold's error is of the order of their response (the car's carbody at 200 Hz: its stroke
-# and force channels 2-3x their floor at the truth's own law and parameters, 0.05-0.35x
-# at four steps per sample; results/hidden_effects_veh_session11.txt)
-HOLD_FRACTION = 0.25
-
-
-def substeps(plant: Plant, fs_hz: float) -> int:
-    """Return the simulation steps per sample of ``plant`` at ``fs_hz``.
-
-    One, unless a friction law (:class:`~modal_twin.models.devices.coulomb.CoulombFriction`)
-    is attached and the linear part (device reference stiffness included) has a natural
-    frequency ``f_max`` above ``HOLD_FRACTION fs``: then ``ceil(f_max / (HOLD_FRACTION fs))``,
-    so that every mode's period spans at least ``1 / HOLD_FRACTION`` steps.
-    """
-    s = plant.system
-    if not any(a.device.kind == KIND_COULOMB for a in s.devices):
-        return 1
-    K = np.array(s.K, dtype=float)
-    for a in s.devices:
-        B = np.asarray(a.B, dtype=float)
-        K += B.T @ np.atleast_2d(a.device.reference_stiffness()) @ B
-    lam = np.linalg.eigvals(np.linalg.solve(np.asarray(s.M, dtype=float), K)).real
-    f_max = float(np.sqrt(max(float(lam.max()), 0.0))) / (2.0 * np.pi)
-    return max(1, int(np.ceil(f_max / (HOLD_FRACTION * fs_hz) - 1e-9)))
-
-
-def held_between_samples(ag: FloatArray, k: int) -> FloatArray:
-    """Return the inputs ``ag`` (n_in, nt) held linearly between samples, ``k`` per sample.
-
-    Shape (n_in, (nt - 1) k + 1); every ``k``-th column is the sample itself.
-    """
-    if k == 1 or ag.shape[1] < 2:
-        return ag
-    frac = np.arange(k) / k
-    inner = ag[:, :-1, None] + np.diff(ag, axis=1)[:, :, None] * frac
-    return np.concatenate([inner.reshape(ag.shape[0], -1), ag[:, -1:]], axis=1)
 
 
 def warm_up_kernels(plant: Plant, fs_hz: float = 1000.0) -> float:
