@@ -15,6 +15,7 @@ import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from types import SimpleNamespace
 from typing import Any
 
@@ -314,36 +315,22 @@ def _t_bilinear_hysteretic(start: dict[str, float], k: float) -> Transform:
             np.array([lu + 4, np.log(3.0), max(lk, 0.0) + np.log(30.0)]))
 
 
-def _t_bouc_wen(start: dict[str, float], k: float) -> Transform:
-    """With its dashpot free (a device whose viscous part changed).
+def _t_loop(flag: str, k_top: float, start: dict[str, float], k: float) -> Transform:
+    """Yield (or full-slip) drift (log), alpha, stiffness and dashpot free: ``bouc_wen``, ``iwan``.
 
-    ``uncoupled`` (each direction yielding on its own) as started: chosen by the screening
-    on the measured force, held in the fit, named (and counted) only where it is set.
+    With its dashpot free (a device whose viscous part changed). The form ``flag``
+    (``uncoupled``: each direction yielding on its own; ``isotropic``: one joint in x and y)
+    as started: chosen by the screening on the measured force, held in the fit, named (and
+    counted) only where it is set. ``k_top``: the stiffness factor's upper bound.
     """
     lu = np.log(start["uy"])
-    unc = {"uncoupled": 1.0} if start.get("uncoupled", 0.0) >= 0.5 else {}
-    return (["uy", "alpha", "k", "c_factor", *unc],
+    form = {flag: 1.0} if start.get(flag, 0.0) >= 0.5 else {}
+    return (["uy", "alpha", "k", "c_factor", *form],
             lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2]),
-                       "c_factor": float(x[3]), **unc},
-            lambda p: np.array([np.log(p["uy"]), p["alpha"], p.get("k", k) / k,
-                                p.get("c_factor", 1.0)]),
-            np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 1.3, 3.0]))
-
-
-def _t_iwan(start: dict[str, float], k: float) -> Transform:
-    """Full-slip drift (log), residual share, stuck stiffness and dashpot, as ``bouc_wen``.
-
-    ``isotropic`` (one joint in x and y) as started: chosen by the screening on the
-    measured force, held in the fit, named only where it is set.
-    """
-    lu = np.log(start["uy"])
-    iso = {"isotropic": 1.0} if start.get("isotropic", 0.0) >= 0.5 else {}
-    return (["uy", "alpha", "k", "c_factor", *iso],
-            lambda x: {"uy": float(np.exp(x[0])), "alpha": float(x[1]), "k": k * float(x[2]),
-                       "c_factor": float(x[3]), **iso},
+                       "c_factor": float(x[3]), **form},
             lambda p: np.array([np.log(p["uy"]), p.get("alpha", 0.2), p.get("k", k) / k,
                                 p.get("c_factor", 1.0)]),
-            np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, 2.0, 3.0]))
+            np.array([lu - 3, 0.0, 0.7, 0.0]), np.array([lu + 3, 1.0, k_top, 3.0]))
 
 
 def _t_cubic(start: dict[str, float], k: float) -> Transform:
@@ -405,8 +392,8 @@ _TRANSFORMS: dict[str, Callable[[dict[str, float], float], Transform]] = {
     "bilinear": _t_bilinear,
     "smooth_bilinear": _t_smooth_bilinear,
     "bilinear_hysteretic": _t_bilinear_hysteretic,
-    "bouc_wen": _t_bouc_wen,
-    "iwan": _t_iwan,
+    "bouc_wen": partial(_t_loop, "uncoupled", 1.3),
+    "iwan": partial(_t_loop, "isotropic", 2.0),
     "cubic": _t_cubic,
     "gap": _t_gap,
     "linear": _t_linear,
