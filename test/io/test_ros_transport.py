@@ -134,6 +134,23 @@ def test_replay_delivers_every_block_in_order(domain_id: int, tmp_path: Path) ->
         np.testing.assert_array_equal(block_from_msg(m).data, _expected(k, 10, 2, 1000.0).data)
 
 
+def _wait_for_a_flush(bag: Path, timeout_s: float = 120.0) -> None:
+    """Return once the bag being recorded holds a message on disk (polled, not a fixed wait).
+
+    A fixed sleep before the kill depended on the machine's load: a busy machine could kill
+    the recorder before its first flush, leaving nothing to salvage.
+    """
+    from modal_twin.io.bag import scan_mcap
+
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        files = sorted(bag.glob("*.mcap")) + sorted(bag.glob("part_*/*.mcap"))
+        if any(f.stat().st_size > 8 and scan_mcap(f).messages for f in files):
+            return
+        time.sleep(0.1)
+    pytest.fail(f"the recorder wrote no message to {bag} within {timeout_s} s")
+
+
 @pytest.mark.slow
 def test_sigkill_recorder_leaves_a_salvageable_bag(domain_id: int, tmp_path: Path) -> None:
     """The salvaged bag is contiguous from the first block and holds the values sent.
@@ -149,7 +166,7 @@ def test_sigkill_recorder_leaves_a_salvageable_bag(domain_id: int, tmp_path: Pat
     assert pub.stdout is not None
     assert pub.stdout.readline().strip() == "ready"
     sent = [int(pub.stdout.readline().split()[1]) for _ in range(300)]  # 3 s of blocks
-    time.sleep(2.0)  # the recorder's flush interval is 1 s
+    _wait_for_a_flush(tmp_path / "bag")  # the recorder flushes every 1 s: kill after one
     os.kill(rec.pid, signal.SIGKILL)
     rec.wait(5)
     pub.kill()
