@@ -18,7 +18,9 @@ order, so the frequency sums are done once for the whole stabilization diagram. 
 elimination is order-recursive too: with one Cholesky factor of the highest-order R,
 :math:`\sum_o S_o^T R^{-1} S_o` of every order is a cumulative sum of per-row Gram
 matrices (:func:`_reduced_normal`), so the per-order work is one small solve and one
-companion eigenvalue problem (no per-output products per order).
+companion eigenvalue problem (no per-output products per order). Where R is too
+ill-conditioned to factor (a sub-band's own basis covers only part of the unit circle), the
+same lower factor and rows come from a QR of the basis (:func:`_orthogonal_rows`).
 
 Poles and participation factors come from the companion matrix of Eq. (4); a root
 :math:`z_r` of :math:`\det A(z)` gives :math:`\lambda_r = -\ln(z_r) / \Delta t`
