@@ -18,7 +18,9 @@ order, so the frequency sums are done once for the whole stabilization diagram. 
 elimination is order-recursive too: with one Cholesky factor of the highest-order R,
 :math:`\sum_o S_o^T R^{-1} S_o` of every order is a cumulative sum of per-row Gram
 matrices (:func:`_reduced_normal`), so the per-order work is one small solve and one
-companion eigenvalue problem (no per-output products per order).
+companion eigenvalue problem (no per-output products per order). Where R is too
+ill-conditioned to factor (a sub-band's own basis covers only part of the unit circle), the
+same lower factor and rows come from a QR of the basis (:func:`_orthogonal_rows`).
 
 Poles and participation factors come from the companion matrix of Eq. (4); a root
 :math:`z_r` of :math:`\det A(z)` gives :math:`\lambda_r = -\ln(z_r) / \Delta t`
@@ -60,13 +62,41 @@ def _companion(
     return z, V[:m]  # first block of the eigenvectors = participation factors
 
 
+def _orthogonal_rows(H: ComplexArray, th: FloatArray, q: int) -> tuple[FloatArray, FloatArray]:
+    r""":math:`L` and :math:`W = L^{-1} S` of :func:`_reduced_normal` from a QR of the basis.
+
+    A sub-band fitted with its own basis (:math:`\Delta t = 1 / 2 f_{\max}` of the band,
+    Eq. (3) of [002]) covers only the arc :math:`[\pi f_{\min} / f_{\max}, \pi]` of the
+    unit circle, on which the powers :math:`Z^0 \ldots Z^p` are nearly dependent: the
+    condition number of :math:`R = \mathrm{Re}(X^H X)` grows geometrically with the order
+    (1e8 at p = 16 over an octave widened by 15 % on each side, beyond 1e16 at p = 20 over
+    8.6-15 Hz) and its Cholesky factorisation fails. The Householder QR of the real-stacked
+    basis :math:`[\mathrm{Re}\,X; \mathrm{Im}\,X] = Q R_q` needs only the square root of
+    that condition number: :math:`L = R_q^T` and :math:`W = L^{-1} S = Q^T Y`, i.e.
+    :math:`W_{r,(o,s,i)} = -\mathrm{Re} \sum_k \overline{Q_{c,kr}} Z_k^s H_{oi,k}` with
+    :math:`Q_c` the complex form of :math:`Q`. Its leading columns span the leading
+    columns of :math:`X`, so the cumulative per-row Gram sums of every lower order hold
+    as with the Cholesky factor.
+    """
+    n_out, m, nf = H.shape
+    Z = np.exp(-1j * np.outer(th, np.arange(q)))  # (n_f, q): Z_k^s
+    Q, Rq = np.linalg.qr(np.vstack([Z.real, Z.imag]))
+    Qc = Q[:nf] + 1j * Q[nf:]
+    Hf = H.reshape(n_out * m, nf).T  # (n_f, (o, i))
+    W = np.empty((q, q, n_out, m))
+    for r in range(q):  # one row of Q^T Y at a time: (s, (o, i))
+        W[r] = -((Qc[:, r].conj()[:, None] * Z).T @ Hf).real.reshape(q, n_out, m)
+    return np.ascontiguousarray(Rq.T), W.transpose(0, 2, 1, 3).reshape(q, n_out * q * m)
+
+
 def _reduced_normal(
     H: ComplexArray, f_hz: FloatArray, pmax: int, dt_s: float
 ) -> tuple[FloatArray, FloatArray, FloatArray | None, FloatArray]:
     r"""Blocks of every order's reduced normal matrix, from one pass over the data.
 
-    Returns ``T`` (q m x q m, q = pmax + 1), ``C`` (q, q m, q m), the Cholesky factor of R
-    (None if R was not positive definite) and :math:`W = L^{-1} S` as (q, n_out, q m),
+    Returns ``T`` (q m x q m, q = pmax + 1), ``C`` (q, q m, q m), a lower factor L of
+    :math:`R = L L^T` (Cholesky; from a QR of the basis where R is too ill-conditioned to
+    factor, :func:`_orthogonal_rows`) and :math:`W = L^{-1} S` as (q, n_out, q m),
     such that the order-p
     reduced normal matrix is :math:`M_p = 2 (T - C_{p})_{[:(p+1) m, :(p+1) m]}`, i.e.
     :math:`\sum_o S_o^T R^{-1} S_o` for every order at once: with :math:`R = L L^T`
@@ -112,12 +142,8 @@ def _reduced_normal(
         Lc = sla.cholesky(R, lower=True, check_finite=False)
         # W = L^-1 S solved on the transposed (Fortran-ordered) layout: X L^T = S^T, no copy
         W = sla.blas.dtrsm(1.0, Lc, S.T, side=1, lower=1, trans_a=1, overwrite_b=1).T
-    except np.linalg.LinAlgError:  # numerically singular basis: symmetric pseudo-root
-        Lc = None
-        w, V = np.linalg.eigh(R)
-        keep = w > 1e-12 * w.max()
-        W = np.zeros_like(S)
-        W[: int(keep.sum())] = (V[:, keep] / np.sqrt(w[keep])).T @ S
+    except np.linalg.LinAlgError:  # R too ill-conditioned to factor: QR of the basis itself
+        Lc, W = _orthogonal_rows(Hc, th, q)
     W3 = W.reshape(q, n_out, q * m)
     # cumulative sum of the per-row Gram matrices (one batched product)
     C = np.cumsum(np.matmul(W3.transpose(0, 2, 1), W3), axis=0)

@@ -37,6 +37,7 @@ import json
 import sys
 import tempfile
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -211,18 +212,24 @@ def _record(bag: Path, tag: str) -> tuple[list[str], dict[str, Any]]:
                  "band_hz": [round(band[0], 3), round(band[1], 3)]}
 
 
-def main() -> int:
-    eq = earthquakes(__doc__.splitlines()[0])
+def run_traces(description: str,
+               record: Callable[[Path, str], tuple[list[str], dict[str, Any]]]) -> int:
+    """Import each record of :data:`RECORDS`, print ``record``'s lines, then the JSON."""
+    eq = earthquakes(description)
     if eq is None:
         return 0
     summary = {}
     warnings.simplefilter("ignore", RuntimeWarning)
     with tempfile.TemporaryDirectory() as tmp:
         for tag, bag in imported(tmp, eq, RECORDS):
-            lines, summary[tag] = _record(bag, tag)
+            lines, summary[tag] = record(bag, tag)
             print("\n".join(lines), flush=True)
     print(json.dumps(summary))
     return 0
+
+
+def main() -> int:
+    return run_traces(__doc__.splitlines()[0], _record)
 
 
 if __name__ == "__main__":
