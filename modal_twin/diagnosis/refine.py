@@ -332,7 +332,8 @@ N_PAIRED = 2  # parameter candidates of a last round tried with the effects foun
 
 def paired(factory: ModelFactory, found: list[FittedEffect], last_fits: Sequence[FittedEffect],
             records: Sequence[Record], noises: Sequence[np.ndarray],
-            say: Callable[[str], None], mapper: Mapper
+            say: Callable[[str], None], mapper: Mapper, *, devices: bool = False,
+            at_least: float = 0.0
             ) -> tuple[list[FittedEffect] | None, RoundRow | None]:
     """``found`` with a parameter change the last round rejected, when both together say so.
 
@@ -345,14 +346,18 @@ def paired(factory: ModelFactory, found: list[FittedEffect], last_fits: Sequence
     among its rivals (:func:`places_rechosen`) and refitted again; the best set replaces
     ``found`` when its whitened information criterion over every record is lower by more
     than its sampling tolerance. Only where ``found`` holds a parameter change (the one that
-    may stand in for two).
+    may stand in for two), or with ``devices`` a device law too (a law fitted first that
+    moved to stand in for a change as well: a friction's viscous part for a body's damping;
+    see :func:`.pipeline._paired_after_drops`). ``at_least``: the least fall of the
+    criterion that takes a set, when more than the tolerance.
 
     Returns the new effects (None: kept) and the round for the tables.
     """
     param = KINDS["parameter"]
     cands = sorted((g for g in last_fits if kind_of(g.effect.law) is param and not g.flags),
                    key=lambda g: g.bic)[:N_PAIRED]
-    if not cands or not any(kind_of(f.effect.law) is param for f in found):
+    movable = (param, KINDS["device"]) if devices else (param,)
+    if not cands or not any(kind_of(f.effect.law) in movable for f in found):
         return None, None
     fit_on = fit_records(records)
 
@@ -360,6 +365,7 @@ def paired(factory: ModelFactory, found: list[FittedEffect], last_fits: Sequence
 
     ic_found = ic(found)
     _, tol = sampling_tolerance(factory, found, records)
+    tol = max(tol, at_least)
     trials = []
     for g in cands:
         say(f"{g.family} at {g.place} beside the effects found, each refitted and re-placed")

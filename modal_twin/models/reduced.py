@@ -149,7 +149,8 @@ class SimResult:
     rows : tuple of str
         "name.x" / "name.y" label of each drift / force row.
     newton_iterations : IntArray
-        (nt,) device-law evaluations per sample (0 for the rest sample; 1 is the rule).
+        (nt,) device-law evaluations per sample, summed over its integration steps (0 for
+        the rest sample; one per step is the rule).
     cond_V : float
         Condition number of the modal eigenvector matrix.
     method : str
