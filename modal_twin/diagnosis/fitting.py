@@ -28,6 +28,7 @@ from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.models.effects import EffectSpec
 from modal_twin.models.loading import ModelFactory
 from modal_twin.models.plant import Plant
+from modal_twin.twin.reuse import simulator_for
 from modal_twin.twin.simulator import Simulator
 
 __all__ = ["FittedEffect", "SimulationObjective", "fit_effect", "judge_fit", "normalised_residual",
@@ -97,7 +98,7 @@ def simulate_record(plant: Plant, rec: Record) -> FloatArray:
         raise OptionError(msg)
     ag = plant.input_matrix(rec.input_names, rec.inputs)  # unmeasured inputs: zero
     _say_missing(rec.source, [n for n in plant.input_names if n not in have])
-    sim = Simulator(plant.system, 1.0 / rec.fs_hz, modal_histories=False)
+    sim = simulator_for(plant.system, 1.0 / rec.fs_hz)  # built once per model content
     y = plant.measure(sim.step_block(ag), plant.delay_line(rec.fs_hz))
     names = plant.channel_names
     return y[[names.index(n) for n in rec.channel_names]]

@@ -279,8 +279,9 @@ class LoopState(NamedTuple):
         Inverse device Jacobian kept between samples.
     flags : (3,) int64
         See FLAG_*.
-    states : (n_dev, N_STATE)
-        Committed device states.
+    states : (n_dev, S)
+        Committed device states, S the largest ``n_state`` of the plant's laws
+        (:class:`~modal_twin.models.devices.base.Device`).
     """
 
     Xh: FloatArray

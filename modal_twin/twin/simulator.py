@@ -121,7 +121,6 @@ from modal_twin.models.devices.base import (
     KIND_GAP,
     KIND_PRANDTL,
     N_PARAM,
-    N_STATE,
 )
 from modal_twin.models.devices.bouc_wen import esb_pressure_factor
 from modal_twin.models.devices.registry import KINDS
@@ -443,9 +442,11 @@ class Simulator:
         """Return to rest (virgin device states, zero motion, time 0)."""
         ns = self._ns
         nd = len(self.system.devices)
-        states = np.zeros((nd, N_STATE))
+        # the state slots of the plant's laws, not N_STATE (the loop copies them per sample)
+        n_state = max((att.device.n_state for att in self.system.devices), default=1)
+        states = np.zeros((nd, n_state))
         for d, att in enumerate(self.system.devices):
-            states[d] = att.device.initial_state()
+            states[d] = att.device.initial_state()[:n_state]
         self._state = LoopState(
             Xh=np.zeros(2 * ns),  # exp(Lambda dt) xi_k + E0 w_k of the last sample
             base=np.zeros(4 * nd),  # Q xi_p,k + Ua0 a_k of the last sample

@@ -38,6 +38,7 @@ __all__ = [
     "KIND_SMOOTH_BILINEAR",
     "N_PARAM",
     "N_STATE",
+    "N_STATE_SMALL",
     "Device",
     "DeviceResponse",
     "carry_state",
@@ -91,6 +92,7 @@ KIND_IWAN = 11
 
 N_PARAM = 12
 N_STATE = 70  # the Iwan joint keeps 34 per direction (models.devices.iwan)
+N_STATE_SMALL = 8  # what every other law reads and writes (s[0:8] at most)
 
 
 @dataclass(frozen=True, slots=True)
@@ -124,6 +126,11 @@ class Device:
     time_step_index: int = -1
     """Parameter slot of the sample interval for a rate law (-1: the law needs none); the
     simulator writes its ``dt`` there, :meth:`respond` the one it is given."""
+    n_state: int = N_STATE_SMALL
+    """State slots the law reads and writes (``s[:n_state]``; the others stay zero): the
+    simulator gives each plant's devices the largest of its laws' (a copy of the state per
+    device and sample costs what it holds), :meth:`evaluate` and :meth:`respond` all
+    :data:`N_STATE`."""
 
     def __init__(self, params: list[float], *, n_dir: int, name: str) -> None:
         if n_dir not in (1, 2):

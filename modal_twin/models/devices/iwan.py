@@ -191,6 +191,7 @@ class IwanJoint(Device):
     """
 
     kind = KIND_IWAN
+    n_state = 2 + 2 * _STRIDE
 
     def __init__(self, k: float | list[float], kr: float | list[float], uy: float,
                  c: list[float], *, name: str = "iwan") -> None:
