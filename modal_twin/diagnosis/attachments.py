@@ -35,6 +35,7 @@ from modal_twin.diagnosis.fitting import (
     Records,
     SimulationObjective,
     _parameter_std,
+    channel_scale,
     judge_fit,
     normalised_residual,
 )
@@ -77,7 +78,7 @@ def screen_attachments(factory: Any, train: Record, *, freqs_hz: FloatArray | No
         return []
     if freqs_hz is None:
         freqs_hz = np.geomspace(2.0, min(40.0, train.fs_hz / 4.0), 14)
-    scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
+    scale = channel_scale(train)
     r0 = normalised_residual(factory.plant(), train, decimate, scale)
     e0 = float(r0 @ r0)
     out = []

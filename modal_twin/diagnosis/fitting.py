@@ -2,8 +2,11 @@
 
 The plant with the candidate law at its component is simulated on the measured inputs of
 the training record; the law's parameters (in a transformed, bounded space) minimise the
-normalised residual of the measured channels (each channel divided by its measured RMS,
-so accelerations, drifts and forces weigh alike) with ``scipy.optimize.least_squares``.
+whitened residual of the measured channels with ``scipy.optimize.least_squares``: each
+channel in the unit the judge counts its error in (:func:`channel_scale`: its RMS times
+the noise floor of the record's noise model and the model-form tolerance together), so
+that the fit's optimum is the judge's (a near-noise-free force channel beside noisy
+accelerometers weighs by what it can tell).
 The fitted plant is then run on a record not used for fitting, and ranked by that held-out
 error; the Bayesian information criterion ``BIC = N ln(SSE / N) + p ln N`` on the training
 record guards against over-fitting (``N`` counts decimated samples).
@@ -23,6 +26,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from modal_twin._types import FloatArray
+from modal_twin.diagnosis.noise import whitening_sigma
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import ModalTwinError, OptionError
 from modal_twin.models.effects import EffectSpec
@@ -31,8 +35,9 @@ from modal_twin.models.plant import Plant
 from modal_twin.twin.reuse import simulator_for
 from modal_twin.twin.simulator import Simulator
 
-__all__ = ["FittedEffect", "SimulationObjective", "fit_effect", "judge_fit", "normalised_residual",
-           "record_nmse", "simulate_record", "threshold_start", "warm_up_kernels"]
+__all__ = ["FittedEffect", "SimulationObjective", "channel_scale", "fit_effect", "judge_fit",
+           "normalised_residual", "record_nmse", "simulate_record", "threshold_start",
+           "warm_up_kernels"]
 
 log = logging.getLogger(__name__)
 
@@ -152,13 +157,30 @@ Transform = tuple[list[str], Callable[[FloatArray], dict[str, float]],
                   Callable[[dict[str, float]], FloatArray], FloatArray, FloatArray]
 
 
+def channel_scale(rec: Record) -> FloatArray:
+    """Per channel of ``rec``, the unit of the fits' residual: the judge's sigma, (n_ch, 1).
+
+    ``RMS(measured) * sigma`` with ``sigma = sqrt(floor^2 + MODEL_FORM^2)``
+    (:func:`.noise.whitening_sigma`) and ``floor`` the record's noise model
+    (``rec.noise_floor``, :func:`.judge.record_noise_floors`): the residual so divided,
+    squared and averaged over a channel's samples, is the square of that channel's whitened
+    error (:attr:`.noise.ErrorFigures.whitened`), so the sum the fits minimise is, per record,
+    the judge's figure (:attr:`.noise.ErrorFigures.score`) squared times the samples kept. The
+    one place the fits' channel weights are made. A record without a noise model is taken
+    as noise-free (every channel at the tolerance alone: weighed by its RMS).
+    """
+    rms = np.sqrt(np.mean(rec.scored**2, axis=1))
+    floor = np.zeros(rms.size) if rec.noise_floor is None else rec.noise_floor
+    return np.maximum(rms * whitening_sigma(floor), 1e-300)[:, None]
+
+
 def normalised_residual(plant: Plant, rec: Record, decimate: int, scale: FloatArray
                         ) -> FloatArray:
-    """Return the normalised residual of ``plant`` on ``rec``: the vector the fits minimise.
+    """Return the whitened residual of ``plant`` on ``rec``: the vector the fits minimise.
 
-    Each channel is divided by ``scale`` (its measured RMS, so that accelerations, drifts and
-    forces weigh alike), every ``decimate``-th sample is kept, and the result is flattened
-    (the samples dropped are never differenced: the same values, a fifth of the work).
+    Each channel is divided by ``scale`` (:func:`channel_scale`: in units of what its error
+    may be), every ``decimate``-th sample is kept, and the result is flattened (the samples
+    dropped are never differenced: the same values, a fifth of the work).
     """
     pred = simulate_record(plant, rec)
     return ((pred[:, rec.skip::decimate] - rec.scored[:, ::decimate]) / scale).ravel()
@@ -176,21 +198,26 @@ class SimulationObjective:
     """Build the vector ``least_squares`` minimises for the plant ``build(x)``.
 
     :func:`normalised_residual` on the training record(s), concatenated (each record's
-    channels divided by their own RMS, so a low-level record weighs like a strong one). A
-    trial that fails to simulate (unstable, no convergence) returns a large penalty instead
-    of stopping the fit; ``n`` counts the simulations.
+    channels whitened by its own noise model, :func:`channel_scale`, so a low-level record
+    weighs by its own noise). A trial that fails to simulate (unstable, no convergence)
+    returns a large penalty instead of stopping the fit (an error 1000 times each channel's
+    RMS, whitened); ``n`` counts the simulations.
     """
 
     def __init__(self, build: Callable[[FloatArray], Plant], rec: Records, decimate: int
                  ) -> None:
         self.build, self.recs, self.decimate = build, as_records(rec), decimate
         self.rec = self.recs[0]
-        self.scales = [np.maximum(np.std(r.scored, axis=1), 1e-300)[:, None] for r in self.recs]
-        self.size = sum(r.scored[:, ::decimate].size for r in self.recs)
+        self.scales = [channel_scale(r) for r in self.recs]
+        self.penalty = np.concatenate([
+            np.broadcast_to(1e3 * np.sqrt(np.mean(r.scored**2, axis=1))[:, None] / s,
+                            r.scored[:, ::decimate].shape).ravel()
+            for r, s in zip(self.recs, self.scales, strict=True)])
+        self.size = self.penalty.size
         self.n = 0
 
     def __call__(self, x: FloatArray) -> FloatArray:
-        """Return the residual of the plant ``build(x)``; a failed simulation gives 1e3."""
+        """Return the residual of the plant ``build(x)``; a failed simulation the penalty."""
         self.n += 1
         try:
             plant = self.build(x)
@@ -198,7 +225,7 @@ class SimulationObjective:
                                    for r, s in zip(self.recs, self.scales, strict=True)])
         except ModalTwinError as err:
             log.debug("trial %s refused: %s", x, err)
-            return np.full(self.size, 1e3)
+            return self.penalty.copy()
 
 
 # bounds that are a law's extension switched off, not a fit stopped short: at them the law

@@ -44,7 +44,8 @@ from modal_twin.errors import ModalTwinError
 from modal_twin.models.plant import Plant
 
 __all__ = ["figures_on", "information_criterion", "judge", "labelled", "rank",
-           "record_noise_floor", "record_noise_floors", "verdict", "worse_tolerance"]
+           "record_noise_floor", "record_noise_floors", "verdict", "with_noise_floors",
+           "worse_tolerance"]
 
 LOWER_BY = 0.01  # training and held-out: at least 1 % lower
 WORSE_BY = 0.01  # other records: at most 1 % higher
@@ -109,6 +110,17 @@ def record_noise_floors(plant: Plant, records: Sequence[Record], *, seed: int = 
         out.append(record_noise_floor(plant, r, seed=seed, sensor_sd=sensors,
                                       input_sd=inputs))
     return out
+
+
+def with_noise_floors(records: Sequence[Record], noises: Sequence[np.ndarray]
+                      ) -> list[Record]:
+    """Each record with its noise model (:func:`record_noise_floors`) attached.
+
+    The fits then count each channel's residual in the unit the verdict does
+    (:func:`.fitting.channel_scale`): the noise model is estimated once per record and
+    shared by the judge and the fits.
+    """
+    return [r.with_noise_floor(n) for r, n in zip(records, noises, strict=True)]
 
 
 def _sensor_noise(plant: Plant, rec: Record) -> dict[str, float]:

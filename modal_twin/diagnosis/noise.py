@@ -58,7 +58,7 @@ from modal_twin.twin.metrics import channel_metrics
 
 __all__ = ["COLOURED_RATIO", "MODEL_FORM", "REDUNDANT_CHANNELS", "RESOLUTION", "ErrorFigures",
            "channel_noise", "coloured_noise_sd", "effective_samples", "error_figures",
-           "noise_floor", "noise_sd", "nrmse", "redundancy_sd"]
+           "noise_floor", "noise_sd", "nrmse", "redundancy_sd", "whitening_sigma"]
 
 # a model error counts when the NRMSE exceeds the noise floor by this factor: an error
 # beyond the noise of sqrt(ratio^2 - 1) = 1.7 x the noise itself (a model that differs from
@@ -282,6 +282,18 @@ def channel_noise(records: Iterable[tuple[Sequence[str], FloatArray, float]]
     return out
 
 
+def whitening_sigma(noise: FloatArray, tolerance: float = MODEL_FORM) -> FloatArray:
+    """Per channel, the error a correct model may show: ``sqrt(noise^2 + tolerance^2)``.
+
+    ``noise`` the channels' noise floors and ``tolerance`` the stated model-form tolerance
+    (:data:`MODEL_FORM`), both fractions of each channel's RMS: the unit every decision
+    counts a channel's error in (:attr:`ErrorFigures.sigma`), and the fits their residual
+    (:func:`.fitting.channel_scale`). The tolerance keeps a near-noise-free channel (a
+    force far above its resolution) from an infinite weight.
+    """
+    return np.sqrt(np.asarray(noise, float) ** 2 + tolerance**2)
+
+
 @dataclass(frozen=True, slots=True)
 class ErrorFigures:
     """Model against one record, per channel: NRMSE, its noise floor and Eq. (8)."""
@@ -295,8 +307,11 @@ class ErrorFigures:
 
     @property
     def sigma(self) -> FloatArray:
-        """Per channel, the error a correct model may show: noise and model form together."""
-        return np.sqrt(np.asarray(self.noise, float) ** 2 + self.tolerance**2)
+        """Per channel, the error a correct model may show: noise and model form together.
+
+        :func:`whitening_sigma` of the noise floors and the tolerance.
+        """
+        return whitening_sigma(self.noise, self.tolerance)
 
     @property
     def whitened(self) -> FloatArray:

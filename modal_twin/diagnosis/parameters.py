@@ -29,6 +29,7 @@ from modal_twin.diagnosis.fitting import (
     Records,
     SimulationObjective,
     _parameter_std,
+    channel_scale,
     judge_fit,
     normalised_residual,
 )
@@ -105,7 +106,7 @@ def screen_parameters(factory: ModelFactory, train: Record, *,
     if prefixes is None:
         prefixes = tuple(factory.parameter_prefixes)
     values = factory.parameters()
-    scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
+    scale = channel_scale(train)
     r0 = _residual(factory, {}, train, decimate, scale)
     e0 = float(r0 @ r0)
     out = []

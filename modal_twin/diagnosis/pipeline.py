@@ -47,6 +47,7 @@ from modal_twin.diagnosis.judge import (
     labelled,
     rank,
     record_noise_floors,
+    with_noise_floors,
 )
 from modal_twin.diagnosis.kinds import KINDS, kind_of
 from modal_twin.diagnosis.modal_view import ModalView, modal_view
@@ -272,6 +273,7 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
     test = records[1]
     nominal = factory.plant()
     noises = record_noise_floors(nominal, records)
+    records = with_noise_floors(records, noises)  # the fits whiten as the judge does
     say("simulating the model on every record")
     before = figures_on(nominal, records, noises)
     where, modal = _where_and_modal(nominal, test, skipped)
@@ -436,6 +438,7 @@ def diagnose(
     rec_c, _ = _common_channels(factory, records)
     noises = [f.noise for f in first.before]  # the floors of the model as given
     order = [(f.effect.component, f.effect.law) for f in found]  # as the rounds took them
+    rec_c = with_noise_floors(rec_c, noises)
     titles = [_forward_title(i, found[:i]) for i in range(len(rounds))]  # as they ran
     table: list[RoundRow] = [(t, r.fitted, r.summary, r.best if i < len(found) else None)
                                 for i, (t, r) in enumerate(zip(titles, rounds, strict=True))]
@@ -454,7 +457,7 @@ def diagnose(
                   for k, (t, fits, why, took) in enumerate(again)]
         say("refitting all effects found jointly")
         found = _relabelled(factory, first, rec_c, noises,
-                            refit_jointly(factory, found, fit_records(records)))
+                            refit_jointly(factory, found, fit_records(rec_c)))
     dropped: list[str] = []
     if len(found) > 1:
         found, dropped = without_idle(factory, found, rec_c, noises, say, refit=joint)

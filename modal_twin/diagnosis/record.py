@@ -23,6 +23,9 @@ class Record:
 
     The first ``skip`` samples are simulated (they set the state) but not scored: a
     held-out segment cut from a longer run starts where the structure was already moving.
+    ``noise_floor`` is the record's noise model, once estimated (per channel, a fraction of
+    its RMS: :func:`.judge.record_noise_floors`); the fits whiten their residual by it
+    (:func:`.fitting.channel_scale`). None: not estimated.
     """
 
     fs_hz: float
@@ -32,6 +35,7 @@ class Record:
     data: FloatArray
     source: str = ""
     skip: int = 0
+    noise_floor: FloatArray | None = None
 
     def __post_init__(self) -> None:
         if self.inputs.shape != (len(self.input_names), self.data.shape[-1]):
@@ -46,6 +50,10 @@ class Record:
             raise SignalError(msg)
         if not 0 <= self.skip < self.data.shape[-1] - 1:
             msg = f"skip: expected 0 <= skip < {self.data.shape[-1] - 1}, got {self.skip}"
+            raise ShapeError(msg)
+        n_ch = len(self.channel_names)
+        if self.noise_floor is not None and np.shape(self.noise_floor) != (n_ch,):
+            msg = f"noise_floor: expected ({n_ch},), got {np.shape(self.noise_floor)}"
             raise ShapeError(msg)
         for name, arr in (("inputs", self.inputs), ("data", self.data)):
             if not np.all(np.isfinite(arr)):
@@ -63,9 +71,19 @@ class Record:
         return self.data[:, self.skip:]
 
     def with_channels(self, names: list[str] | tuple[str, ...]) -> Record:
-        """Return the same record restricted to ``names`` (in that order)."""
-        return Record(self.fs_hz, self.input_names, self.inputs, tuple(names),
-                      self.channels(names), self.source, self.skip)
+        """Return the same record restricted to ``names`` (in that order), its noise model too."""
+        data, floor = self.channels(names), None
+        if self.noise_floor is not None:
+            idx = {n: i for i, n in enumerate(self.channel_names)}
+            floor = np.asarray(self.noise_floor)[[idx[n] for n in names]]
+        return Record(self.fs_hz, self.input_names, self.inputs, tuple(names), data,
+                      self.source, self.skip, floor)
+
+    def with_noise_floor(self, floor: FloatArray | None) -> Record:
+        """Return the same record with its noise model ``floor`` (per channel, fraction of RMS)."""
+        return Record(self.fs_hz, self.input_names, self.inputs, self.channel_names, self.data,
+                      self.source, self.skip,
+                      None if floor is None else np.asarray(floor, float))
 
     def channels(self, names: list[str] | tuple[str, ...]) -> FloatArray:
         """Rows of ``data`` for ``names`` (SignalError names the unknown ones)."""

@@ -40,7 +40,12 @@ from scipy import signal
 from modal_twin._types import FloatArray
 from modal_twin.channels import device_channels
 from modal_twin.diagnosis.effect_kind import Job, PlacedEffect, Round
-from modal_twin.diagnosis.fitting import FittedEffect, record_nmse, simulate_record
+from modal_twin.diagnosis.fitting import (
+    FittedEffect,
+    channel_scale,
+    record_nmse,
+    simulate_record,
+)
 from modal_twin.diagnosis.record import Record
 from modal_twin.errors import OptionError
 from modal_twin.models.effects import SENSOR_LAWS, EffectSpec
@@ -261,7 +266,7 @@ def fit_sensor(factory: ModelFactory, cand: SensorCandidate, train: Record, test
     n_par = max(len(effect.params), 1)  # a polarity or a swap: one discrete choice
     plant, nominal = factory.plant([effect]), factory.plant()
     pred_train = simulate_record(plant, train)
-    scale = np.maximum(np.std(train.scored, axis=1), 1e-300)[:, None]
+    scale = channel_scale(train)
     fun = ((pred_train[:, train.skip:] - train.scored) / scale)[:, ::5].ravel()
     n = fun.size
     sse = float(fun @ fun)

@@ -12,7 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from modal_twin.diagnosis.fitting import FittedEffect, simulate_record
-from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floors
+from modal_twin.diagnosis.judge import figures_on, judge, record_noise_floors, with_noise_floors
 from modal_twin.diagnosis.kinds import kind_of
 from modal_twin.diagnosis.noise import nrmse
 from modal_twin.diagnosis.pipeline import Diagnosis, diagnose
@@ -102,9 +102,10 @@ def add_effect(model_file: str | Path, component: str, law: str, start: dict[str
     base = read_version(model_file)
     factory = load_model(model_file)
     kind = kind_of(law)
-    fitted = kind.fit(factory, component, law, start, train, test)
     records = [train, test, *levels]
     noises = record_noise_floors(factory.plant(), records)
+    train, test = with_noise_floors(records, noises)[:2]  # fitted in the judge's units
+    fitted = kind.fit(factory, component, law, start, train, test)
     before = figures_on(factory.plant(), records, noises)
     fitted = judge(fitted, kind.plant(factory, fitted.effect), before, records, noises)
     if fitted.rejected:
