@@ -169,6 +169,12 @@ def without_idle(factory: ModelFactory, found: list[FittedEffect], records: Sequ
     training record only can ride along with the real ones: after the joint refit either is
     dropped, and the reason said.
 
+    An effect is also dropped when, though the criterion (a sum over the records) demands
+    it, the training or the held-out record alone does not rise beyond its sampling
+    tolerance without it (:func:`.judge.unearned`, :func:`_idle`): the rule a later forward
+    round applies to a candidate, so an effect enters and stays on the same evidence (a
+    like share of a form gap taken on every record adds up in the sum, not on any record).
+
     The others' joint fit may lean on the effect under trial (an extra one soaks up what a
     law fitted beside it left, e.g. a dashpot elsewhere taking over the viscous part of a
     friction law, which the joint refit then moved to it): when even the weakest effect
