@@ -63,6 +63,7 @@ from modal_twin.diagnosis.refine import (
     paired,
     places_rechosen,
     run_jobs,
+    sampling_tolerances,
     whitened_criterion,
     without_idle,
 )
@@ -296,9 +297,13 @@ def diagnose_round(factory: ModelFactory, records: Sequence[Record], *, n_fit: i
         jobs = [j for j in jobs if j[0].endswith(f" at {only}")]
     fitted = [f for f in run_jobs(jobs, mapper, skipped, say)
               if (f.effect.component, f.effect.law) not in set(exclude)]
-    # a later round must earn its effect: 5 % lower, not 1 %
-    lower_by = 0.05 if factory.base_effects or set(exclude) else 0.01
-    ranked = rank([judged(rnd, f, before, lower_by) for f in fitted], rnd.evidence_family)
+    # a later round must earn its effect: 5 % lower, not 1 %, and on the training and the
+    # held-out record each beyond its sampling tolerance (judge.unearned)
+    later = bool(factory.base_effects or set(exclude))
+    lower_by = 0.05 if later else 0.01
+    earn = sampling_tolerances(nominal, records) if later and fitted else []
+    ranked = rank([judged(rnd, f, before, lower_by, earn) for f in fitted],
+                  rnd.evidence_family)
     return Diagnosis(True, _round_summary(ranked, sig), where, tuple(ranked), tuple(skipped),
                      modal, candidates, before, before)
 

@@ -31,6 +31,7 @@ from modal_twin.diagnosis.judge import (
     information_criterion,
     judge,
     rank,
+    unearned,
     worse_tolerance,
 )
 from modal_twin.diagnosis.kinds import KINDS, kind_of
@@ -43,7 +44,8 @@ from modal_twin.models.plant import Plant
 
 __all__ = ["MAX_PLACE_MOVES", "N_PAIRED", "Mapper", "RoundRow", "apply_all", "apply_effect",
            "fit_records", "judged", "paired", "places_rechosen", "run_jobs",
-           "sampling_tolerance", "whitened_criterion", "without_idle"]
+           "sampling_tolerance", "sampling_tolerances", "whitened_criterion",
+           "without_idle"]
 
 Mapper = Callable[..., Iterable[Any]]
 
@@ -74,16 +76,17 @@ def _call(job: Callable[[], FittedEffect]) -> FittedEffect | str:
         return str(err)
 
 
-def judged(rnd: Round, f: FittedEffect, before: Sequence[ErrorFigures], lower_by: float
-           ) -> FittedEffect:
+def judged(rnd: Round, f: FittedEffect, before: Sequence[ErrorFigures], lower_by: float,
+           earn: Sequence[float] = ()) -> FittedEffect:
     """``f`` judged on every record of ``rnd`` against the figures ``before`` it.
 
-    :func:`.judge.judge` with the facts and the place its kind gives.
+    :func:`.judge.judge` with the facts and the place its kind gives (``earn``: each
+    record's sampling tolerance, :func:`.judge.unearned`).
     """
     kind = kind_of(f.effect.law)
     return judge(f, kind.plant(rnd.factory, f.effect), before, rnd.records, rnd.noise,
                  facts=kind.facts(rnd, f.effect), place=kind.place(f.effect, rnd.factory),
-                 lower_by=lower_by)
+                 lower_by=lower_by, earn=earn)
 
 
 def apply_effect(factory: ModelFactory, f: FittedEffect) -> ModelFactory:
@@ -121,6 +124,17 @@ def _effective_samples(plant: Plant, records: Sequence[Record]) -> list[float]:
             for r in records]
 
 
+def sampling_tolerances(plant: Plant, records: Sequence[Record]) -> list[float]:
+    """Return each record's sampling tolerance of an RMS under ``plant``.
+
+    :func:`.judge.worse_tolerance` of what the residual of ``plant`` on that record is worth
+    in independent samples (:func:`_effective_samples`): the tolerances of the per-record
+    rule :func:`.judge.unearned`.
+    """
+    return [worse_tolerance(r, n) for r, n in
+            zip(records, _effective_samples(plant, records), strict=True)]
+
+
 def sampling_tolerance(factory: ModelFactory, found: Sequence[FittedEffect],
                         records: Sequence[Record]) -> tuple[list[float], float]:
     """Return each record's effective samples and the criterion's sampling tolerance.
@@ -155,6 +169,12 @@ def without_idle(factory: ModelFactory, found: list[FittedEffect], records: Sequ
     training record only can ride along with the real ones: after the joint refit either is
     dropped, and the reason said.
 
+    An effect is also dropped when, though the criterion (a sum over the records) demands
+    it, the training or the held-out record alone does not rise beyond its sampling
+    tolerance without it (:func:`.judge.unearned`, :func:`_idle`): the rule a later forward
+    round applies to a candidate, so an effect enters and stays on the same evidence (a
+    like share of a form gap taken on every record adds up in the sum, not on any record).
+
     The others' joint fit may lean on the effect under trial (an extra one soaks up what a
     law fitted beside it left, e.g. a dashpot elsewhere taking over the viscous part of a
     friction law, which the joint refit then moved to it): when even the weakest effect
@@ -180,19 +200,21 @@ def without_idle(factory: ModelFactory, found: list[FittedEffect], records: Sequ
             ic_rest, figs_rest = criterion(rest)
             trials.append((ic_rest - ic_all, f, rest, figs_rest))
         trials.sort(key=lambda t: t[0])
-        delta, f, rest, figs_rest = trials[0]
+        idle = partial(_idle, factory, records, figs_all, tol)
+        trial = next((t for t in trials if idle(t)), None)
         refitted = ""
-        if delta > tol and refit:
-            delta, f, rest, figs_rest = _refitted_trial(factory, trials, records, criterion,
-                                                        ic_all, tol)
+        if trial is None and refit:
+            trial = _refitted_trial(factory, trials, records, criterion, ic_all, idle)
             refitted = ", the rest refitted"
-        if delta > tol:
+        if trial is None:
             break
+        delta, f, rest, figs_rest = trial
         rms = ", ".join(f"{a.record or 'record'} x{a.score:.2f} -> x{b.score:.2f}"
                         for a, b in zip(figs_all, figs_rest, strict=True))
         why = (f"{f.family} at {f.place} ({f.effect.law}): without it{refitted} the "
                f"information criterion changes by {delta:+.4f} (drop at <= {tol:.4f}; "
-               f"whitened RMS {rms})")
+               f"whitened RMS {rms})"
+               + ("" if delta <= tol else f"; above that, but it {idle(trial)}"))
         say(f"dropped {why}")
         dropped.append(why)
         keep = rest
@@ -389,17 +411,33 @@ def paired(factory: ModelFactory, found: list[FittedEffect], last_fits: Sequence
 def _refitted_trial(factory: ModelFactory, trials: Sequence[_Trial],
                     records: Sequence[Record],
                     criterion: Callable[[Sequence[FittedEffect]], tuple[float, Any]],
-                    ic_all: float, tol: float) -> _Trial:
-    """Return the first trial (weakest first) whose rest refitted without it is within tol.
+                    ic_all: float, idle: Callable[[_Trial], str]) -> _Trial | None:
+    """Return the first trial (weakest first) whose effect is idle with the rest refitted.
 
     Each rest is refitted jointly (:func:`.joint.refit_jointly`) on the training record and
-    the other levels; the last trial refitted when none is within ``tol``.
+    the other levels and the trial judged again by ``idle`` (:func:`_idle`); None when no
+    effect is idle so.
     """
-    out = trials[0]
     for _, f, rest, _ in trials:
         rest = refit_jointly(factory, rest, fit_records(records), min_free=1)
         ic_rest, figs_rest = criterion(rest)
         out = (ic_rest - ic_all, f, rest, figs_rest)
-        if out[0] <= tol:
-            break
-    return out
+        if idle(out):
+            return out
+    return None
+
+
+def _idle(factory: ModelFactory, records: Sequence[Record],
+          figs_all: Sequence[ErrorFigures], tol: float, trial: _Trial) -> str:
+    """Why the effect of ``trial`` is not demanded by the data ("" when it is).
+
+    Either the whitened information criterion rises by no more than ``tol`` without it, or
+    the training or the held-out record does not rise beyond its sampling tolerance
+    without it (:func:`.judge.unearned`, the rule a later forward round applies: the
+    tolerances of the residual without it, :func:`sampling_tolerances`).
+    """
+    delta, _, rest, figs_rest = trial
+    if delta <= tol:
+        return "raises the criterion within its tolerance"
+    return unearned(figs_rest, figs_all,
+                    sampling_tolerances(apply_all(factory, rest).plant(), records))
