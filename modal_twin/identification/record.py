@@ -21,7 +21,11 @@ channel map and does, in this order and for every caller alike:
    :data:`H1_ZETA`-damped mode at the band's centre (named inputs always); the choice and
    its reason are said. On the real records of ../shared/realdata this rule makes
    PolyMAX output-only (Hayward: coherence 0.64-0.66; Berkeley, Rio Dell: coherent but
-   fed back 20 % / 17 %, and H1 lines of 0.31 / 0.2 Hz).
+   fed back 20 % / 17 %, and H1 lines of 0.31 / 0.2 Hz). ``n4sid`` asked for where the
+   inputs explain less than :data:`COHERENT` runs covariance-driven (past outputs as
+   references, :func:`_n4sid_form`), with SSI-cov's output scales and the spectral-peak
+   test of output-only selection; where they fail the test it warns that its modes are
+   the input-output system's (fixed at the measured points).
 3. **Settings** (:func:`~modal_twin.identification.auto.choose_settings`): band,
    decimation, block rows and orders from the record, each one replaced by a given
    option; a given option the record cannot support is an error naming the limit. The
@@ -135,7 +139,8 @@ number of averages) from which the measured inputs explain most of the response 
 default method is input-output (N4SID). Below it unmeasured excitation carries a large
 share of the response: on the Hayward bridge's earthquake records (debiased coherence
 0.64-0.66: six ground channels at the supports, spatially varying input) N4SID's poles sit
-0.4-2 % off and it reports 1-2 of the 8-10 modes FDD and SSI-cov agree on, SSI-cov
+0.4-2 % off and it reports 1-2 of the 8-10 modes FDD and SSI-cov agree on (PO-MOESP; the
+covariance-driven form ``--method n4sid`` runs there since session 13: 3 and 3), SSI-cov
 (output-only) most of them (``test/benchmarks/bench_real_modes.py``)."""
 
 
