@@ -23,6 +23,22 @@ which has the same column space as the N4SID oblique projection weighted by
 4. Poles, damping and complex shapes at the outputs for all orders from one QR of
    :math:`\underline{\Gamma}` (:mod:`modal_twin.identification._subspace`).
 
+Covariance-driven form (``weighting="covariance"``): the combined deterministic-stochastic
+SSI of Reynders & De Roeck (2008, "Reference-based combined deterministic-stochastic
+subspace identification for experimental and operational modal analysis", MSSP 22), the
+``IOcov`` Hankel matrix of pyOMA2: the future outputs with the future inputs projected
+out, correlated with the past outputs,
+
+.. math:: H = \Phi_{Y_f Y_p | U_f} = \Phi_{Y_f Y_p} - \Phi_{Y_f U_f} \Phi_{U_f U_f}^{-1}
+          \Phi_{U_f Y_p},
+
+whose left singular vectors give :math:`\Gamma_n` as in step 3. It drops the weighting
+:math:`\Phi_{22|1}^{-1}` of the instruments (the past inputs and outputs whitened, step
+3), which on short records with many channels (an earthquake's: 1200 instrument rows,
+2.6 times as many Hankel columns) is estimated with a spread of its eigenvalues of about
+:math:`(1 \pm \sqrt{p / j})^2` and biases the poles (Hayward 2021-04-26: 3.274 Hz
+against 3.33 Hz of pyOMA2's IOcov on the same channels, ``identification/record.py``).
+
 Uncertainty: the Hankel columns are split into ``n_blocks_std`` contiguous blocks whose
 Gram matrices sum to :math:`\Phi` (so the blocks cost nothing extra); the block
 observability matrices in the common basis,
@@ -40,7 +56,7 @@ import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from modal_twin._types import FloatArray
-from modal_twin.errors import ShapeError
+from modal_twin.errors import OptionError, ShapeError
 from modal_twin.identification._lagsums import hankel_gram
 from modal_twin.identification._subspace import (
     check_orders,
@@ -50,9 +66,13 @@ from modal_twin.identification._subspace import (
     std_blocks,
 )
 from modal_twin.identification.modal_model import PoleSweep
+from modal_twin.identification.ssi_cov import _channel_scales
 from modal_twin.validation import as_channels, check_positive, check_rank
 
-__all__ = ["n4sid"]
+__all__ = ["WEIGHTINGS", "n4sid"]
+
+WEIGHTINGS = ("oblique", "covariance")
+"""Forms of the projection: PO-MOESP (whitened instruments) or covariance-driven."""
 
 _log = logging.getLogger(__name__)
 
@@ -161,6 +181,8 @@ def n4sid(
     block_rows: int | None = None,
     n_blocks_std: int = 8,
     f_min_hz: float | None = None,
+    weighting: str = "oblique",
+    scale_groups: ArrayLike | None = None,
 ) -> PoleSweep:
     """N4SID (PO-MOESP) poles, damping, shapes and their spread for every model order.
 
@@ -185,6 +207,15 @@ def n4sid(
     f_min_hz : float, optional
         Lowest natural frequency of interest; sets the default horizon (see
         ``block_rows``). Ignored when ``block_rows`` is given.
+    weighting : {"oblique", "covariance"}
+        ``"oblique"``: PO-MOESP, the past inputs and outputs whitened as instruments
+        (steps 1-4 of the module docstring); ``"covariance"``: the covariance-driven
+        combined form (past outputs as references, no whitening; module docstring).
+    scale_groups : array_like, optional
+        A label per output channel: the outputs of one label share one scale, their joint
+        RMS (as :func:`~modal_twin.identification.ssi_cov.ssi_cov`). Default: each output
+        its own unit RMS. Inputs are always scaled to unit RMS (the projection on them
+        does not depend on their scales).
 
     Returns
     -------
@@ -198,7 +229,8 @@ def n4sid(
     SignalError
         NaN / Inf, constant channels, or linearly dependent inputs.
     OptionError
-        Orders beyond ``n_out * (block_rows - 1)`` or bad ``block_rows``.
+        Orders beyond ``n_out * (block_rows - 1)``, bad ``block_rows``, ``weighting`` or
+        ``scale_groups``.
 
     Examples
     --------
@@ -211,6 +243,9 @@ def n4sid(
     3.0
     """
     fs = check_positive(fs_hz, "fs_hz")
+    if weighting not in WEIGHTINGS:
+        msg = f"weighting: expected one of {list(WEIGHTINGS)}, got {weighting!r}"
+        raise OptionError(msg)
     U = as_channels(u, "u", min_samples=4, allow_constant=False)
     Y = as_channels(y, "y", min_samples=4, allow_constant=False)
     if U.shape[1] != Y.shape[1]:
@@ -228,8 +263,9 @@ def n4sid(
         raise ShapeError(msg)
     o = check_orders(orders, l * (i - 1), f"n_out * (block_rows - 1) = {l} * {i - 1}")
     nb = _fit_blocks(std_blocks(n_blocks_std), j, k)
-    z, sy = _unit_rms(U, Y)
-    G, s, G_blocks = _observability(z, m, l, i, j, nb, int(o[-1]))
+    z, sy = _unit_rms(U, Y, scale_groups)
+    obs = _observability if weighting == "oblique" else _observability_cov
+    G, s, G_blocks = obs(z, m, l, i, j, nb, int(o[-1]))
     _log.debug("n4sid: i=%d, hankel %d x %d, %d std blocks", i, k, j, len(G_blocks))
     poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=sy)
     return PoleSweep("n4sid", o, poles, s, len(G_blocks))
@@ -249,13 +285,20 @@ def _fit_blocks(nb: int, j: int, k: int) -> int:
     return nb
 
 
-def _unit_rms(U: FloatArray, Y: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``z = [u; y]`` with means removed and unit RMS per channel, and the outputs' RMS."""
+def _unit_rms(U: FloatArray, Y: FloatArray, groups: ArrayLike | None = None
+              ) -> tuple[FloatArray, FloatArray]:
+    """``z = [u; y]``, means removed, unit RMS per input and per output (or output group).
+
+    Returns ``z`` and the outputs' scales (``_channel_scales`` of SSI-cov: each channel's
+    RMS, or its group's joint RMS).
+    """
     m, n = U.shape[0], U.shape[1]
     z = np.empty((m + Y.shape[0], n))
     np.subtract(U, U.mean(axis=1, keepdims=True), out=z[:m])
     np.subtract(Y, Y.mean(axis=1, keepdims=True), out=z[m:])
     sz = np.sqrt(np.einsum("ij,ij->i", z, z) / n)
+    if groups is not None:
+        sz[m:] = _channel_scales(Y, groups)
     z /= sz[:, None]
     return z, sz[m:]
 
@@ -278,4 +321,36 @@ def _observability(z: FloatArray, m: int, l: int, i: int, j: int, nb: int, nm: i
     P = sla.blas.dsyrk(1.0, W2.T, lower=1)
     s, G, s2_inv = leading_subspace(P, nm)
     G_blocks = [_l32_times(Pk, mf, p, G) * s2_inv for Pk in (Phi_b if nb else ())]
+    return G, s, G_blocks
+
+
+def _h_cov(Phi: FloatArray, m: int, l: int, i: int) -> FloatArray:
+    r""":math:`H^T = \Phi_{Y_p Y_f | U_f}` (past outputs x future outputs) from :math:`\Phi`.
+
+    The Schur complement of :math:`\Phi_{U_f U_f}` (through its Cholesky factor,
+    :func:`_whiten`) in the rows of :math:`Y_p` and the columns of :math:`Y_f`.
+    """
+    mf, p = m * i, (m + l) * i
+    yp, yf = slice(mf + m * i, mf + p), slice(mf + p, mf + p + l * i)
+    W1 = _whiten(Phi[:mf, :mf], np.ascontiguousarray(Phi[:mf, mf:]))
+    Wp, Wf = W1[:, yp.start - mf : yp.stop - mf], W1[:, yf.start - mf : yf.stop - mf]
+    out: FloatArray = Phi[yp, yf] - Wp.T @ Wf
+    return out
+
+
+def _observability_cov(z: FloatArray, m: int, l: int, i: int, j: int, nb: int, nm: int
+                       ) -> tuple[FloatArray, FloatArray, list[FloatArray]]:
+    """As :func:`_observability` for the covariance-driven form (module docstring).
+
+    ``H H^T = U S^2 U^T`` gives ``G``; per std block ``Gamma_b = H_b H^T U S^-2`` (the
+    block Hankel projected on the common right singular vectors, as SSI-cov's blocks).
+    """
+    edges = np.linspace(0, j, nb + 1).astype(int) if nb else np.array([0, j])
+    Phi_b = hankel_gram(z, 2 * i, edges, _groups(m, l, i), row_groups=3)
+    Phi = Phi_b[0] if len(Phi_b) == 1 else np.sum(Phi_b, axis=0)
+    Ht = _h_cov(Phi, m, l, i)  # H^T: (l i past) x (l i future)
+    P = sla.blas.dsyrk(1.0, Ht, trans=1, lower=1)  # H H^T = Ht^T Ht, lower triangle
+    s, G, s2_inv = leading_subspace(P, nm)
+    HtG = Ht @ G
+    G_blocks = [(_h_cov(Pk, m, l, i).T @ HtG) * s2_inv for Pk in (Phi_b if nb else ())]
     return G, s, G_blocks

@@ -21,7 +21,11 @@ channel map and does, in this order and for every caller alike:
    :data:`H1_ZETA`-damped mode at the band's centre (named inputs always); the choice and
    its reason are said. On the real records of ../shared/realdata this rule makes
    PolyMAX output-only (Hayward: coherence 0.64-0.66; Berkeley, Rio Dell: coherent but
-   fed back 20 % / 17 %, and H1 lines of 0.31 / 0.2 Hz).
+   fed back 20 % / 17 %, and H1 lines of 0.31 / 0.2 Hz). ``n4sid`` asked for where the
+   inputs explain less than :data:`COHERENT` runs covariance-driven (past outputs as
+   references, :func:`_n4sid_form`), with SSI-cov's output scales and the spectral-peak
+   test of output-only selection; where they fail the test it warns that its modes are
+   the input-output system's (fixed at the measured points).
 3. **Settings** (:func:`~modal_twin.identification.auto.choose_settings`): band,
    decimation, block rows and orders from the record, each one replaced by a given
    option; a given option the record cannot support is an error naming the limit. The
@@ -135,7 +139,8 @@ number of averages) from which the measured inputs explain most of the response 
 default method is input-output (N4SID). Below it unmeasured excitation carries a large
 share of the response: on the Hayward bridge's earthquake records (debiased coherence
 0.64-0.66: six ground channels at the supports, spatially varying input) N4SID's poles sit
-0.4-2 % off and it reports 1-2 of the 8-10 modes FDD and SSI-cov agree on, SSI-cov
+0.4-2 % off and it reports 1-2 of the 8-10 modes FDD and SSI-cov agree on (PO-MOESP; the
+covariance-driven form ``--method n4sid`` runs there since session 13: 3 and 3), SSI-cov
 (output-only) most of them (``test/benchmarks/bench_real_modes.py``)."""
 
 
@@ -464,11 +469,16 @@ def scale_groups(y: FloatArray, quantities: Sequence[str]) -> tuple[list[str], s
 
 
 def _sweep(method: str, u: FloatArray, y: FloatArray, s: AutoSettings, nb: int,
-           notes: list[str], keep: list[_Spectra], quantities: Sequence[str] = ()
-           ) -> PoleSweep:
+           notes: list[str], keep: list[_Spectra], quantities: Sequence[str] = (),
+           cov_io: bool = False) -> PoleSweep:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # fewer std blocks on short records
         try:
+            if method == "n4sid" and cov_io:  # the output scales of SSI-cov
+                groups, note = scale_groups(y, quantities or ["output"] * y.shape[0])
+                notes.append("N4SID " + note.replace("SSI-cov ", ""))
+                return n4sid(u, y, s.fs_hz, orders=s.orders, block_rows=s.block_rows,
+                             n_blocks_std=nb, weighting="covariance", scale_groups=groups)
             if method == "n4sid":
                 return n4sid(u, y, s.fs_hz, orders=s.orders, block_rows=s.block_rows,
                              n_blocks_std=nb)
@@ -550,10 +560,12 @@ def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float],
 
 def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOptions,
                    corners: tuple[float, float], notes: list[str]
-                   ) -> tuple[str, float, bool, bool]:
+                   ) -> tuple[str, float, bool, bool, str]:
     """Return the method, the input coherence, whether to use inputs, whether fed back.
 
-    The coherence is debiased (NaN: not needed).
+    The coherence is debiased (NaN: not needed). The last item is why the inputs fail
+    the test below ('' when they pass or were not tested); ``--method n4sid`` runs the
+    covariance-driven form when they fail (:func:`identify_record`).
 
     The default method and PolyMAX with the inputs of the channel map (not named) use the
     inputs only when their debiased coherence is at least :data:`COHERENT` and, on a
@@ -571,7 +583,7 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
     n_in = u.shape[0]
     why_not = ""  # why the map's inputs are not used ('' when they are)
     fb = math.nan  # NaN: not tested (a stationary record, or incoherent inputs)
-    if n_in and (method is None or (method == "polymax" and opts.inputs is None)):
+    if n_in and (method in (None, "n4sid") or (method == "polymax" and opts.inputs is None)):
         s0 = _settings(y, fs_hz, n_in, opts, corners)
         yd = decimate(y, fs_hz, s0.factor).x
         ud = decimate(u, fs_hz, s0.factor).x
@@ -603,7 +615,7 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
         if why:
             notes.append(f"PolyMAX output-only: {n_in} driven inputs, {why}; name them "
                          f"with --inputs to use them")
-            return method, coh, False, fb >= FEEDBACK
+            return method, coh, False, fb >= FEEDBACK, why_not
     if method is None and n_in:
         method = "ssi-cov" if why_not else "n4sid"
         notes.append(f"method {method}: {n_in} driven inputs, "
@@ -618,7 +630,34 @@ def _choose_method(u: FloatArray, y: FloatArray, fs_hz: float, opts: IdentifyOpt
     elif method is None:
         method = "ssi-cov"
         notes.append("method ssi-cov: no driven input, output-only")
-    return method, coh, method not in OUTPUT_ONLY, fb >= FEEDBACK
+    return method, coh, method not in OUTPUT_ONLY, fb >= FEEDBACK, why_not
+
+
+def _n4sid_form(method: str, coh: float, weak: str, notes: list[str], warn: list[str]
+                ) -> bool:
+    """Whether N4SID runs covariance-driven (said), and a warning for failing inputs.
+
+    Covariance-driven where the inputs explain less than :data:`COHERENT` of the response;
+    with that much unmeasured excitation (Hayward's ground channels: 0.64-0.65) PO-MOESP's
+    whitening of the instruments biases the poles and loses columns; the covariance-driven
+    form (:func:`~modal_twin.identification.n4sid.n4sid`, ``weighting="covariance"``;
+    Reynders & De Roeck 2008, pyOMA2's IOcov) does not weight them. Coherent inputs, fed
+    back or not, keep PO-MOESP: on the frame on a soil spring of
+    ``test/identification/test_feedback.py`` it gives the fixed-base frame, where the
+    covariance form found only its top mode (11.18 Hz; session 13). The warning goes
+    wherever the inputs fail the test (incoherent or fed back).
+    """
+    cov_io = method == "n4sid" and coh < COHERENT
+    if cov_io:
+        notes.append(f"n4sid covariance-driven (past outputs as references, Reynders & De "
+                     f"Roeck 2008, as pyOMA2's IOcov): {weak}")
+    if method == "n4sid" and weak:
+        warn.append("n4sid with inputs that fail the input-output test: its modes are those "
+                    "of the system from the measured inputs to the outputs (a structure on "
+                    "soil: fixed at the measured points), which may differ from the "
+                    "response's modes (the default: output-only ssi-cov); a peak the inputs "
+                    "carry themselves (site or soil-structure) is not its pole")
+    return cov_io
 
 
 def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None = None,
@@ -663,7 +702,7 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     y = block.select(tuple(c.name for c in outs)).data
     u = block.select(tuple(c.name for c in ins)).data if ins else np.zeros((0, y.shape[1]))
     corners = _corners(outs + ins)
-    method, coh, io, fed_back = _choose_method(u, y, block.fs_hz, opts, corners, notes)
+    method, coh, io, fed_back, weak = _choose_method(u, y, block.fs_hz, opts, corners, notes)
     if not io:
         ins, u = [], np.zeros((0, y.shape[1]))
     if not ins and method == "n4sid":
@@ -689,12 +728,14 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     else:
         yq, uq = y, u
     spectra: list[_Spectra] = []
+    cov_io = _n4sid_form(method, coh, weak, notes, warn)
     sweep = _sweep(method, uq, yq, s, opts.n_blocks_std, notes, spectra,
-                   [c.quantity for c in outs])
+                   [c.quantity for c in outs], cov_io)
     diag, mm, relaxed, drop = _select(
         sweep, opts, s.band_hz, notes,
         harmonic=lambda f: is_harmonic(yq, s.fs_hz, f),  # a column damped at about zero
-        io=bool(ins), spectrum=spectral_peak(yq, s.fs_hz))  # output-only: a mode peaks
+        io=bool(ins) and not cov_io,  # output-only and OMAX n4sid: a mode peaks
+        spectrum=spectral_peak(yq, s.fs_hz))
     if spectra and spectra[0][2] > 0:  # output-only PolyMAX: modes on peaks of the data
         mm, gone, note = half_spectra_support(mm, spectra[0][1], spectra[0][0],
                                               spectra[0][2], yq.shape[1], s.fs_hz, sweep)
