@@ -325,10 +325,17 @@ def _where_and_modal(nominal: Plant, test: Record, skipped: list[str]
 
 
 def _round_summary(ranked: Sequence[FittedEffect], sig: Sequence[str]) -> str:
+    """One line: the best usable candidate, or why the best ranked one was refused."""
     usable = [f for f in ranked if not f.rejected and not f.flags]
     if not usable:
-        return (f"the model fails ({len(sig)} channels above {SIGNIFICANT_RATIO}x their "
-                "noise floor) but no candidate lowers the error on every record")
+        fails = (f"the model fails ({len(sig)} channels above {SIGNIFICANT_RATIO}x their "
+                 "noise floor) but ")
+        if not ranked:
+            return fails + "no candidate could be fitted"
+        best = ranked[0]
+        why = best.rejected or "; ".join(best.flags)
+        return (fails + f"no candidate is accepted (the best ranked, {best.family_text()} "
+                f"at {best.place}: {why})")
     b = usable[0]
     return (f"missing: {b.family_text()} at {b.place} -- held-out NRMSE "
             f"{100 * b.records[1][1]:.2f} % -> {100 * b.records[1][2]:.2f} % "
