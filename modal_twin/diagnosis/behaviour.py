@@ -29,7 +29,16 @@ produces along the record's own drift history, relative to the nominal linear la
    over the amplitude), *hysteresis* when it turns over gradually (yielding, microslip).
 4. **Elastic**: the secant stiffness of :math:`r` per cycle against amplitude: growing is
    *hardening* (a *gap* when the smallest cycles see less than a tenth of the largest
-   ones' secant: nothing acts within a clearance), falling is *softening*.
+   ones' secant: nothing acts within a clearance, and a knee is seen: the best smooth
+   power-law spring :math:`a u + b \dot u + c\,\mathrm{sgn}(u)|u|^q` leaves at least
+   0.1 % of :math:`r` squared unexplained, the *knee share*), falling is *softening*.
+   A power law's secant grows as :math:`A^{q-1}`, so over a record whose cycles span a
+   decade of amplitude a cubic spring's smallest cycles see 1 % of the largest ones'
+   secant: the secant ratio alone takes any stiff hardening for a gap. A clearance is a
+   knee in the backbone (the force is nil inside it, then rises), which no power law has;
+   a clearance at the foot of the drift that the record does not resolve (the force a
+   power law gives within it is below what the law's fit can tell) leaves no knee, and
+   the law behaves as a smooth hardening spring.
 
 These are the families of the evidence (:mod:`.evidence`), so a fit and the evidence at its
 place speak one vocabulary; the law's own name is reported beside the family.
@@ -47,13 +56,15 @@ from modal_twin._types import FloatArray
 from modal_twin.diagnosis.evidence import turning_points as evidence_turning_points
 
 __all__ = ["BEHAVES_AS", "KIND_OF_FAMILY", "Behaviour", "behaviour_label", "classify_behaviour",
-           "reported_family", "turning_points"]
+           "knee_share", "reported_family", "turning_points"]
 
 LINEAR_R2 = 0.90
 LINEAR_OWN = 0.001
 DISSIPATIVE = 0.15
 STICK_RATIO = 0.05
 GAP_RATIO = 0.10
+KNEE_SHARE = 0.001  # share of r^2 no power-law spring explains: a knee (a clearance)
+POWERS = np.arange(1.25, 12.01, 0.25)  # exponents q of the power-law springs tried
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,6 +85,9 @@ class Behaviour:
         reversal; ``nan`` when not computed.
     stiffness_slope : float
         Slope of the residual secant stiffness against log amplitude, over its mean.
+    knee_share : float
+        Of a hardening law: the share of its residual force (squared) that no smooth
+        power-law spring explains (:func:`knee_share`); ``nan`` when not computed.
     """
 
     family: str
@@ -81,6 +95,12 @@ class Behaviour:
     loss_share: float = float("nan")
     turnover: float = float("nan")
     stiffness_slope: float = float("nan")
+    knee_share: float = float("nan")
+
+    @property
+    def smooth(self) -> bool:
+        """Whether a smooth power-law spring reproduces the law (no knee, no clearance)."""
+        return bool(self.knee_share < KNEE_SHARE)
 
     def text(self) -> str:
         """One line: the family and the figures that named it."""
@@ -95,6 +115,8 @@ class Behaviour:
             parts.append(f"turn-over {100 * self.turnover:.1f} % of the amplitude")
         if np.isfinite(self.stiffness_slope):
             parts.append(f"secant slope {self.stiffness_slope:+.2f}")
+        if np.isfinite(self.knee_share):
+            parts.append(f"knee share {100 * self.knee_share:.3f} %")
         return ", ".join(parts)
 
 
@@ -126,10 +148,14 @@ def reported_family(behaviour: Behaviour | None, own: str) -> str:
     where it disagrees with the law's own family; within one kind the law's parameters
     name the family (the sign of a cubic term, a post-yield ratio, a slider's elastic range
     against the drift, the evidence at its place), except for a linear law, whose force says
-    whether it is the spring or the dashpot that changed.
+    whether it is the spring or the dashpot that changed, and for a law of a clearance
+    (``own`` gap) whose force a smooth power-law spring reproduces (no knee: the record
+    does not resolve its clearance): it is reported as the hardening spring it acts as.
     """
     if behaviour is None or behaviour.family not in KIND_OF_FAMILY:
         return own
+    if own == "gap" and behaviour.family == "hardening" and behaviour.smooth:
+        return "hardening"
     kind = KIND_OF_FAMILY[behaviour.family]
     if KIND_OF_FAMILY.get(own) == kind and kind != "linear":
         return own
@@ -260,6 +286,32 @@ def classify_behaviour(u: FloatArray, v: FloatArray, f: FloatArray, *, k: float,
         q = max(1, amp.size // 4)
         small = float(np.median(secant[order[:q]]))
         large = float(np.median(secant[order[-q:]]))
-        gap = large > 0 and abs(small) < GAP_RATIO * large
-        return Behaviour("gap" if gap else "hardening", r2, loss, float("nan"), slope)
+        knee = knee_share(u, v, r)
+        gap = large > 0 and abs(small) < GAP_RATIO * large and knee >= KNEE_SHARE
+        return Behaviour("gap" if gap else "hardening", r2, loss, float("nan"), slope, knee)
     return Behaviour("softening", r2, loss, float("nan"), slope)
+
+
+def knee_share(u: FloatArray, v: FloatArray, r: FloatArray) -> float:
+    r"""Share of ``r`` (squared) that no smooth power-law spring along ``u`` explains.
+
+    The least-squares fit :math:`r \approx a u + b \dot u + c\,\mathrm{sgn}(u)|u|^q`
+    (a stiffness and a damping change beside one power, Eq. (20) of [003]'s residual
+    restoring force) at the best exponent ``q`` of :data:`POWERS`; its residual sum of
+    squares over that of ``r``. A cubic or any power-law spring leaves ~0; a clearance
+    (nothing inside it, a stop beyond) leaves its knee.
+    """
+    u = np.asarray(u, float).ravel()
+    v = np.asarray(v, float).ravel()
+    r = np.asarray(r, float).ravel()
+    total = float(np.dot(r, r))
+    scale = float(np.max(np.abs(u))) if u.size else 0.0
+    if total <= 0 or scale <= 0:
+        return float("nan")
+    x = np.abs(u) / scale
+    best = total
+    for q in POWERS:
+        basis = np.column_stack([u, v, np.sign(u) * x**q])
+        coef, *_ = np.linalg.lstsq(basis, r, rcond=None)
+        best = min(best, float(np.sum((r - basis @ coef) ** 2)))
+    return best / total

@@ -11,7 +11,10 @@
   errors of an RMS estimated from its samples, 3 / sqrt(2 N), at least 1 %, either way: a
   record at a level where the effect does not engage, such as a low-level record for a
   friction effect, cannot be improved); otherwise it is rejected, naming the record it
-  failed on and the figure before and after.
+  failed on and the figure before and after. A record already at its noise floor (whitened
+  figure at most 1) is not made worse by a rise that stays within the noise: the rise is
+  counted from the larger of its figure before and the floor (a residual below the noise
+  estimate moving within it is noise, not a misfit).
 - A fit that ends on a bound of its parameters, or with an implausible value (an added mass
   below 1 % of the floor mass it joins, or negative), is flagged; flagged candidates are
   reported but never chosen (nor written by ``effects add --auto``).
@@ -50,6 +53,7 @@ __all__ = ["figures_on", "information_criterion", "judge", "labelled", "rank",
 LOWER_BY = 0.01  # training and held-out: at least 1 % lower
 WORSE_BY = 0.01  # other records: at most 1 % higher
 TIED = 0.05  # held-out errors within 5 % of the best are ranked by BIC
+AT_FLOOR = 1.0  # whitened figure of a record at its noise floor (residual = noise)
 
 
 def record_noise_floor(plant: Plant, rec: Record, *, seed: int = 0,
@@ -188,9 +192,10 @@ def verdict(before: Sequence[ErrorFigures], after: Sequence[ErrorFigures],
     """Why a candidate is rejected ("" when it is not), on the whitened figures.
 
     ``before[0]`` / ``after[0]`` are the training record and ``[1]`` the held-out one: both
-    must fall by ``lower_by``; no other record may rise by more than its tolerance. With
-    ``earn`` (each record's sampling tolerance), both must also fall by more than it
-    (:func:`unearned`).
+    must fall by ``lower_by``; no other record may rise by more than its tolerance above
+    the larger of its figure before and the noise floor (:data:`AT_FLOOR`, module
+    docstring). With ``earn`` (each record's sampling tolerance), both must also fall by
+    more than it (:func:`unearned`).
     """
     for i, (b, a) in enumerate(zip(before, after, strict=True)):
         name = b.record or f"record {i}"
@@ -198,7 +203,7 @@ def verdict(before: Sequence[ErrorFigures], after: Sequence[ErrorFigures],
         if i < 2 and not va < (1 - lower_by) * vb:
             return (f"does not lower the error on {name} (whitened RMS x{vb:.2f} -> "
                     f"x{va:.2f}; NRMSE {100 * b.total:.2f} % -> {100 * a.total:.2f} %)")
-        if i >= 2 and va > (1 + tolerances[i]) * vb:
+        if i >= 2 and va > (1 + tolerances[i]) * max(vb, AT_FLOOR):
             return (f"makes {name} worse (whitened RMS x{vb:.2f} -> x{va:.2f}; NRMSE "
                     f"{100 * b.total:.2f} % -> {100 * a.total:.2f} %)")
     return unearned(before, after, earn) if len(earn) else ""

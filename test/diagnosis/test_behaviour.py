@@ -202,3 +202,57 @@ def test_a_smooth_bilinear_spring_reports_softening_or_hardening_by_its_ratio(
     assert f.family == family, f.behaviour
     assert f"behaves as a {family} spring" in f.behaviour
     assert "the behaviour wins" not in f.behaviour
+
+
+# --- a clearance is a knee: a stiff smooth hardening over a decade of amplitude is no gap --
+
+
+def swelling_drift(seed: int = 4, nt: int = 12000) -> tuple[np.ndarray, np.ndarray]:
+    """A narrow-band drift (0.9-1.1 Hz) whose amplitude grows tenfold, to 10 cm at the end."""
+    rng = np.random.default_rng(seed)
+    sos = signal.butter(4, [0.9, 1.1], btype="band", fs=FS, output="sos")
+    u = signal.sosfiltfilt(sos, rng.standard_normal(nt))
+    u *= np.linspace(0.1, 1.0, nt) / np.max(np.abs(u))
+    u *= 0.10 / np.max(np.abs(u))
+    return u, np.gradient(u, 1 / FS)
+
+
+def test_a_cubic_spring_over_a_decade_of_amplitude_is_hardening_not_a_gap() -> None:
+    """k3 u^3: its secant grows as A^2, so cycles from 1 to 10 cm see secants 1:100 (the
+    smallest below a tenth of the largest: the secant ratio alone reads a gap), but a power
+    law explains the force exactly (knee share ~0): a hardening spring."""
+    u, v = swelling_drift()
+    b = classify_behaviour(u, v, K * u + C * v + 4e8 * u**3, k=K, c=C)
+    assert b.family == "hardening", b.text()
+    assert b.knee_share < 1e-6
+    assert "knee share" in b.text()
+
+
+@pytest.mark.parametrize(("g", "n", "family"), [(0.06, 1.0, "gap"), (0.05, 1.5, "gap"),
+                                                (0.005, 2.5, "hardening")])
+def test_a_clearance_is_a_gap_only_where_the_record_resolves_its_knee(
+        g: float, n: float, family: str) -> None:
+    """A contact spring beyond a clearance g (overlap to the power n) along the swelling
+    drift: at 6 cm (linear) or 5 cm (Hertz) of a 10 cm peak the force is nil through most
+    cycles, then rises at a knee no power law has; at 5 mm (the foot of the drift) a power
+    law of the overlap, ~u^2.5 beyond it, is one of the smooth springs: hardening."""
+    u, v = swelling_drift()
+    contact = 3 * K * g * np.sign(u) * (np.clip(np.abs(u) - g, 0.0, None) / g) ** n
+    b = classify_behaviour(u, v, K * u + C * v + contact, k=K, c=C)
+    assert b.family == family, b.text()
+    assert (b.knee_share >= 1e-3) == (family == "gap")
+
+
+@pytest.mark.parametrize(("g", "n", "family"), [(0.06, 1.5, "gap"), (0.005, 2.5, "hardening")])
+def test_a_gap_law_without_a_knee_on_the_record_reports_hardening(
+        g: float, n: float, family: str) -> None:
+    """The library's gap law (beside the nominal spring, kp = 1) fitted with a clearance of
+    5 mm under a 5 cm RMS drift acts as a smooth hardening spring and is reported as one,
+    its own family beside it (the narrow-band sinh case of session 12 named such a fit a
+    gap); a clearance of 6 cm stays a gap."""
+    eff = EffectSpec("RB1", "gap", {"g": g, "g_neg": g, "n": n, "k": 5.0e6, "kp": 1.0})
+    f = _labelled(eff)
+    assert f.family == family, f.behaviour
+    if family == "hardening":
+        assert "behaves as a hardening spring" in f.behaviour
+        assert "its law's own family is gap, the behaviour wins" in f.behaviour
