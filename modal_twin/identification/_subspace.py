@@ -20,14 +20,15 @@ from collections.abc import Sequence
 
 import numpy as np
 import scipy.linalg as sla
+from numpy.typing import ArrayLike
 
 from modal_twin._types import ComplexArray, FloatArray, IntArray
 from modal_twin.errors import ModelError, OptionError
 from modal_twin.identification.modal_model import PoleSet, normalize_shapes
 from modal_twin.progress import track
 
-__all__ = ["check_orders", "choose_block_rows", "default_block_rows", "leading_eigh",
-           "leading_subspace", "poles_over_orders", "std_blocks"]
+__all__ = ["channel_scales", "check_orders", "choose_block_rows", "default_block_rows",
+           "leading_eigh", "leading_subspace", "poles_over_orders", "std_blocks"]
 
 
 def check_orders(orders: object, max_allowed: int, what: str) -> IntArray:
@@ -282,3 +283,18 @@ def leading_subspace(P: FloatArray, n_max: int) -> tuple[FloatArray, FloatArray,
     s = np.sqrt(np.clip(s2, 0.0, None))
     s2_inv = 1.0 / np.where(s2[:n_max] > 0, s2[:n_max], np.inf)
     return s, U[:, :n_max], s2_inv
+
+
+def channel_scales(Y: FloatArray, groups: ArrayLike | None) -> FloatArray:
+    """RMS of each channel, or the joint RMS of its group (``scale_groups``)."""
+    ms = np.mean((Y - Y.mean(axis=1, keepdims=True)) ** 2, axis=1)
+    if groups is None:
+        return np.asarray(np.sqrt(ms), dtype=float)
+    g = np.asarray(groups)
+    if g.shape != (Y.shape[0],):
+        msg = f"scale_groups: expected one label per channel ({Y.shape[0]}), got {g.shape}"
+        raise OptionError(msg)
+    out = np.empty(Y.shape[0])
+    for lab in np.unique(g):
+        out[g == lab] = np.sqrt(np.mean(ms[g == lab]))
+    return out

@@ -59,6 +59,7 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.identification._lagsums import hankel_gram
 from modal_twin.identification._subspace import (
+    channel_scales,
     check_orders,
     choose_block_rows,
     leading_subspace,
@@ -66,7 +67,6 @@ from modal_twin.identification._subspace import (
     std_blocks,
 )
 from modal_twin.identification.modal_model import PoleSweep
-from modal_twin.identification.ssi_cov import _channel_scales
 from modal_twin.validation import as_channels, check_positive, check_rank
 
 __all__ = ["WEIGHTINGS", "n4sid"]
@@ -289,7 +289,7 @@ def _unit_rms(U: FloatArray, Y: FloatArray, groups: ArrayLike | None = None
               ) -> tuple[FloatArray, FloatArray]:
     """``z = [u; y]``, means removed, unit RMS per input and per output (or output group).
 
-    Returns ``z`` and the outputs' scales (``_channel_scales`` of SSI-cov: each channel's
+    Returns ``z`` and the outputs' scales (``channel_scales`` of SSI-cov: each channel's
     RMS, or its group's joint RMS).
     """
     m, n = U.shape[0], U.shape[1]
@@ -298,7 +298,7 @@ def _unit_rms(U: FloatArray, Y: FloatArray, groups: ArrayLike | None = None
     np.subtract(Y, Y.mean(axis=1, keepdims=True), out=z[m:])
     sz = np.sqrt(np.einsum("ij,ij->i", z, z) / n)
     if groups is not None:
-        sz[m:] = _channel_scales(Y, groups)
+        sz[m:] = channel_scales(Y, groups)
     z /= sz[:, None]
     return z, sz[m:]
 

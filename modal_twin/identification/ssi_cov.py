@@ -32,6 +32,7 @@ from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.identification._lagsums import lag_sums
 from modal_twin.identification._subspace import (
+    channel_scales,
     check_orders,
     choose_block_rows,
     leading_subspace,
@@ -170,7 +171,7 @@ def ssi_cov(
         )
         raise ShapeError(msg)
     o = check_orders(orders, min(l * (i - 1), r * i), f"rank limit of {l * i} x {r * i} Toeplitz")
-    scale = _channel_scales(Y, scale_groups)
+    scale = channel_scales(Y, scale_groups)
     Ys = (Y - Y.mean(axis=1, keepdims=True)) / scale[:, None]
     T, Tb = _toeplitz_blocks(Ys, ref, i, nb)
     # the one factorisation for every order: T T^T = U S^2 U^T (symmetric eigen-solve,
@@ -181,21 +182,6 @@ def ssi_cov(
     G_blocks = [(Tk @ TtG) * s2_inv for Tk in Tb]  # O_b = T_b V S^-1 with V = T^T U S^-1
     poles = poles_over_orders(G, l, o, fs, G_blocks=G_blocks, out_scale=scale)
     return PoleSweep("ssi-cov", o, poles, s, len(G_blocks))
-
-
-def _channel_scales(Y: FloatArray, groups: ArrayLike | None) -> FloatArray:
-    """RMS of each channel, or the joint RMS of its group (``scale_groups``)."""
-    ms = np.mean((Y - Y.mean(axis=1, keepdims=True)) ** 2, axis=1)
-    if groups is None:
-        return np.asarray(np.sqrt(ms), dtype=float)
-    g = np.asarray(groups)
-    if g.shape != (Y.shape[0],):
-        msg = f"scale_groups: expected one label per channel ({Y.shape[0]}), got {g.shape}"
-        raise OptionError(msg)
-    out = np.empty(Y.shape[0])
-    for lab in np.unique(g):
-        out[g == lab] = np.sqrt(np.mean(ms[g == lab]))
-    return out
 
 
 def _toeplitz_blocks(Ys: FloatArray, ref: IntArray, i: int, nb: int
