@@ -90,16 +90,21 @@ def _identified(bag: Path, notes: list[str]) -> tuple[dict[str, Any], Any]:
     out: dict[str, Any] = {"stabilization": rec.diagram}
     if mm.f_hz.size:
         out.update(_modes_sections(mf, bag.name))
-    if rec.inputs and rec.outputs:
+    # the record's inputs, also where the identification ran output-only (said above)
+    ins = list(rec.inputs) or [c for c in chans if c.role == "input" and c.name in
+                               block.channel_names and np.std(block.select((c.name,)).data) > 0]
+    if ins and rec.outputs:
         with step("report: FRFs (H1)"):
-            x = block.select([c.name for c in rec.inputs[:1]]).data
+            x = block.select([ins[0].name]).data
             y = block.select([c.name for c in rec.outputs]).data
             est = frf(x, y, block.fs_hz)
         lo, hi = rec.settings.band_hz
         band = (est.f_hz >= lo) & (est.f_hz <= hi)
         out["frf"] = (est.f_hz[band], np.nan_to_num(est.H1[:, 0, band]),
                       [c.name for c in rec.outputs], None)
-        notes.append(f"FRF: H1 of every output to the input {rec.inputs[0].name}")
+        notes.append(f"FRF: H1 of every output to the input {ins[0].name}"
+                     + ("" if rec.inputs else " (a measured input the output-only "
+                                              "identification left out)"))
     return out, (mf if mm.f_hz.size else None)
 
 
