@@ -166,8 +166,10 @@ def _identify_frf(a: argparse.Namespace) -> int:
     unused = [o for o in ("inputs", "outputs", "directions", "selection")
               if getattr(a, o) is not None]
     if a.method not in (None, "polymax") or unused:
+        given = ([f"--method {a.method}"] if a.method not in (None, "polymax") else []) + [
+            f"--{o}" for o in unused]
         msg = (f"{a.bag}: a FRF file is identified by PolyMAX + LSFD on its FRFs; "
-               f"--method {a.method} / {['--' + o for o in unused]} do not apply")
+               f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply")
         raise OptionError(msg)
     if a.out is not None:
         check_new_in(a.out, ("modes.json",), a.force)

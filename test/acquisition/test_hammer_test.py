@@ -193,3 +193,28 @@ def test_a_device_load_cell_is_no_hammer() -> None:
     forces, resp = hammer_channels([*CHANNELS, cell])
     assert [c.name for c in forces] == ["F1", "F2"]
     assert [c.name for c in resp] == ["a1", "a2"]
+
+
+@pytest.mark.parametrize(("extra", "said"), [
+    (("--block-s", "60"), "--block-s 60.0: expected at most the record's 48 s"),
+    (("--block-s", "inf"), "--block-s and --tau-s: expected > 0, got inf"),
+    (("--block-s", "6", "--force-range", "-3"), "--force-range: expected a range > 0 N"),
+    (("--block-s", "6", "--force-range", "nan"), "--force-range: expected a range > 0 N"),
+])
+def test_impact_options_outside_the_record_are_one_line_and_nothing_written(
+        tmp_path, capsys, extra: tuple[str, ...], said: str) -> None:
+    """A block longer than the 48 s record (it read as 'no force above the trigger'), an
+    infinite block (an OverflowError), a negative range (every hit an 'overload at -3 N')
+    and a NaN range (no overload check at all, exit 0): each one line naming the limit,
+    exit 2, no output."""
+    from modal_twin.cli import main
+    from modal_twin.io.uff import write_uff58_time
+
+    path = write_uff58_time(tmp_path / "hammer.uff", CHANNELS, FS, simulate(bounce_hit=None))
+    assert main(["import", str(path), "--out", str(tmp_path / "bag")]) == 0
+    capsys.readouterr()
+    out = tmp_path / "frf"
+    assert main(["impact", str(tmp_path / "bag"), "--out", str(out), *extra]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and said in err, err
+    assert not out.exists() or not any(out.iterdir())

@@ -71,8 +71,9 @@ def test_identify_a_frf_file_gives_the_chains_modes(tmp_path: Path,
 
 
 @pytest.mark.parametrize(("args", "words"), [
-    (["--method", "n4sid"], "PolyMAX"),
-    (["--inputs", "a"], "--inputs"),
+    (["--method", "n4sid"], "PolyMAX + LSFD on its FRFs; --method n4sid does not apply"),
+    (["--inputs", "a"], "on its FRFs; --inputs does not apply"),
+    (["--method", "ssi-cov", "--outputs", "b"], "; --method ssi-cov, --outputs do not apply"),
     (["--f-max", "500"], "at most 100 Hz"),
     (["--f-max", "0.1"], "above 0.25 Hz"),
 ])
