@@ -276,8 +276,8 @@ def read_uff(path: str | Path) -> UffContents:
                             "unit": str(s.get("ordinate_axis_units_lab", "")).strip()})
     time = _with_roles(time, sets)
     geo = _geometry([s for s in sets if s["type"] in _GEOMETRY and not s.get("_skipped")])
-    if skipped:
-        log.info("%s: dataset types %s skipped (not read)", p, sorted(set(skipped)))
+    if set(skipped) - {55}:  # modes are read by read_uff55 (import does), not skipped
+        log.info("%s: dataset types %s skipped (not read)", p, sorted(set(skipped) - {55}))
     return UffContents(tuple(time), tuple(spectra), geo, tuple(skipped))
 
 
