@@ -244,6 +244,14 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path,
     capsys.readouterr()
     _bad(["identify", str(out), "--method", "n4sid"], capsys, "needs input channels",
          "ssi-cov")
+    # a direction no output has (it read as 'no channel with role output'), an azimuth
+    # that is not one (NaN gave every direction 'nan,nan,0' and exit 0)
+    _bad(["identify", str(out), "--directions", "q"], capsys, "directions ['q']: no output "
+         "channel along them (the outputs' directions: ['none']")
+    for az in ("nan", "400", "-1"):
+        _bad(["import", str(good), "--structure-frame", az, "--out", str(tmp_path / "az")],
+             capsys, "--structure-frame: expected an azimuth in [0, 360) deg from north")
+    assert not (tmp_path / "az").exists()
 
 
 # ---------------------------------------------------------------- real records
