@@ -8,6 +8,8 @@ What the folder holds decides the sections (:func:`load_record_folder`):
 - an imported bag (``channel_map.json`` and a record) without modes -> identified here, as
   ``modal-twin identify`` does (:func:`~modal_twin.identification.record.identify_record`):
   stabilization diagram, modes, auto-MAC; with input channels also the H1 FRFs;
+- a hammer test's FRF matrix (``frf.uff``, as ``impact`` / ``hammer`` write it) -> the FRF
+  magnitudes, each response over each reference;
 - a test geometry (``geometry_*.json`` of the import, or the one in the modes file) -> the
   3D view, the modes drawn on it where their channels sit.
 
@@ -108,6 +110,27 @@ def _identified(bag: Path, notes: list[str]) -> tuple[dict[str, Any], Any]:
     return out, (mf if mm.f_hz.size else None)
 
 
+def _frf_file(folder: Path, notes: list[str]) -> dict[str, Any]:
+    """Return the report section of a hammer test's ``frf.uff`` (``impact``, ``hammer``, node)."""
+    from modal_twin.io.impact_files import FRF_FILE, read_frf_matrix
+
+    p = folder / FRF_FILE
+    if not p.is_file() or p.is_symlink():
+        return {}
+    try:
+        with step(f"report: FRFs ({FRF_FILE})"):
+            f, H, outs, ins = read_frf_matrix(p)
+    except ModalTwinError as err:
+        notes.append(f"left out {FRF_FILE}: {err}")
+        return {}
+    keep = f > 0
+    names = [f"{''.join(o)}/{''.join(i)}" for i in ins for o in outs]
+    rows = np.concatenate([H[:, k, keep] for k in range(len(ins))])
+    notes.append(f"FRF: {FRF_FILE}, {len(outs)} responses x {len(ins)} references "
+                 f"(response/reference node and direction)")
+    return {"frf": (f[keep], rows, names, None)}
+
+
 def _scene(folder: Path, mf: Any, notes: list[str]) -> str | None:
     """3D view of the folder's test geometry (or the modes file's), the modes on it."""
     from modal_twin.commands.view import load_measured_geometry
@@ -161,6 +184,8 @@ def load_record_folder(folder: Path) -> tuple[Any, str]:
     elif (folder / "channel_map.json").is_file() and (folder / "metadata.yaml").is_file():
         ident, mf = _identified(folder, notes)
         data.update(ident)
+    if "frf" not in data:
+        data.update(_frf_file(folder, notes))
     images = _figures(folder, notes)
     with step("report: 3D view"):
         scene = _scene(folder, mf, notes)
@@ -168,6 +193,7 @@ def load_record_folder(folder: Path) -> tuple[Any, str]:
     if not (data or images or scene):
         return None, (f"{folder}: nothing to report: no run (*/bag, models/), no imported "
                       "record (channel_map.json with a bag), no modes (modes.json, "
-                      "modes_*.json) and no test geometry (geometry_*.json)")
+                      "modes_*.json), no FRF matrix (frf.uff) and no test geometry "
+                      "(geometry_*.json)")
     return RunData(f"modal_twin record {folder.name} ({source})", scene_html=scene,
                    figures=images, notes=notes, **data), ""

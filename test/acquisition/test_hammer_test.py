@@ -218,3 +218,29 @@ def test_impact_options_outside_the_record_are_one_line_and_nothing_written(
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and said in err, err
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_report_shows_the_frf_matrix_of_an_impact_folder(tmp_path, capsys) -> None:
+    """``report`` on the folder ``impact`` wrote (frf.uff, hits.yaml, no modes): it said
+    'nothing to report'; now the FRF section holds every response over every reference,
+    equal to the closed-form accelerance within 1 % over 2-40 Hz."""
+    from modal_twin.cli import main
+    from modal_twin.commands.report_record import load_record_folder
+    from modal_twin.io.uff import write_uff58_time
+
+    path = write_uff58_time(tmp_path / "hammer.uff", CHANNELS, FS, simulate(bounce_hit=1))
+    assert main(["import", str(path), "--out", str(tmp_path / "bag")]) == 0
+    out = _impact_cli(tmp_path, [tmp_path / "bag"])
+    data, missing = load_record_folder(out)
+    assert data is not None, missing
+    f, rows, names, model = data.frf
+    assert names == ["1x/1x", "2x/1x", "1x/2x", "2x/2x"] and model is None
+    band = (f > 2.0) & (f < 40.0)
+    ref = accelerance(f[band])
+    for k, (o, i) in enumerate([(0, 0), (1, 0), (0, 1), (1, 1)]):
+        err = np.abs(rows[k, band] - ref[o, i]) / np.abs(ref[o, i])
+        assert float(np.max(err)) < 0.01
+    capsys.readouterr()
+    assert main(["report", str(out), "--out", str(tmp_path / "r.html")]) == 0
+    page = (tmp_path / "r.html").read_text()
+    assert '<section id="frf">' in page and "FRF: frf.uff, 2 responses x 2 references" in page
