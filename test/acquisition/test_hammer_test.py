@@ -244,3 +244,22 @@ def test_report_shows_the_frf_matrix_of_an_impact_folder(tmp_path, capsys) -> No
     assert main(["report", str(out), "--out", str(tmp_path / "r.html")]) == 0
     page = (tmp_path / "r.html").read_text()
     assert '<section id="frf">' in page and "FRF: frf.uff, 2 responses x 2 references" in page
+
+
+@pytest.mark.parametrize(("param", "value", "said"), [
+    ("impact_force_range_n", -3.0, "impact_force_range_n: expected >= 0 (0: none), got -3.0"),
+    ("impact_force_range_n", float("nan"), "impact_force_range_n: expected >= 0"),
+    ("impact_tau_s", -0.5, "impact_tau_s: expected >= 0 (0: none), got -0.5"),
+    ("impact_block_s", float("inf"), "impact_block_s: expected a block > 0 s, got inf"),
+    ("impact_block_s", 0.0, "impact_block_s: expected a block > 0 s, got 0.0"),
+])
+def test_the_nodes_impact_parameters_are_checked_at_start(param: str, value: float,
+                                                           said: str) -> None:
+    """A negative range made every hit an 'overload at -3 N' at the end of the test, a NaN
+    one no overload check; now the node refuses them when its parameters are read."""
+    pytest.importorskip("rclpy")
+    from modal_twin.acquisition.node import AcquisitionConfig
+
+    with pytest.raises(OptionError, match=said.replace("(", r"\(").replace(")", r"\)")):
+        AcquisitionConfig(mode="impact", **{param: value})
+    AcquisitionConfig(mode="impact", impact_force_range_n=300.0, impact_tau_s=0.5)
