@@ -31,10 +31,12 @@ def exact_f_hz() -> np.ndarray:
     return np.sqrt(w2) / (2 * np.pi)
 
 
-def shear_frame_csv(path: Path, fs: float = 100.0, seconds: float = 120.0) -> Path:
+def shear_frame_csv(path: Path, fs: float = 100.0, seconds: float = 120.0, *,
+                    unmeasured: float = 0.0) -> Path:
     """Base acceleration (white, 0.5 m/s^2 RMS) and the floors' absolute accelerations, 2 %
     modal damping, 2 % sensor noise, written with units (floor 2 in g to check the
-    conversion)."""
+    conversion); ``unmeasured`` x another white base motion drives the frame too but is
+    not in the ``ground`` column."""
     M, K = np.diag(MASS), _k(K_STORY)
     w2, V = sla.eigh(K, M)
     C = M @ V @ np.diag(2 * 0.02 * np.sqrt(w2)) @ V.T @ M  # V^T M V = I
@@ -45,7 +47,8 @@ def shear_frame_csv(path: Path, fs: float = 100.0, seconds: float = 120.0) -> Pa
     Ad, Bd, Cd, Dd, _ = sig.cont2discrete((A, B, Cy, np.zeros((2, 1))), 1 / fs)
     rng = np.random.default_rng(7)
     ag = 0.5 * rng.standard_normal(int(fs * seconds))
-    _, y, _ = sig.dlsim((Ad, Bd, Cd, Dd, 1 / fs), ag)
+    hidden = unmeasured * 0.5 * np.random.default_rng(11).standard_normal(ag.size)
+    _, y, _ = sig.dlsim((Ad, Bd, Cd, Dd, 1 / fs), ag + hidden)
     y = y + 0.02 * y.std(axis=0) * rng.standard_normal(y.shape)  # sensor noise, 2 % RMS
     t = np.arange(ag.size) / fs
     rows = np.column_stack([t, ag, y[:, 0], y[:, 1] / 9.80665])
@@ -241,6 +244,14 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path,
     capsys.readouterr()
     _bad(["identify", str(out), "--method", "n4sid"], capsys, "needs input channels",
          "ssi-cov")
+    # a direction no output has (it read as 'no channel with role output'), an azimuth
+    # that is not one (NaN gave every direction 'nan,nan,0' and exit 0)
+    _bad(["identify", str(out), "--directions", "q"], capsys, "directions ['q']: no output "
+         "channel along them (the outputs' directions: ['none']")
+    for az in ("nan", "400", "-1"):
+        _bad(["import", str(good), "--structure-frame", az, "--out", str(tmp_path / "az")],
+             capsys, "--structure-frame: expected an azimuth in [0, 360) deg from north")
+    assert not (tmp_path / "az").exists()
 
 
 # ---------------------------------------------------------------- real records
@@ -459,6 +470,31 @@ def test_report_on_an_imported_record_and_an_identify_folder(
     np.testing.assert_allclose(_f_in_page(page), [m["f_hz"] for m in doc["modes"]],
                                atol=6e-5)
     assert page.count("data:image/png;base64,") == 3  # auto-MAC and identify's two PNGs
+
+
+def test_report_shows_the_frfs_of_a_record_identified_output_only(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """The frame driven as much again by a base motion nobody measured: the ground channel
+    explains half the response (< 0.8), the identification runs output-only, and the
+    report still shows the H1 FRFs to the measured input; |H1| of the top floor peaks at
+    the first frequency of the truth's matrices (to 2 %)."""
+    from modal_twin.commands.report_record import _identified
+
+    csv = shear_frame_csv(tmp_path / "frame.csv", unmeasured=1.0)
+    roles = tmp_path / "roles.yaml"
+    roles.write_text("channels:\n  - {name: ground, role: input}\n")
+    assert main(["import", str(csv), "--map", str(roles), "--out", str(tmp_path / "bag")]) == 0
+    notes: list[str] = []
+    out, _ = _identified(tmp_path / "bag", notes)
+    assert any("output-only" in n for n in notes)
+    assert any("FRF: H1 of every output to the input ground (a measured input the "
+               "output-only identification left out)" in n for n in notes)
+    f, h, names, _ = out["frf"]
+    assert names == ["floor1", "floor2"]
+    np.testing.assert_allclose(f[np.argmax(np.abs(h[1]))], exact_f_hz()[0], rtol=0.02)
+    page = tmp_path / "bag.html"
+    assert main(["report", str(tmp_path / "bag"), "--out", str(page)]) == 0
+    assert '<section id="frf">' in page.read_text()
 
 
 def test_report_on_an_imported_uff_with_geometry_and_on_an_empty_folder(

@@ -304,6 +304,20 @@ def test_view_of_a_matrix_model_says_what_it_takes(tmp_path: Path,
     assert "UTF-8" not in err and "\n" not in err
 
 
+def test_view_of_a_frame_file_says_what_it_takes(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """The impact test's frame file: one line saying what view takes (it listed the frame
+    spec's keys as unknown keys of a structure file)."""
+    from modal_twin.cli import main
+
+    frame = Path(__file__).resolve().parents[1] / "config" / "structures" / "tracking_frame.yaml"
+    assert main(["view", str(frame), "--html", str(tmp_path / "v.html")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "a frame file (kind: frame) is a matrix model built from its spec" in err
+    assert "unknown keys" not in err and "\n" not in err
+    assert not (tmp_path / "v.html").exists()
+
+
 def test_effects_history_of_a_missing_folder_exits_2(tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     from modal_twin.cli import main

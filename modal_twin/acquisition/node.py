@@ -9,6 +9,7 @@ directory), logging the hits averaged and each one rejected
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,6 +56,14 @@ class AcquisitionConfig:
         if self.impact_estimator not in ("H1", "H2", "Hv"):
             msg = f"impact_estimator: expected H1, H2 or Hv, got {self.impact_estimator!r}"
             raise OptionError(msg)
+        if not (math.isfinite(self.impact_block_s) and self.impact_block_s > 0):
+            msg = f"impact_block_s: expected a block > 0 s, got {self.impact_block_s}"
+            raise OptionError(msg)
+        for name in ("impact_tau_s", "impact_force_range_n"):  # 0 = none
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                msg = f"{name}: expected >= 0 (0: none), got {v}"
+                raise OptionError(msg)
 
 
 class AcquisitionNode(Node):

@@ -18,6 +18,9 @@ __all__ = ["OUTPUTS", "register", "run"]
 OUTPUTS = ("campaign.csv", "campaign.json", "campaign.png")
 """The files ``--out`` gets; an existing one is kept unless ``--force``."""
 
+DEFAULT_WINDOW_S = 600.0
+"""Window length without ``--window``; a record shorter than it is one window."""
+
 HELP = "identify every window of many bags (or parts); modal frequencies and damping vs time"
 
 
@@ -36,12 +39,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``campaign`` parser."""
     p = sub.add_parser("campaign", help=HELP, description=HELP)
     p.add_argument("bags", type=Path, nargs="+", help="bags or folders of rotated parts")
-    p.add_argument("--window", type=float, default=600.0, help="window length, s")
+    p.add_argument("--window", type=float, default=None,
+                   help=f"window length, s (default {DEFAULT_WINDOW_S:g} s, or the whole "
+                        "record where it is shorter)")
     p.add_argument("--topic", default="/measurement/frames")
-    p.add_argument("--channels", default=None, help="outputs, name,name,... (default all)")
+    p.add_argument("--channels", default=None,
+                   help="outputs, name,name,... (default: the channels of role output in "
+                        "the bag's channel map; without a map all but --inputs)")
     p.add_argument("--inputs", default=None,
                    help="measured inputs, name,name,... (then N4SID; default SSI-cov)")
-    p.add_argument("--orders", default="8:40:2", help="model orders first:last:step")
+    p.add_argument("--orders", default=None,
+                   help="model orders first:last:step (default: from each window, as "
+                        "identify)")
     p.add_argument("--f-range", default=None,
                    help="analysis band, Hz: low,high (default: from each window, as identify)")
     p.add_argument("--executor", default=None,
@@ -50,6 +59,25 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, default=Path("campaign"), help="output folder")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs")
     p.set_defaults(func=run)
+
+
+def _outputs(a: argparse.Namespace, bag: Path, names: tuple[str, ...],
+             inputs: tuple[str, ...]) -> tuple[str, ...]:
+    """Return the outputs of ``bag``: ``--channels``, else its map's role ``output``."""
+    from modal_twin.io.imported import bag_channel_map
+
+    if a.channels:
+        return tuple(a.channels.split(","))
+    roles = {c.name: c.role for c in bag_channel_map(bag)}
+    if not roles:  # no map: every channel but the named inputs
+        return tuple(c for c in names if c not in inputs)
+    outs = tuple(c for c in names if roles.get(c) == "output" and c not in inputs)
+    left = [c for c in names if c not in outs and c not in inputs]
+    print(f"campaign: {bag}: outputs {len(outs)} of {len(names)} channels, role 'output' "
+          f"in its channel map" + (f" ({len(left)} others left out: "
+                                   f"{', '.join(sorted({str(roles.get(c)) for c in left}))})"
+                                   if left else ""), file=sys.stderr)
+    return outs
 
 
 def _windows(a: argparse.Namespace) -> tuple[list, tuple[str, ...]]:
@@ -64,17 +92,24 @@ def _windows(a: argparse.Namespace) -> tuple[list, tuple[str, ...]]:
             print(f"campaign: {bag}: {frames.note()}; windows taken within each of the "
                   f"{len(frames.runs)} runs", file=sys.stderr)
         rec = frames.runs[0]
-        names = tuple(a.channels.split(",")) if a.channels else tuple(
-            c for c in rec.channel_names if c not in inputs)
+        names = _outputs(a, bag, rec.channel_names, inputs)
         if outputs is not None and names != outputs:
             msg = f"{bag}: expected the channels of {a.bags[0]} {list(outputs)}, got {list(names)}"
             raise OptionError(msg)
         outputs = names
-        runs = [r for r in frames.runs if r.n_samples >= a.window * r.fs_hz] or [
+        window_s = a.window
+        if window_s is None:  # the default: 600 s, or the whole of a shorter record
+            whole = frames.longest.n_samples / frames.longest.fs_hz
+            window_s = min(DEFAULT_WINDOW_S, whole)
+            if whole < DEFAULT_WINDOW_S:
+                print(f"campaign: {bag}: one window of the whole record, {whole:.6g} s "
+                      f"(shorter than the default {DEFAULT_WINDOW_S:g} s; --window to "
+                      f"choose)", file=sys.stderr)
+        runs = [r for r in frames.runs if r.n_samples >= window_s * r.fs_hz] or [
             frames.longest]  # none long enough: split_windows says so
         for run in runs:
             src = str(bag) if len(frames.runs) == 1 else f"{bag}[{run.first_index}:]"
-            windows += split_windows(run, a.window, outputs=names, inputs=inputs, source=src)
+            windows += split_windows(run, window_s, outputs=names, inputs=inputs, source=src)
     return windows, outputs or ()
 
 
@@ -117,9 +152,11 @@ def run(a: argparse.Namespace) -> int:
         raise OptionError(msg)
     check_new_in(a.out, OUTPUTS, a.force)  # before the work
     band = _floats(a.f_range, "--f-range", 2) if a.f_range else None
-    first, last, step = (int(v) for v in _floats(a.orders, "--orders", 3))
-    ident = WindowIdentifier(method="n4sid" if a.inputs else "ssi-cov",
-                             orders=tuple(range(first, last + 1, step)),
+    orders = None
+    if a.orders:
+        first, last, step = (int(v) for v in _floats(a.orders, "--orders", 3))
+        orders = tuple(range(first, last + 1, step))
+    ident = WindowIdentifier(method="n4sid" if a.inputs else "ssi-cov", orders=orders,
                              f_range_hz=None if band is None else (band[0], band[1]))
     with make_executor(a.executor or a.jobs) as ex:  # a bad spec fails before the reading
         windows, outputs = _windows(a)

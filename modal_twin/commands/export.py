@@ -164,7 +164,8 @@ def _frf(src: Path, out: Path, force: bool) -> str:
     with atomic_file(out, force=force) as tmp:
         tmp.unlink()
         write_uff58_frf(tmp, est.f_hz, H, [dof(c) for c in outs], [dof(c) for c in ins],
-                        [c.quantity for c in outs], [c.quantity for c in ins])
+                        [c.quantity for c in outs], [c.quantity for c in ins],
+                        names=([c.name for c in outs], [c.name for c in ins]))
     return f"{len(outs)} x {len(ins)} FRFs, {est.f_hz.size} lines"
 
 

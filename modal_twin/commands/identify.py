@@ -66,6 +66,23 @@ def _names(text: str | None) -> tuple[str, ...] | None:
     return None if not text else tuple(n.strip() for n in text.split(",") if n.strip())
 
 
+def _no_record(folder: Path) -> None:
+    """Refuse, saying what it holds, an imported folder with no time record (no bag).
+
+    ``import`` of a UFF holding only spectra, FRFs or modes writes them beside no bag.
+    """
+    from modal_twin.errors import ConfigError
+
+    if not folder.is_dir() or (folder / "metadata.yaml").exists() or any(folder.glob("*.mcap")):
+        return
+    held = sorted(p.name for p in (*folder.glob("spectra_*.npz"), *folder.glob("modes_*.json")))
+    if held:
+        msg = (f"{folder}: no time record to identify, only {held} of an imported UFF; "
+               "identify a FRF file itself (modal-twin identify FILE.uff), modes go to "
+               "report / view / update")
+        raise ConfigError(msg)
+
+
 def run(a: argparse.Namespace) -> int:
     """Identify the bag's modes (module docstring)."""
     from modal_twin.identification.record import IdentifyOptions, identify_record
@@ -73,6 +90,7 @@ def run(a: argparse.Namespace) -> int:
 
     if a.bag.suffix.lower() in FRF_SUFFIXES and a.bag.is_file():
         return _identify_frf(a)
+    _no_record(a.bag)
     if a.out is not None:
         check_new_in(a.out, OUTPUTS, a.force)  # before the work
     block, channels = read_imported(a.bag)
@@ -166,8 +184,10 @@ def _identify_frf(a: argparse.Namespace) -> int:
     unused = [o for o in ("inputs", "outputs", "directions", "selection")
               if getattr(a, o) is not None]
     if a.method not in (None, "polymax") or unused:
+        given = ([f"--method {a.method}"] if a.method not in (None, "polymax") else []) + [
+            f"--{o}" for o in unused]
         msg = (f"{a.bag}: a FRF file is identified by PolyMAX + LSFD on its FRFs; "
-               f"--method {a.method} / {['--' + o for o in unused]} do not apply")
+               f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply")
         raise OptionError(msg)
     if a.out is not None:
         check_new_in(a.out, ("modes.json",), a.force)

@@ -12,6 +12,7 @@ directions, for ``identify`` / PolyMAX) and ``DIR/hits.yaml`` (every hit's verdi
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from modal_twin.errors import OptionError
@@ -38,6 +39,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def _positive(x: float) -> bool:
+    return math.isfinite(x) and x > 0
+
+
 def run(a: argparse.Namespace) -> int:
     """Process the records and write ``frf.uff`` and ``hits.yaml`` (module docstring)."""
     from modal_twin.acquisition.hammer_test import HammerTest, merge_points
@@ -45,13 +50,20 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.io.imported import read_imported
     from modal_twin.paths import check_new_in
 
-    if not a.block_s > 0 or (a.tau_s is not None and not a.tau_s > 0):
+    if not _positive(a.block_s) or (a.tau_s is not None and not _positive(a.tau_s)):
         msg = f"--block-s and --tau-s: expected > 0, got {a.block_s} and {a.tau_s}"
+        raise OptionError(msg)
+    if a.force_range is not None and not _positive(a.force_range):
+        msg = f"--force-range: expected a range > 0 N, got {a.force_range}"
         raise OptionError(msg)
     check_new_in(a.out, (FRF_FILE, SUMMARY_FILE), a.force)
     results = []
     for bag in a.bags:
         block, channels = read_imported(bag)
+        if round(a.block_s * block.fs_hz) > block.n_samples:
+            msg = (f"--block-s {a.block_s}: expected at most the record's "
+                   f"{block.n_samples / block.fs_hz:.6g} s ({bag})")
+            raise OptionError(msg)
         test = HammerTest(channels, block_s=a.block_s, estimator=a.estimator,
                           tau_s=a.tau_s, force_range=a.force_range)
         print(f"impact: {bag}: forces {[c.name for c in test.inputs]}, responses "

@@ -270,6 +270,10 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.io.imported import write_imported, write_side_files
     from modal_twin.signal_block import SignalBlock
 
+    az = a.structure_frame
+    if az is not None and not (np.isfinite(az) and 0.0 <= az < 360.0):
+        msg = f"--structure-frame: expected an azimuth in [0, 360) deg from north, got {az}"
+        raise OptionError(msg)
     meta: dict[str, Any] = {"files": [str(f) for f in a.files]}
     extra: dict[str, Any] = {}
     parts = []

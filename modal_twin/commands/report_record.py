@@ -8,6 +8,8 @@ What the folder holds decides the sections (:func:`load_record_folder`):
 - an imported bag (``channel_map.json`` and a record) without modes -> identified here, as
   ``modal-twin identify`` does (:func:`~modal_twin.identification.record.identify_record`):
   stabilization diagram, modes, auto-MAC; with input channels also the H1 FRFs;
+- a hammer test's FRF matrix (``frf.uff``, as ``impact`` / ``hammer`` write it) -> the FRF
+  magnitudes, each response over each reference;
 - a test geometry (``geometry_*.json`` of the import, or the one in the modes file) -> the
   3D view, the modes drawn on it where their channels sit.
 
@@ -90,17 +92,43 @@ def _identified(bag: Path, notes: list[str]) -> tuple[dict[str, Any], Any]:
     out: dict[str, Any] = {"stabilization": rec.diagram}
     if mm.f_hz.size:
         out.update(_modes_sections(mf, bag.name))
-    if rec.inputs and rec.outputs:
+    # the record's inputs, also where the identification ran output-only (said above)
+    ins = list(rec.inputs) or [c for c in chans if c.role == "input" and c.name in
+                               block.channel_names and np.std(block.select((c.name,)).data) > 0]
+    if ins and rec.outputs:
         with step("report: FRFs (H1)"):
-            x = block.select([c.name for c in rec.inputs[:1]]).data
+            x = block.select([ins[0].name]).data
             y = block.select([c.name for c in rec.outputs]).data
             est = frf(x, y, block.fs_hz)
         lo, hi = rec.settings.band_hz
         band = (est.f_hz >= lo) & (est.f_hz <= hi)
         out["frf"] = (est.f_hz[band], np.nan_to_num(est.H1[:, 0, band]),
                       [c.name for c in rec.outputs], None)
-        notes.append(f"FRF: H1 of every output to the input {rec.inputs[0].name}")
+        notes.append(f"FRF: H1 of every output to the input {ins[0].name}"
+                     + ("" if rec.inputs else " (a measured input the output-only "
+                                              "identification left out)"))
     return out, (mf if mm.f_hz.size else None)
+
+
+def _frf_file(folder: Path, notes: list[str]) -> dict[str, Any]:
+    """Return the report section of a hammer test's ``frf.uff`` (``impact``, ``hammer``, node)."""
+    from modal_twin.io.impact_files import FRF_FILE, read_frf_matrix
+
+    p = folder / FRF_FILE
+    if not p.is_file() or p.is_symlink():
+        return {}
+    try:
+        with step(f"report: FRFs ({FRF_FILE})"):
+            f, H, outs, ins = read_frf_matrix(p)
+    except ModalTwinError as err:
+        notes.append(f"left out {FRF_FILE}: {err}")
+        return {}
+    keep = f > 0
+    names = [f"{''.join(o)}/{''.join(i)}" for i in ins for o in outs]
+    rows = np.concatenate([H[:, k, keep] for k in range(len(ins))])
+    notes.append(f"FRF: {FRF_FILE}, {len(outs)} responses x {len(ins)} references "
+                 f"(response/reference node and direction)")
+    return {"frf": (f[keep], rows, names, None)}
 
 
 def _scene(folder: Path, mf: Any, notes: list[str]) -> str | None:
@@ -156,6 +184,8 @@ def load_record_folder(folder: Path) -> tuple[Any, str]:
     elif (folder / "channel_map.json").is_file() and (folder / "metadata.yaml").is_file():
         ident, mf = _identified(folder, notes)
         data.update(ident)
+    if "frf" not in data:
+        data.update(_frf_file(folder, notes))
     images = _figures(folder, notes)
     with step("report: 3D view"):
         scene = _scene(folder, mf, notes)
@@ -163,6 +193,7 @@ def load_record_folder(folder: Path) -> tuple[Any, str]:
     if not (data or images or scene):
         return None, (f"{folder}: nothing to report: no run (*/bag, models/), no imported "
                       "record (channel_map.json with a bag), no modes (modes.json, "
-                      "modes_*.json) and no test geometry (geometry_*.json)")
+                      "modes_*.json), no FRF matrix (frf.uff) and no test geometry "
+                      "(geometry_*.json)")
     return RunData(f"modal_twin record {folder.name} ({source})", scene_html=scene,
                    figures=images, notes=notes, **data), ""

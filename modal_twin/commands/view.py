@@ -427,11 +427,18 @@ def _is_geometry(path: Path) -> bool:
 def _check_drawable(model: Path) -> None:
     """Refuse a matrix model (or a version of one): it carries no geometry to draw."""
     from modal_twin.errors import ConfigError
+    from modal_twin.models.frame_file import is_frame_file
     from modal_twin.models.matrix_model import MATRIX_SUFFIXES
     from modal_twin.models.versions import read_version
 
     if _is_geometry(model):
         return
+    if is_frame_file(model):
+        msg = (f"{model}: a frame file (kind: frame) is a matrix model built from its spec, "
+               "with no drawing yet; view takes a structure or vehicle YAML, a model version "
+               "of one, a UFF geometry or an imported bag (`modal-twin model info` lists its "
+               "modes)")
+        raise ConfigError(msg)
     structure = model if model.suffix.lower() in MATRIX_SUFFIXES else read_version(model).structure
     if structure.suffix.lower() in MATRIX_SUFFIXES:
         msg = (f"{model}: a matrix model ({structure.suffix}) has no geometry to draw; view "

@@ -688,6 +688,12 @@ def identify_record(block: SignalBlock, channels: Sequence[ChannelSpec] | None =
     opts = options or IdentifyOptions()
     chans = record_channels(block, channels)
     outs = _pick(chans, "output", opts.outputs, opts.directions)
+    if not outs and opts.directions is not None and _pick(chans, "output", opts.outputs, None):
+        along = sorted({c.direction or "none" for c in _pick(chans, "output", opts.outputs,
+                                                              None)})
+        msg = (f"{block.source or 'record'}: directions {list(opts.directions)}: no output "
+               f"channel along them (the outputs' directions: {along})")
+        raise OptionError(msg)
     if not outs:
         msg = (f"{block.source or 'record'}: no channel with role 'output' (channels "
                f"{list(block.channel_names)}); give the outputs or a channel map")

@@ -53,7 +53,8 @@ def write_hammer_result(folder: str | Path, res: HammerResult) -> tuple[Path, Pa
     tmp = out / f".{FRF_FILE}.tmp"
     rsp, ref = dof_codes(res.outputs), dof_codes(res.inputs)
     write_uff58_frf(tmp, res.f_hz[keep], res.H[:, :, keep], rsp, ref,
-                    [c.quantity for c in res.outputs], [c.quantity for c in res.inputs])
+                    [c.quantity for c in res.outputs], [c.quantity for c in res.inputs],
+                    names=([c.name for c in res.outputs], [c.name for c in res.inputs]))
     os.replace(tmp, frf_path)
     summary = {
         "estimator": res.estimator, "block_s": res.block_s,

@@ -30,6 +30,7 @@ from modal_twin.signal_block import SignalBlock
 __all__ = [
     "atomic_dir",
     "atomic_file",
+    "bag_channel_map",
     "read_imported",
     "write_imported",
     "write_side_files",
@@ -124,16 +125,26 @@ def read_imported(bag: str | Path) -> tuple[SignalBlock, list[ChannelSpec]]:
 
     """
     from modal_twin.io.bag import read_frames
-    from modal_twin.io.channel_map import read_channel_map
 
     frames = read_frames(bag, FRAMES)
     block = frames.longest
     if frames.skipped or frames.gaps:
         log.warning("bag %s, %s: %s", bag, FRAMES, frames.note(block))
-    p = Path(bag) / MAP_FILE
-    chans = {c.name: c for c in (read_channel_map(p) if p.is_file() else _recorded_map(bag))}
+    chans = {c.name: c for c in bag_channel_map(bag)}
     channels = [chans.get(n, ChannelSpec(n, "acceleration")) for n in block.channel_names]
     return block, channels
+
+
+def bag_channel_map(bag: str | Path) -> list[ChannelSpec]:
+    """Return a bag's channel map: ``channel_map.json``, else the recorded one, else none.
+
+    The map :func:`read_imported` gives the record, without reading the samples (an
+    empty list where the bag has neither: the roles then come from the channel names).
+    """
+    from modal_twin.io.channel_map import read_channel_map
+
+    p = Path(bag) / MAP_FILE
+    return read_channel_map(p) if p.is_file() else _recorded_map(bag)
 
 
 def _recorded_map(bag: str | Path) -> list[ChannelSpec]:

@@ -276,8 +276,8 @@ def read_uff(path: str | Path) -> UffContents:
                             "unit": str(s.get("ordinate_axis_units_lab", "")).strip()})
     time = _with_roles(time, sets)
     geo = _geometry([s for s in sets if s["type"] in _GEOMETRY and not s.get("_skipped")])
-    if skipped:
-        log.info("%s: dataset types %s skipped (not read)", p, sorted(set(skipped)))
+    if set(skipped) - {55}:  # modes are read by read_uff55 (import does), not skipped
+        log.info("%s: dataset types %s skipped (not read)", p, sorted(set(skipped) - {55}))
     return UffContents(tuple(time), tuple(spectra), geo, tuple(skipped))
 
 
@@ -474,8 +474,13 @@ _TIME_TYPES = {"force": (13, "N"), "acceleration": (12, "m/s2"), "velocity": (11
 def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
                     rsp: list[tuple[int, int]], ref: list[tuple[int, int]],
                     rsp_quantity: Sequence[str] | None = None,
-                    ref_quantity: Sequence[str] | None = None) -> Path:
+                    ref_quantity: Sequence[str] | None = None,
+                    names: tuple[Sequence[str], Sequence[str]] | None = None) -> Path:
     """Write FRFs ``H (n_out, n_in, n_f)`` as UFF 58 function type 4.
+
+    ``names`` (the outputs' and the inputs' channel names) go into id lines 3 and 4
+    (``rsp <name>``, ``ref <name>``, 80 characters at most), so another tool shows which
+    channel each node and direction is.
 
     ``rsp[o]`` / ``ref[i]`` are (node, direction code) of output o / input i. The ordinate
     numerator's specific data type (record 9) is output o's quantity, the denominator's
@@ -491,6 +496,10 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
         msg = (f"write_uff58_frf: {len(rsp)} outputs / {len(ref)} inputs, "
                f"{len(n_q)} / {len(d_q)} quantities")
         raise SignalError(msg)
+    if names is not None and (len(names[0]) != len(rsp) or len(names[1]) != len(ref)):
+        msg = (f"write_uff58_frf: {len(rsp)} outputs / {len(ref)} inputs, "
+               f"{len(names[0])} / {len(names[1])} names")
+        raise SignalError(msg)
     p = Path(path)
     u = pyuff.UFF(str(p))
     sets = []
@@ -500,7 +509,9 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
             den_type, den_unit = _TIME_TYPES.get(d_q[i], (0, "NONE"))
             sets.append(pyuff.prepare_58(
                 binary=0, id1=f"FRF {rn}{_DIRS.get(rd, '')}/{qn}{_DIRS.get(qd, '')}",
-                id2="modal_twin H1", id3="NONE", id4="NONE", id5="NONE",
+                id2="modal_twin H1",
+                id3=f"rsp {names[0][o]}"[:_ID_LEN] if names is not None else "NONE",
+                id4=f"ref {names[1][i]}"[:_ID_LEN] if names is not None else "NONE", id5="NONE",
                 func_type=4, ver_num=0, load_case_id=0, rsp_ent_name=f"N{rn}", rsp_node=rn,
                 rsp_dir=rd, ref_ent_name=f"N{qn}", ref_node=qn, ref_dir=qd,
                 ord_data_type=6, num_pts=len(f_hz), abscissa_spacing=1,

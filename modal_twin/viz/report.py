@@ -139,7 +139,8 @@ def _frf(d: RunData) -> str:
     if d.frf is None:
         return ""
     f, Hm, names, Hp = d.frf
-    return _img(plot_frf_overlay(f, Hm, names, Hp), "FRF magnitude, measured vs model")
+    return _img(plot_frf_overlay(f, Hm, names, Hp),
+                "FRF magnitude, measured" + (" vs model" if Hp is not None else ""))
 
 
 def _where(d: RunData) -> str:

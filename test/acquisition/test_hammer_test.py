@@ -193,3 +193,73 @@ def test_a_device_load_cell_is_no_hammer() -> None:
     forces, resp = hammer_channels([*CHANNELS, cell])
     assert [c.name for c in forces] == ["F1", "F2"]
     assert [c.name for c in resp] == ["a1", "a2"]
+
+
+@pytest.mark.parametrize(("extra", "said"), [
+    (("--block-s", "60"), "--block-s 60.0: expected at most the record's 48 s"),
+    (("--block-s", "inf"), "--block-s and --tau-s: expected > 0, got inf"),
+    (("--block-s", "6", "--force-range", "-3"), "--force-range: expected a range > 0 N"),
+    (("--block-s", "6", "--force-range", "nan"), "--force-range: expected a range > 0 N"),
+])
+def test_impact_options_outside_the_record_are_one_line_and_nothing_written(
+        tmp_path, capsys, extra: tuple[str, ...], said: str) -> None:
+    """A block longer than the 48 s record (it read as 'no force above the trigger'), an
+    infinite block (an OverflowError), a negative range (every hit an 'overload at -3 N')
+    and a NaN range (no overload check at all, exit 0): each one line naming the limit,
+    exit 2, no output."""
+    from modal_twin.cli import main
+    from modal_twin.io.uff import write_uff58_time
+
+    path = write_uff58_time(tmp_path / "hammer.uff", CHANNELS, FS, simulate(bounce_hit=None))
+    assert main(["import", str(path), "--out", str(tmp_path / "bag")]) == 0
+    capsys.readouterr()
+    out = tmp_path / "frf"
+    assert main(["impact", str(tmp_path / "bag"), "--out", str(out), *extra]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and said in err, err
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_report_shows_the_frf_matrix_of_an_impact_folder(tmp_path, capsys) -> None:
+    """``report`` on the folder ``impact`` wrote (frf.uff, hits.yaml, no modes): it said
+    'nothing to report'; now the FRF section holds every response over every reference,
+    equal to the closed-form accelerance within 1 % over 2-40 Hz."""
+    from modal_twin.cli import main
+    from modal_twin.commands.report_record import load_record_folder
+    from modal_twin.io.uff import write_uff58_time
+
+    path = write_uff58_time(tmp_path / "hammer.uff", CHANNELS, FS, simulate(bounce_hit=1))
+    assert main(["import", str(path), "--out", str(tmp_path / "bag")]) == 0
+    out = _impact_cli(tmp_path, [tmp_path / "bag"])
+    data, missing = load_record_folder(out)
+    assert data is not None, missing
+    f, rows, names, model = data.frf
+    assert names == ["1x/1x", "2x/1x", "1x/2x", "2x/2x"] and model is None
+    band = (f > 2.0) & (f < 40.0)
+    ref = accelerance(f[band])
+    for k, (o, i) in enumerate([(0, 0), (1, 0), (0, 1), (1, 1)]):
+        err = np.abs(rows[k, band] - ref[o, i]) / np.abs(ref[o, i])
+        assert float(np.max(err)) < 0.01
+    capsys.readouterr()
+    assert main(["report", str(out), "--out", str(tmp_path / "r.html")]) == 0
+    page = (tmp_path / "r.html").read_text()
+    assert '<section id="frf">' in page and "FRF: frf.uff, 2 responses x 2 references" in page
+
+
+@pytest.mark.parametrize(("param", "value", "said"), [
+    ("impact_force_range_n", -3.0, "impact_force_range_n: expected >= 0 (0: none), got -3.0"),
+    ("impact_force_range_n", float("nan"), "impact_force_range_n: expected >= 0"),
+    ("impact_tau_s", -0.5, "impact_tau_s: expected >= 0 (0: none), got -0.5"),
+    ("impact_block_s", float("inf"), "impact_block_s: expected a block > 0 s, got inf"),
+    ("impact_block_s", 0.0, "impact_block_s: expected a block > 0 s, got 0.0"),
+])
+def test_the_nodes_impact_parameters_are_checked_at_start(param: str, value: float,
+                                                           said: str) -> None:
+    """A negative range made every hit an 'overload at -3 N' at the end of the test, a NaN
+    one no overload check; now the node refuses them when its parameters are read."""
+    pytest.importorskip("rclpy")
+    from modal_twin.acquisition.node import AcquisitionConfig
+
+    with pytest.raises(OptionError, match=said.replace("(", r"\(").replace(")", r"\)")):
+        AcquisitionConfig(mode="impact", **{param: value})
+    AcquisitionConfig(mode="impact", impact_force_range_n=300.0, impact_tau_s=0.5)

@@ -139,3 +139,56 @@ def test_campaign_puts_imported_events_at_their_real_times(shared_dir: Path,
     assert doc["n_windows"] == 2 and not doc["failed_windows"]
     assert "2021-04-26 17:09 to 2021-04-26 17:09 UTC" in out.stdout
     assert "2021-11-17 19:43 to 2021-11-17 19:43 UTC" in out.stdout
+
+
+def test_campaign_takes_the_maps_outputs_and_a_short_record_whole(tmp_path: Path) -> None:
+    """An imported 120 s record with a ground input and a reference beside its four
+    outputs, no ``--window``: one window of the whole record (not a refusal of the default
+    600 s), its outputs the map's role ``output`` (the input and the reference left out,
+    said), the two modes of the truth (1.5 and 4 Hz) found."""
+    from modal_twin.channels import ChannelSpec
+    from modal_twin.io.imported import write_imported
+
+    rng = np.random.default_rng(5)
+    n = int(120 * FS)
+    y = modal_response((1.5, 4.0), n, rng)
+    names = ("ground", *CH, "deck_z")
+    data = np.vstack([rng.standard_normal(n), y, 100.0 * rng.standard_normal(n)])
+    roles = {"ground": "input", "deck_z": "reference"}
+    chans = [ChannelSpec(c, "acceleration", role=roles.get(c, "output")) for c in names]
+    write_imported(tmp_path / "rec", SignalBlock(names, FS, 0, data, stamp_ns=10**12), chans)
+    out = _cli(str(tmp_path / "rec"), "--f-range", "0.5,10", "--jobs", "1", "--out",
+               str(tmp_path / "out"))
+    assert out.returncode == 0, out.stderr
+    assert "outputs 4 of 6 channels, role 'output'" in out.stderr
+    assert "(2 others left out: input, reference)" in out.stderr
+    assert "one window of the whole record, 120 s" in out.stderr
+    doc = json.loads((tmp_path / "out" / "campaign.json").read_text())
+    assert doc["channels"] == list(CH)
+    assert doc["n_windows"] == 1 and not doc["failed_windows"]
+    f = sorted(float(r["f_hz"]) for r in doc["modes"])
+    np.testing.assert_allclose(f, [1.5, 4.0], rtol=0.01)
+
+
+def test_campaign_window_gives_the_modes_identify_gives(shared_dir: Path,
+                                                       tmp_path: Path) -> None:
+    """Hayward 2021-04-26 as one window: the modes ``identify`` reports on the record
+    (the same call: outputs of role output, orders from the record), to 1e-9."""
+    from modal_twin.identification.record import IdentifyOptions, identify_record
+    from modal_twin.io.imported import read_imported
+
+    z = shared_dir / "realdata" / "earthquakes" / "csmip58658_hayward_bridge_2021-04-26.zip"
+    if not z.is_file():
+        pytest.skip(f"{z} absent")
+    bag = tmp_path / "h0426"
+    imp = subprocess.run([sys.executable, "-m", "modal_twin.cli", "import", str(z), "--out",
+                          str(bag)], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert imp.returncode == 0, imp.stderr
+    out = _cli(str(bag), "--jobs", "1", "--out", str(tmp_path / "out"))
+    assert out.returncode == 0, out.stderr
+    doc = json.loads((tmp_path / "out" / "campaign.json").read_text())
+    block, chans = read_imported(bag)
+    want = identify_record(block, chans, IdentifyOptions()).modes.f_hz
+    assert want.size >= 8
+    np.testing.assert_allclose(sorted(float(r["f_hz"]) for r in doc["modes"]), np.sort(want),
+                               rtol=1e-9)

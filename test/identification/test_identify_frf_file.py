@@ -71,8 +71,9 @@ def test_identify_a_frf_file_gives_the_chains_modes(tmp_path: Path,
 
 
 @pytest.mark.parametrize(("args", "words"), [
-    (["--method", "n4sid"], "PolyMAX"),
-    (["--inputs", "a"], "--inputs"),
+    (["--method", "n4sid"], "PolyMAX + LSFD on its FRFs; --method n4sid does not apply"),
+    (["--inputs", "a"], "on its FRFs; --inputs does not apply"),
+    (["--method", "ssi-cov", "--outputs", "b"], "; --method ssi-cov, --outputs do not apply"),
     (["--f-max", "500"], "at most 100 Hz"),
     (["--f-max", "0.1"], "above 0.25 Hz"),
 ])
@@ -91,3 +92,17 @@ def test_a_uff_without_frfs_is_one_line(tmp_path: Path, capsys: pytest.CaptureFi
     assert main(["identify", str(p)]) != 0
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "no FRF" in err, err
+
+
+def test_identify_on_the_folder_of_an_imported_frf_file_says_what_to_do(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """``import frf.uff`` keeps the FRFs as spectra beside no bag; ``identify`` on that
+    folder said 'not a rosbag2 bag'; now one line names what it holds and the way on."""
+    path, _ = _chain_frf(tmp_path / "test")
+    assert main(["import", str(path), "--out", str(tmp_path / "imp")]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(tmp_path / "imp")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert "no time record to identify, only ['spectra_frf.npz']" in err
+    assert "modal-twin identify FILE.uff" in err

@@ -86,6 +86,44 @@ def test_uff55_round_trip_through_pyuff(tmp_path: Path) -> None:
                                    [(1, 3)], [(2, 3)]))
 
 
+def test_a_modes_file_is_not_said_skipped(tmp_path: Path,
+                                         caplog: pytest.LogCaptureFixture) -> None:
+    """``import`` of a UFF 55 reads its modes (read_uff55); read_uff must not log that the
+    55 sets were skipped (it printed 'dataset types [55] skipped (not read)' beside
+    'wrote modes_m.json'); a type nobody reads still is."""
+    p = write_uff55(tmp_path / "m.uff", np.array([2.0]), np.array([0.01]),
+                    np.ones((1, 1), complex), nodes=[1], dirs=[3])
+    with caplog.at_level("INFO", logger="modal_twin.io.uff"):
+        assert read_uff(p).skipped == (55,)
+    assert "skipped" not in caplog.text
+    with p.open("a") as fh:  # a 164 (units) is read; a 2412 (elements) is not
+        fh.write("    -1\n  2412\n         1        11         2         1         7"
+                 "         2\n         0         1         1\n         1         2\n"
+                 "    -1\n")
+    caplog.clear()
+    with caplog.at_level("INFO", logger="modal_twin.io.uff"):
+        read_uff(p)
+    assert "dataset types [2412] skipped" in caplog.text
+
+
+def test_uff58_frfs_name_their_channels_for_other_tools(tmp_path: Path) -> None:
+    """``export frf`` of a strong-motion record wrote nodes 1..N and nothing saying which
+    channel each is; the names now stand in id lines 3 / 4, read back by pyuff."""
+    f = np.linspace(0.0, 10.0, 11)
+    H = np.ones((2, 1, 11), complex)
+    long = "x" * 100
+    p = write_uff58_frf(tmp_path / "f.uff", f, H, [(8, 1), (9, 2)], [(1, 1)],
+                        ["acceleration"] * 2, ["acceleration"],
+                        names=(["58658.ch12", long], ["58658.ch02"]))
+    raw = pyuff.UFF(str(p)).read_sets()
+    assert [(r["id3"], r["id4"]) for r in raw] == [
+        ("rsp 58658.ch12", "ref 58658.ch02"), (("rsp " + long)[:80], "ref 58658.ch02")]
+    assert [(int(r["rsp_node"]), int(r["ref_node"])) for r in raw] == [(8, 1), (9, 1)]
+    with pytest.raises(SignalError, match="2 outputs / 1 inputs, 1 / 1 names"):
+        write_uff58_frf(tmp_path / "g.uff", f, H, [(8, 1), (9, 2)], [(1, 1)],
+                        names=(["a"], ["b"]))
+
+
 def test_uff58_frf_round_trip_through_pyuff(tmp_path: Path) -> None:
     fr = np.linspace(0.0, 10.0, 11)
     H = np.exp(1j * fr)[None, None, :] * np.array([[[1.0], [2.0]]])
