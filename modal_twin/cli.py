@@ -12,6 +12,7 @@ modal-twin import FILE... --out BAG [--map MAP.yaml]       (UFF, CSMIP / SMC, CS
 modal-twin identify BAG [--method n4sid|ssi-cov|polymax] [--out DIR]
 modal-twin impact BAG... --block-s S --out DIR            (hammer test records -> FRFs)
 modal-twin hammer config/hammer_tests/tracking_frame.yaml --out DIR   (test to updated model)
+modal-twin setups MODES1.json MODES2.json... [--references CH,CH] --out DIR   (roving setups)
 modal-twin update MODEL --modes FILE [--out DIR]           (structure, version, .mat, .npz)
 modal-twin export modes|frf|model SRC --out FILE
 modal-twin view MODEL [--modes FILE | --bag BAG] [--html OUT]   (or a UFF test geometry)
@@ -47,6 +48,7 @@ from modal_twin.commands import (
     residual,
     ride,
     sdof,
+    setups,
     update,
     view,
 )
@@ -72,7 +74,7 @@ def _parser() -> argparse.ArgumentParser:
     sub.add_parser("record", help="record topics to a bag", add_help=False)
     sub.add_parser("replay", help="republish a bag", add_help=False)
     for mod in (bag, model, diagnose, effects, view, report, demo, import_, identify, export,
-                update, campaign, residual, ride, sdof, impact, hammer):
+                update, campaign, residual, ride, sdof, impact, hammer, setups):
         mod.register(sub)
     _flags_on_commands(sub)  # also after the command: modal-twin demo --quiet
     return p

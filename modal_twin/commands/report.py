@@ -280,7 +280,11 @@ def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: 
     ConfigError
         Nothing to report: one line naming what is missing.
     """
-    from modal_twin.commands.report_record import load_record_folder
+    from modal_twin.commands.report_record import (
+        is_launched_run,
+        load_launched_run,
+        load_record_folder,
+    )
     from modal_twin.commands.report_vehicle import load_vehicle_run, vehicle_of_run
     from modal_twin.viz.report import write_report
 
@@ -288,6 +292,10 @@ def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: 
     target = check_new(out or rd / "report.html", force)
     if vehicle_of_run(rd) is not None:  # a launched run of a car (bag/, params/)
         data, missing = load_vehicle_run(rd)
+        if data is None:
+            raise ConfigError(missing)
+    elif is_launched_run(rd) and not is_run_folder(rd):  # launch --run-dir of a structure
+        data, missing = load_launched_run(rd)
         if data is None:
             raise ConfigError(missing)
     elif is_run_folder(rd):

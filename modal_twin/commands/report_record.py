@@ -1,4 +1,4 @@
-"""The report of an imported record or an ``identify`` folder (not a run folder).
+"""The report of an imported record, an ``identify`` folder or a launched structure run.
 
 What the folder holds decides the sections (:func:`load_record_folder`):
 
@@ -14,6 +14,9 @@ What the folder holds decides the sections (:func:`load_record_folder`):
   3D view, the modes drawn on it where their channels sit.
 
 A folder with none of these gives one line naming what is missing (the caller exits 2).
+A launched run that is no vehicle run (``bag/`` and ``params/``, what ``modal-twin launch
+--run-dir`` writes) gives its result folders' sections and its record's
+(:func:`load_launched_run`).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from modal_twin.errors import ModalTwinError
 from modal_twin.paths import open_regular
 from modal_twin.progress import step
 
-__all__ = ["RECORD_FIGURES", "load_record_folder"]
+__all__ = ["RECORD_FIGURES", "is_launched_run", "load_launched_run", "load_record_folder"]
 
 RECORD_FIGURES = ("stabilization.png", "mac.png")
 """The figures ``identify --out`` writes, embedded as they are."""
@@ -163,15 +166,12 @@ def _scene(folder: Path, mf: Any, notes: list[str]) -> str | None:
     return static_html(scene_commands(mg.geom, modes), caption=overlay_html(mg.geom, modes))
 
 
-def load_record_folder(folder: Path) -> tuple[Any, str]:
-    """Return the report data of an imported / identify folder, or ``(None, what is missing)``.
-
-    (A :class:`~modal_twin.viz.report.RunData`; module docstring.)
-    """
+def _sections(folder: Path, notes: list[str], *, identify: bool = True
+              ) -> tuple[dict[str, Any], Any, list[tuple[str, bytes]], str | None]:
+    """Return the report sections of one folder: data, its modes, its figures, its 3D view."""
+    from modal_twin.io.impact_files import hit_summary_lines
     from modal_twin.io.modes_file import read_modes
-    from modal_twin.viz.report import RunData
 
-    notes = [f"folder: {folder.resolve()}"]
     data: dict[str, Any] = {}
     mf = None
     files = _modes_files(folder)
@@ -181,19 +181,110 @@ def load_record_folder(folder: Path) -> tuple[Any, str]:
         notes.append(f"modes: {files[0].name} ({mf.f_hz.size} modes at {len(mf.dofs)} "
                      "channels)" + (f"; also {[p.name for p in files[1:]]}" if files[1:]
                                     else ""))
-    elif (folder / "channel_map.json").is_file() and (folder / "metadata.yaml").is_file():
+    elif identify and (folder / "channel_map.json").is_file() and \
+            (folder / "metadata.yaml").is_file():
         ident, mf = _identified(folder, notes)
         data.update(ident)
     if "frf" not in data:
         data.update(_frf_file(folder, notes))
+    notes += hit_summary_lines(folder)
     images = _figures(folder, notes)
     with step("report: 3D view"):
         scene = _scene(folder, mf, notes)
+    return data, mf, images, scene
+
+
+def load_record_folder(folder: Path) -> tuple[Any, str]:
+    """Return the report data of an imported / identify folder, or ``(None, what is missing)``.
+
+    (A :class:`~modal_twin.viz.report.RunData`; module docstring.)
+    """
+    from modal_twin.viz.report import RunData
+
+    notes = [f"folder: {folder.resolve()}"]
+    data, _, images, scene = _sections(folder, notes)
     source = data.pop("source", folder.name)
     if not (data or images or scene):
-        return None, (f"{folder}: nothing to report: no run (*/bag, models/), no imported "
+        return None, (f"{folder}: nothing to report: no run (*/bag, models/, or a launched "
+                      "run's bag/ with params/), no imported "
                       "record (channel_map.json with a bag), no modes (modes.json, "
                       "modes_*.json), no FRF matrix (frf.uff) and no test geometry "
                       "(geometry_*.json)")
     return RunData(f"modal_twin record {folder.name} ({source})", scene_html=scene,
                    figures=images, notes=notes, **data), ""
+
+
+def is_launched_run(folder: Path) -> bool:
+    """Return whether ``folder`` is what ``modal-twin launch --run-dir`` wrote (bag/, params/)."""
+    return (folder / "bag").is_dir() and (folder / "params").is_dir()
+
+
+def _own_bag(folder: Path, notes: list[str]) -> Path | None:
+    """``folder/bag`` unless it, or a file in it, is a link, FIFO or device (then a note)."""
+    bag = folder / "bag"
+    bad = [bag] if bag.is_symlink() else [
+        f for f in bag.rglob("*") if f.is_symlink() or not (f.is_file() or f.is_dir())]
+    if bad:
+        notes.append(f"left out bag: {bad[0].name} is a link, FIFO or device")
+        return None
+    return bag
+
+
+def load_launched_run(folder: Path) -> tuple[Any, str]:
+    """Return the report data of a launched run that is no vehicle run, or ``(None, why)``.
+
+    The results written into the run folder come first: each sub-folder (``impact/`` of a
+    hammer test: its FRF matrix and hit verdicts; an ``identify --out`` folder: its modes
+    and figures) gives the sections :func:`load_record_folder` gives it, the first folder
+    with a kind of section keeping it. Where none gave modes, the run's record (``bag/``,
+    read with the channel map it recorded) is identified as an imported record is
+    (stabilization, modes, auto-MAC; its H1 FRFs where no FRF matrix was found); the twin's
+    metrics in it, where a twin ran, give the per-channel errors.
+    """
+    from modal_twin.commands.report import twin_metrics
+    from modal_twin.viz.report import RecordData, RunData
+
+    notes = [f"launched run folder: {folder.resolve()}"]
+    data: dict[str, Any] = {}
+    images: list[tuple[str, bytes]] = []
+    scene = None
+    subs = [p for p in sorted(folder.iterdir()) if p.is_dir() and not p.is_symlink()
+            and p.name not in ("bag", "params", "logs")]
+    for sub in subs:
+        sub_notes: list[str] = []
+        part, _, figs, sub_scene = _sections(sub, sub_notes, identify=False)
+        part.pop("source", None)
+        if not (part or figs or sub_scene):
+            continue
+        notes += [f"{sub.name}/: {n}" for n in sub_notes]
+        for k, v in part.items():
+            data.setdefault(k, v)
+        images += [(f"{sub.name}/: {c}", b) for c, b in figs]
+        scene = scene or sub_scene
+    records = []
+    bag = _own_bag(folder, notes)
+    if bag is not None:
+        try:
+            m, meta = twin_metrics(bag)
+            if "modes" in data:
+                notes.append("the record bag/ not identified: the modes are a result "
+                             "folder's")
+            else:
+                ident, _ = _identified(bag, notes)
+                if "frf" in data:
+                    ident.pop("frf", None)
+                    notes[:] = [n for n in notes if not n.startswith("FRF: H1")]
+                data.update(ident)
+        except ModalTwinError as err:
+            notes.append(f"the record bag/ does not read: {err}")
+            m, meta = None, {}
+        if m is not None:
+            records.append(RecordData(folder.name, tuple(m.channel_names),
+                                      np.asarray(m.rms_error, dtype=float),
+                                      str(m.model_version), meta, {}, {}, {}))
+    data.pop("source", None)
+    if not (data or images or scene or records):
+        return None, (f"{folder}: nothing to report: a launched run whose record bag/ gives "
+                      "no modes and with no result folder (impact/frf.uff, modes.json)")
+    return RunData(f"modal_twin run {folder.name}", records, scene_html=scene, figures=images,
+                   notes=notes, **data), ""

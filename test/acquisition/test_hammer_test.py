@@ -263,3 +263,77 @@ def test_the_nodes_impact_parameters_are_checked_at_start(param: str, value: flo
     with pytest.raises(OptionError, match=said.replace("(", r"\(").replace(")", r"\)")):
         AcquisitionConfig(mode="impact", **{param: value})
     AcquisitionConfig(mode="impact", impact_force_range_n=300.0, impact_tau_s=0.5)
+
+
+def _launched_run(tmp_path, capsys):
+    """A folder as ``launch --run-dir`` leaves a hammer test: bag/ (the hits), params/,
+    impact/ (frf.uff, hits.yaml); the bag here is imported, not launched (seconds, not a
+    minute)."""
+    from modal_twin.cli import main
+    from modal_twin.io.uff import write_uff58_time
+
+    run = tmp_path / "run"
+    path = write_uff58_time(tmp_path / "hammer.uff", CHANNELS, FS, simulate(bounce_hit=1))
+    assert main(["import", str(path), "--out", str(run / "bag")]) == 0
+    (run / "params").mkdir()
+    (run / "params" / "acquisition.yaml").write_text("acquisition:\n  mode: impact\n")
+    assert main(["impact", str(run / "bag"), "--block-s", "6", "--out",
+                 str(run / "impact")]) == 0
+    capsys.readouterr()
+    return run
+
+
+def _exact_f_hz() -> np.ndarray:
+    from scipy import linalg
+
+    return np.sqrt(linalg.eigh(KK, M, eigvals_only=True)) / (2 * np.pi)
+
+
+def test_report_on_a_launched_structure_run_shows_its_record_and_frfs(tmp_path, capsys) -> None:
+    """``report RUN_DIR`` on a launched hammer-test run (bag/, params/, impact/) said
+    'nothing to report: no run (*/bag, ...)'; now the page holds impact/'s FRF matrix and
+    the hit verdicts, and the record identified: the two modes of the closed form to 1 %."""
+    from modal_twin.cli import main
+    from modal_twin.commands.report_record import load_launched_run
+
+    run = _launched_run(tmp_path, capsys)
+    data, missing = load_launched_run(run)
+    assert data is not None, missing
+    np.testing.assert_allclose(data.modes["f_id_hz"], _exact_f_hz(), rtol=0.01)
+    assert data.stabilization is not None
+    assert data.frf[2] == ["1x/1x", "2x/1x", "1x/2x", "2x/2x"]  # impact/'s, not the H1
+    assert not any(n.startswith("FRF: H1") for n in data.notes)
+    assert main(["report", str(run)]) == 0
+    page = (run / "report.html").read_text()
+    assert "impact/: FRF: frf.uff, 2 responses x 2 references" in page
+    assert "impact/: impact: 5 hits averaged, 1 rejected" in page
+    assert '<section id="frf">' in page and "identification:" in page
+
+
+def test_report_on_a_launched_run_takes_a_result_folders_modes(tmp_path, capsys) -> None:
+    """With ``identify impact/frf.uff --out RUN/modes`` beside, its modes are the page's (the
+    record is then not identified again, and said)."""
+    from modal_twin.cli import main
+    from modal_twin.commands.report_record import load_launched_run
+
+    run = _launched_run(tmp_path, capsys)
+    assert main(["identify", str(run / "impact" / "frf.uff"), "--f-max", "40", "--out",
+                 str(run / "modes")]) == 0
+    data, missing = load_launched_run(run)
+    assert data is not None, missing
+    np.testing.assert_allclose(data.modes["f_id_hz"], _exact_f_hz(), rtol=0.01)
+    assert data.stabilization is None
+    assert "the record bag/ not identified: the modes are a result folder's" in data.notes
+    assert any(n.startswith("modes/: modes: modes.json (2 modes") for n in data.notes)
+
+
+def test_report_on_a_launched_run_with_nothing_in_it_is_one_line(tmp_path, capsys) -> None:
+    from modal_twin.cli import main
+
+    run = tmp_path / "run"
+    (run / "bag").mkdir(parents=True)
+    (run / "params").mkdir()
+    assert main(["report", str(run)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "nothing to report: a launched run" in err, err
+    assert not (run / "report.html").exists()
