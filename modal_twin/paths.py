@@ -199,7 +199,27 @@ def check_new_in(folder: str | Path, names: tuple[str, ...], force: bool) -> lis
     if f.exists() and not f.is_dir():
         msg = f"{f}: expected a folder for the outputs, got a file"
         raise ConfigError(msg)
+    _check_creatable(f)
     return [check_new(f / n, force) for n in names]
+
+
+def _check_creatable(folder: Path) -> None:
+    """Refuse, before any work, a folder whose nearest existing parent takes no new entry.
+
+    A probe (a temporary folder made and removed in that parent) rather than a permission
+    test: as root every permission test passes, yet ``/proc`` or a read-only mount refuse.
+    """
+    base = folder.absolute()
+    while not base.exists():
+        base = base.parent
+    if not base.is_dir():
+        msg = f"{folder}: {base} is a file, not a folder"
+        raise ConfigError(msg)
+    try:
+        Path(tempfile.mkdtemp(prefix=".modal_twin_probe_", dir=base)).rmdir()
+    except OSError as err:
+        msg = f"{folder}: cannot write in {base} ({err.strerror or err})"
+        raise ConfigError(msg) from err
 
 
 @contextmanager

@@ -438,3 +438,19 @@ def test_a_bag_naming_a_file_outside_is_refused(tmp_path: Path) -> None:
     bag = _bag_with(tmp_path, "../outside.mcap")
     with pytest.raises(BagError, match="expected a file inside the bag"):
         bag_info(bag)
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux /proc")
+def test_an_output_folder_that_cannot_be_made_is_refused_before_the_work(
+        tmp_path: Path) -> None:
+    # audit of issue 22: `identify --out /proc/x` ran the whole identification, then failed
+    from modal_twin.paths import check_new_in
+
+    with pytest.raises(ConfigError, match="cannot write in /proc"):
+        check_new_in("/proc/x/y", ("modes.json",), False)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ConfigError, match="is a file, not a folder"):
+        check_new_in(tmp_path / "file" / "out", ("modes.json",), False)
+    out = check_new_in(tmp_path / "new" / "out", ("modes.json",), False)
+    assert out == [tmp_path / "new" / "out" / "modes.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]  # the probe left nothing
