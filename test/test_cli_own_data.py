@@ -99,10 +99,15 @@ def test_import_identify_known_frame(frame: dict[str, Path], capsys: pytest.Capt
         assert (frame["modes"].parent / png).stat().st_size > 1000
 
 
-def test_polymax_and_ssi_cov_on_the_frame(frame: dict[str, Path], tmp_path: Path) -> None:
+def test_polymax_and_ssi_cov_on_the_frame(frame: dict[str, Path], tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
     for method, tol in (("polymax", 0.01), ("ssi-cov", 0.01)):
         out = tmp_path / method
         assert main(["identify", str(frame["bag"]), "--method", method, "--out", str(out)]) == 0
+        table = capsys.readouterr().out
+        # PolyMAX estimates no spread: its std columns read "-", never "nan"
+        assert "nan" not in table
+        assert ("(std: not estimated by polymax)" in table) == (method == "polymax")
         doc = json.loads((out / "modes.json").read_text())
         f = np.array([m["f_hz"] for m in doc["modes"]])
         near = f[[int(np.argmin(np.abs(f - x))) for x in exact_f_hz()]]

@@ -22,6 +22,7 @@ receives ``modes.json`` (``update --modes`` reads it).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -136,8 +137,11 @@ def _report(a: argparse.Namespace, rec: Any) -> int:
     print(f"{'mode':>4} {'f [Hz]':>9} {'std f':>8} {'zeta [%]':>8} {'std z':>7} "
           f"{'MPC':>5} {'MCF':>5} {'support':>7}")
     for k in range(mm.f_hz.size):
-        print(f"{k + 1:>4} {mm.f_hz[k]:9.4f} {mm.std_f_hz[k]:8.4f} {100 * mm.zeta[k]:8.2f} "
-              f"{100 * mm.std_zeta[k]:7.2f} {mp[k]:5.2f} {cx[k]:5.2f} {mm.n_support[k]:7d}")
+        print(f"{k + 1:>4} {mm.f_hz[k]:9.4f} {_or_dash(mm.std_f_hz[k], 8, 4)} "
+              f"{100 * mm.zeta[k]:8.2f} {_or_dash(100 * mm.std_zeta[k], 7, 2)} "
+              f"{mp[k]:5.2f} {cx[k]:5.2f} {mm.n_support[k]:7d}")
+    if not any(math.isfinite(float(x)) for x in mm.std_f_hz):
+        print(f"(std: not estimated by {rec.method})")
     for f, d, o0, o1 in drifting_modes(diag, mm):
         print(f"warning: the mode at {f:.3f} Hz comes from a drifting pole column: "
               f"{100 * d:.1f} % from order {o0} to {o1}; treat it with care",
@@ -224,3 +228,8 @@ def _identify_frf(a: argparse.Namespace) -> int:
             tmp.write_text(json.dumps(doc, indent=1))
         print(f"identify: wrote {a.out / 'modes.json'}")
     return ExitCode.OK
+
+
+def _or_dash(x: float, width: int, decimals: int) -> str:
+    """``x`` in a column of ``width``, or a dash where it is not estimated (NaN)."""
+    return f"{x:{width}.{decimals}f}" if math.isfinite(x) else "-".rjust(width)
