@@ -129,3 +129,13 @@ def test_hammer_outputs_carry_the_measured_points_geometry(tmp_path: Path) -> No
     ident = json.loads((tmp_path / "id" / "modes.json").read_text())
     assert ident["geometry"]["nodes"] == {k: pytest.approx(v, abs=1e-6)
                                           for k, v in doc["geometry"]["nodes"].items()}
+    # the same by separate commands: import keeps test.uff's geometry, impact writes it
+    assert main(["import", str(out / "test.uff"), "--out", str(tmp_path / "bag")]) == 0
+    assert main(["impact", str(tmp_path / "bag"), "--block-s", "4",
+                 "--out", str(tmp_path / "frf")]) == 0
+    u = pyuff.UFF(str(tmp_path / "frf" / "frf.uff"))
+    assert [int(t) for t in u.get_set_types()][:3] == [164, 15, 82]
+    nodes = u.read_sets(1)
+    assert [int(v) for v in nodes["node_nums"]] == measured
+    np.testing.assert_allclose(np.column_stack([nodes["x"], nodes["y"], nodes["z"]]),
+                               [expected(n) for n in measured], atol=1e-6)
