@@ -183,6 +183,7 @@ def _identify_frf(a: argparse.Namespace) -> int:
     from modal_twin.errors import OptionError
     from modal_twin.identification.frf_modes import modes_from_frf
     from modal_twin.io.impact_files import frf_modes_document, read_frf_matrix, read_window_tau
+    from modal_twin.io.uff import read_uff
     from modal_twin.paths import atomic_file
 
     unused = [o for o in ("inputs", "outputs", "directions", "selection")
@@ -221,8 +222,11 @@ def _identify_frf(a: argparse.Namespace) -> int:
     for k in range(mm.f_hz.size):
         print(f"{k + 1:>4} {mm.f_hz[k]:9.4f} {100 * zeta[k]:8.2f}")
     if a.out is not None:
+        g = read_uff(a.bag).geometry  # the FRF file's own (UFF 164 / 15 / 82), if any
+        geo = ({k: g[k] for k in ("nodes", "trace_lines", "units")} if g["nodes"] else None)
         doc = frf_modes_document(mm.f_hz, zeta, mm.shapes,
-                                 [(f"{n}_{d}", n, d) for n, d in outs], str(a.bag))
+                                 [(f"{n}_{d}", n, d) for n, d in outs], str(a.bag),
+                                 geometry=geo)
         a.out.mkdir(parents=True, exist_ok=True)
         with atomic_file(a.out / "modes.json") as tmp:
             tmp.write_text(json.dumps(doc, indent=1))

@@ -6,7 +6,8 @@ Its hits are found, double hits and overloads rejected (counted and said), the a
 hits averaged per point (:class:`modal_twin.acquisition.hammer_test.HammerTest`, as the
 acquisition node's impact mode); several bags (one per hit point, the same responses) join
 into one FRF matrix. Written: ``DIR/frf.uff`` (UFF 58 FRFs at the channels' nodes and
-directions, for ``identify`` / PolyMAX) and ``DIR/hits.yaml`` (every hit's verdict).
+directions, for ``identify`` / PolyMAX; after the bags' test geometry, UFF 164 / 15 / 82,
+when ``import`` kept one) and ``DIR/hits.yaml`` (every hit's verdict).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
+from typing import Any
 
 from modal_twin.errors import OptionError
 from modal_twin.exit_codes import ExitCode
@@ -41,6 +43,20 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _positive(x: float) -> bool:
     return math.isfinite(x) and x > 0
+
+
+def _bag_geometry(bags: list[Path]) -> dict[str, Any] | None:
+    """Return the test geometry ``import`` kept in the bags (merged); None without one."""
+    from modal_twin.io.modes_file import read_geometry_files
+
+    g: dict[str, Any] = {"nodes": {}, "trace_lines": []}
+    for bag in bags:
+        one = read_geometry_files(bag) if Path(bag).is_dir() else {}
+        g["nodes"].update(one.get("nodes", {}))
+        g["trace_lines"] += [t for t in one.get("trace_lines", []) if t not in g["trace_lines"]]
+        if one.get("units") and "units" not in g:
+            g["units"] = one["units"]
+    return g if g["nodes"] else None
 
 
 def run(a: argparse.Namespace) -> int:
@@ -71,7 +87,8 @@ def run(a: argparse.Namespace) -> int:
         test.add(block)
         results.append(test.finish())
     res = merge_points(results)
-    frf, hits = write_hammer_result(a.out, res)
+    geo = _bag_geometry(a.bags)
+    frf, hits = write_hammer_result(a.out, res, geometry=geo)
     for line in res.lines():
         print(line)
     print(f"wrote {frf}\nwrote {hits} (every hit's verdict)")

@@ -24,8 +24,8 @@ from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
 from modal_twin.io.uff import AXIS_CODES, read_uff, write_uff58_frf
 
-__all__ = ["FRF_FILE", "SUMMARY_FILE", "dof_codes", "frf_modes_document", "hit_summary_lines",
-           "read_frf_matrix", "read_window_tau", "write_hammer_result"]
+__all__ = ["FRF_FILE", "SUMMARY_FILE", "channel_geometry", "dof_codes", "frf_modes_document",
+           "hit_summary_lines", "read_frf_matrix", "read_window_tau", "write_hammer_result"]
 
 FRF_FILE = "frf.uff"
 SUMMARY_FILE = "hits.yaml"
@@ -40,11 +40,27 @@ def dof_codes(channels: Sequence[ChannelSpec]) -> list[tuple[int, int]]:
     return out
 
 
-def write_hammer_result(folder: str | Path, res: HammerResult) -> tuple[Path, Path]:
+def channel_geometry(channels: Sequence[ChannelSpec]) -> dict[str, Any] | None:
+    """Test geometry of the channels that carry a position: their UFF nodes at it, in metres.
+
+    Nodes only (no trace lines); None when no channel has a position.
+    """
+    from modal_twin.io.uff import SI_UNITS
+
+    nodes = {str(n): [float(v) for v in c.position_m]
+             for c, (n, _) in zip(channels, dof_codes(channels), strict=True)
+             if any(v != 0.0 for v in c.position_m)}
+    return {"nodes": nodes, "trace_lines": [], "units": dict(SI_UNITS)} if nodes else None
+
+
+def write_hammer_result(folder: str | Path, res: HammerResult,
+                        geometry: dict[str, Any] | None = None) -> tuple[Path, Path]:
     """Write ``frf.uff`` (UFF 58, function type 4) and ``hits.yaml`` into ``folder``.
 
-    The FRFs are written from the first line above 0 Hz; ``hits.yaml`` lists the counts,
-    each point's hits with verdict and reason, and the channels' UFF node / direction.
+    The FRFs are written from the first line above 0 Hz, after the test geometry (UFF 164,
+    15, 82: ``geometry``, else the channels' positions, :func:`channel_geometry`);
+    ``hits.yaml`` lists the counts, each point's hits with verdict and reason, and the
+    channels' UFF node / direction.
     """
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
@@ -54,7 +70,9 @@ def write_hammer_result(folder: str | Path, res: HammerResult) -> tuple[Path, Pa
     rsp, ref = dof_codes(res.outputs), dof_codes(res.inputs)
     write_uff58_frf(tmp, res.f_hz[keep], res.H[:, :, keep], rsp, ref,
                     [c.quantity for c in res.outputs], [c.quantity for c in res.inputs],
-                    names=([c.name for c in res.outputs], [c.name for c in res.inputs]))
+                    names=([c.name for c in res.outputs], [c.name for c in res.inputs]),
+                    geometry=geometry if geometry is not None
+                    else channel_geometry([*res.outputs, *res.inputs]))
     os.replace(tmp, frf_path)
     summary = {
         "estimator": res.estimator, "block_s": res.block_s,
@@ -149,12 +167,14 @@ def read_window_tau(frf_file: str | Path) -> float | None:
 
 
 def frf_modes_document(f_hz: FloatArray, zeta: FloatArray, shapes: ComplexArray,
-                       outputs: Sequence[tuple[str, str, str]], source: str) -> dict[str, Any]:
+                       outputs: Sequence[tuple[str, str, str]], source: str,
+                       geometry: dict[str, Any] | None = None) -> dict[str, Any]:
     """Return modes identified from FRFs as a ``modes.json`` document (``update`` reads it).
 
-    ``outputs``: (channel name, node, direction) of each shape entry.
+    ``outputs``: (channel name, node, direction) of each shape entry; ``geometry`` the test
+    geometry (``nodes``: UFF node -> xyz, ``trace_lines``), kept as ``identify`` keeps it.
     """
-    return {"method": "polymax", "source": source,
+    return {"method": "polymax", "source": source, "geometry": geometry,
             "dofs": [{"channel": name, "node": int(node) if node.isdigit() else None,
                       "node_label": node, "direction": d} for name, node, d in outputs],
             "modes": [{"f_hz": float(f_hz[k]), "zeta": float(zeta[k]), "std_f_hz": None,

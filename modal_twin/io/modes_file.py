@@ -170,7 +170,8 @@ def uff_nodes(labels: list[str]) -> dict[str, int]:
 def read_geometry_files(folder: str | Path) -> dict[str, Any]:
     """Return the test geometry ``modal-twin import`` kept in a bag (``geometry_*.json``, merged).
 
-    Returns ``{"nodes": {id: xyz}, "trace_lines": [...]}`` (empty when there is none).
+    Returns ``{"nodes": {id: xyz}, "trace_lines": [...]}`` (empty when there is none), and
+    ``units`` (the first file's UFF 164) when a file has them.
     """
     g: dict[str, Any] = {"nodes": {}, "trace_lines": []}
     for f in sorted(Path(folder).glob("geometry_*.json")):
@@ -181,6 +182,8 @@ def read_geometry_files(folder: str | Path) -> dict[str, Any]:
             raise ConfigError(msg) from err
         g["nodes"].update({str(k): v for k, v in dict(d.get("nodes", {})).items()})
         g["trace_lines"] += list(d.get("trace_lines", []))
+        if isinstance(d.get("units"), dict) and d["units"] and "units" not in g:
+            g["units"] = dict(d["units"])
     return g
 
 

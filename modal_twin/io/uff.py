@@ -38,8 +38,9 @@ from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
 from modal_twin.models.array_files import check_text_file
 
-__all__ = ["AXIS_CODES", "CHANNELS_TAG", "UffContents", "rate_from_increment", "read_uff",
-           "read_uff55", "uff_role", "write_uff55", "write_uff58_frf", "write_uff58_time"]
+__all__ = ["AXIS_CODES", "CHANNELS_TAG", "SI_UNITS", "UffContents", "rate_from_increment",
+           "read_uff", "read_uff55", "uff_role", "write_uff55", "write_uff58_frf",
+           "write_uff58_time"]
 
 log = logging.getLogger(__name__)
 
@@ -336,10 +337,23 @@ def _geometry_sets(geometry: Mapping[str, Any] | None, nodes: Sequence[int]) -> 
                                     n_nodes=len(seq), color=0,
                                     id=str(line.get("id", "") or "NONE")[:_ID_LEN],
                                     nodes=np.array(seq), return_full_dict=True))
+    units = dict(g.get("units") or {})
+    if "units_code" in units:  # dataset 164 first: the lengths of the nodes above
+        out.insert(0, pyuff.prepare_164(
+            units_code=int(units["units_code"]),
+            units_description=str(units.get("units_description", "SI"))[:20],
+            temp_mode=int(units.get("temp_mode", 2)), length=float(units.get("length", 1.0)),
+            force=float(units.get("force", 1.0)), temp=float(units.get("temp", 1.0)),
+            temp_offset=float(units.get("temp_offset", 273.15)), return_full_dict=True))
     missing = sorted(set(nodes) - set(xyz))
     if missing:
-        log.info("UFF 55: nodes %s carry channels but have no coordinates", missing[:10])
+        log.info("UFF: nodes %s carry channels but have no coordinates", missing[:10])
     return out
+
+
+SI_UNITS: dict[str, Any] = {"units_code": 1, "units_description": "SI", "temp_mode": 2,
+                            "length": 1.0, "force": 1.0, "temp": 1.0, "temp_offset": 273.15}
+"""UFF 164 of a geometry in metres (SI: length, force and temperature factors 1)."""
 
 
 def write_uff55(path: str | Path, f_hz: FloatArray, zeta: FloatArray, shapes: ComplexArray,
@@ -475,8 +489,12 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
                     rsp: list[tuple[int, int]], ref: list[tuple[int, int]],
                     rsp_quantity: Sequence[str] | None = None,
                     ref_quantity: Sequence[str] | None = None,
-                    names: tuple[Sequence[str], Sequence[str]] | None = None) -> Path:
+                    names: tuple[Sequence[str], Sequence[str]] | None = None,
+                    geometry: Mapping[str, Any] | None = None) -> Path:
     """Write FRFs ``H (n_out, n_in, n_f)`` as UFF 58 function type 4.
+
+    ``geometry`` (``nodes``: id -> xyz, ``trace_lines``, ``units``; as :func:`write_uff55`)
+    is written first as UFF 164, 15 and 82.
 
     ``names`` (the outputs' and the inputs' channel names) go into id lines 3 and 4
     (``rsp <name>``, ``ref <name>``, 80 characters at most), so another tool shows which
@@ -502,7 +520,7 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
         raise SignalError(msg)
     p = Path(path)
     u = pyuff.UFF(str(p))
-    sets = []
+    sets = _geometry_sets(geometry, sorted({n for n, _ in [*rsp, *ref]}))
     for o, (rn, rd) in enumerate(rsp):
         num_type, num_unit = _TIME_TYPES.get(n_q[o], (0, "NONE"))
         for i, (qn, qd) in enumerate(ref):
@@ -531,8 +549,10 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
 
 
 def write_uff58_time(path: str | Path, channels: Sequence[ChannelSpec], fs_hz: float,
-                     data: FloatArray) -> Path:
+                     data: FloatArray, geometry: Mapping[str, Any] | None = None) -> Path:
     """Write time records (UFF 58 ASCII, function type 1), one per channel, in SI.
+
+    ``geometry`` (as :func:`write_uff58_frf`) is written first as UFF 164, 15 and 82.
 
     Each record's response node is the channel's ``node`` (its index + 1 when not a number),
     its direction the channel's (``+x`` when not given), its data type the quantity's
@@ -545,9 +565,11 @@ def write_uff58_time(path: str | Path, channels: Sequence[ChannelSpec], fs_hz: f
     if x.shape[0] != len(channels):
         msg = f"write_uff58_time: {len(channels)} channels, data of shape {x.shape}"
         raise SignalError(msg)
-    sets = []
+    nodes = [int(c.node) if c.node.isdigit() and int(c.node) > 0 else k + 1
+             for k, c in enumerate(channels)]
+    sets = _geometry_sets(geometry, sorted(set(nodes)))
     for k, c in enumerate(channels):
-        node = int(c.node) if c.node.isdigit() and int(c.node) > 0 else k + 1
+        node = nodes[k]
         dtype, unit = _TIME_TYPES.get(c.quantity, (0, "SI"))
         sets.append(pyuff.prepare_58(
             binary=0, id1=c.name, id2=c.quantity, id3="NONE", id4="NONE", id5="NONE",

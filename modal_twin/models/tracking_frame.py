@@ -30,7 +30,7 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import ModelError
 from modal_twin.models.fe.elements import frame_local_matrices, frame_rotation, rotate_to_global
 
-__all__ = ["JOINTS", "FrameSpec", "frame_matrices"]
+__all__ = ["JOINTS", "FrameSpec", "frame_matrices", "frame_outline"]
 
 JOINTS = ("feet", "bearings")
 """The contact stiffness groups (the parameters), in order."""
@@ -79,6 +79,18 @@ def _spring(K: FloatArray, idx: Mapping[int, int], n1: int, n2: int,
         for i, j, sgn in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
             if i >= 0 and j >= 0:
                 K[i, j] += sgn * kd
+
+
+def frame_outline(spec: FrameSpec | None = None) -> list[int]:
+    """Node numbers around the frame, closed: the base, the right arm, the axis, the left arm.
+
+    The members' own order (base 100.., arms 200.. / 300.. upwards, axis 400..), so the nodes
+    of a test on the frame joined in this order draw it (UFF 82 trace line).
+    """
+    n = (spec or FrameSpec()).elements
+    base, axis = [100 + i for i in range(2 * n + 1)], [400 + i for i in range(2 * n + 1)]
+    left, right = [200 + i for i in range(n + 1)], [300 + i for i in range(n + 1)]
+    return [*base, *right, *axis[::-1], *left[::-1], base[0]]
 
 
 def frame_matrices(spec: FrameSpec | None = None,

@@ -254,3 +254,24 @@ def test_uff55_id_lines_hold_as_many_names_as_fit(tmp_path: Path) -> None:
     assert 10 < len(kept) < n
     assert names[len(kept):] == [f"N{k}x" for k in range(len(kept) + 1, n + 1)]
     np.testing.assert_allclose(d["channel_shapes"][:, 0], np.arange(1.0, n + 1), rtol=1e-6)
+
+
+def test_frf_file_carries_the_channels_positions_as_uff_15(tmp_path: Path) -> None:
+    """Channels with positions: frf.uff starts with UFF 164 (SI) and 15 at those positions."""
+    from modal_twin.channels import ChannelSpec
+    from modal_twin.io.impact_files import channel_geometry
+
+    chans = [ChannelSpec("a7z", "acceleration", node="7", direction="z",
+                         position_m=(1.5, -0.25, 2.0)),
+             ChannelSpec("f3x", "force", node="3", direction="x", position_m=(0.0, 0.5, 0.0)),
+             ChannelSpec("a9x", "acceleration", node="9", direction="x")]  # no position
+    geo = channel_geometry(chans)
+    assert geo is not None and geo["nodes"] == {"7": [1.5, -0.25, 2.0], "3": [0.0, 0.5, 0.0]}
+    assert channel_geometry(chans[2:]) is None
+    f = np.linspace(1.0, 10.0, 10)
+    p = write_uff58_frf(tmp_path / "frf.uff", f, np.ones((1, 1, 10), complex), [(7, 3)],
+                        [(3, 1)], geometry=geo)
+    back = read_uff(p).geometry
+    assert back["nodes"] == {"3": [0.0, 0.5, 0.0], "7": [1.5, -0.25, 2.0]}
+    assert int(back["units"]["units_code"]) == 1 and back["trace_lines"] == []
+    assert [int(t) for t in pyuff.UFF(str(p)).get_set_types()] == [164, 15, 58]
