@@ -33,7 +33,7 @@ from modal_twin.progress import step, track
 from modal_twin.validation import check_name
 
 __all__ = ["FIGURES", "is_run_folder", "load_run", "make_report", "model_loops", "own_bags",
-           "own_figures", "register", "run", "twin_metrics"]
+           "own_figures", "register", "run", "twin_metrics", "unsafe_entry"]
 
 _DEVICE_SUFFIX = ("_dx", "_dy")
 
@@ -348,20 +348,29 @@ def own_bags(run_dir: Path, notes: list[str]) -> list[Path]:
     A bag behind a symbolic link, or with a link, FIFO or device in it, is left out with a
     note (it would read outside the run folder or block the reader).
     """
-    root = run_dir.resolve()
     out = []
     for bag in sorted(run_dir.glob("*/bag")):
         if not bag.is_dir():
             continue
-        bad = [] if bag.resolve().is_relative_to(root) and not bag.is_symlink() and \
-            not bag.parent.is_symlink() else [bag]
-        bad += [f for f in bag.rglob("*") if f.is_symlink() or not (f.is_file() or f.is_dir())]
-        if bad:
-            notes.append(f"left out {bag.relative_to(run_dir)}: {bad[0].name} is a link, "
+        bad = bag if bag.parent.is_symlink() else unsafe_entry(bag, run_dir)
+        if bad is not None:
+            notes.append(f"left out {bag.relative_to(run_dir)}: {bad.name} is a link, "
                          "FIFO or device, or lies outside the run folder")
             continue
         out.append(bag)
     return out
+
+
+def unsafe_entry(bag: Path, root: Path) -> Path | None:
+    """Return what makes ``bag`` unsafe to read, or None when it holds only regular files.
+
+    The bag itself when it is a symbolic link or lies outside ``root``; else the first link,
+    FIFO or device in it (each would read outside the run folder or block the reader).
+    """
+    if bag.is_symlink() or not bag.resolve().is_relative_to(root.resolve()):
+        return bag
+    return next((f for f in bag.rglob("*") if f.is_symlink() or not (f.is_file() or f.is_dir())),
+                None)
 
 
 def _reason(err: BaseException) -> str:

@@ -221,11 +221,12 @@ def is_launched_run(folder: Path) -> bool:
 
 def _own_bag(folder: Path, notes: list[str]) -> Path | None:
     """``folder/bag`` unless it, or a file in it, is a link, FIFO or device (then a note)."""
+    from modal_twin.commands.report import unsafe_entry
+
     bag = folder / "bag"
-    bad = [bag] if bag.is_symlink() else [
-        f for f in bag.rglob("*") if f.is_symlink() or not (f.is_file() or f.is_dir())]
-    if bad:
-        notes.append(f"left out bag: {bad[0].name} is a link, FIFO or device")
+    bad = unsafe_entry(bag, folder)
+    if bad is not None:
+        notes.append(f"left out bag: {bad.name} is a link, FIFO or device")
         return None
     return bag
 
