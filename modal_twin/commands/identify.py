@@ -196,7 +196,8 @@ def _identify_frf(a: argparse.Namespace) -> int:
         raise OptionError(msg)
     if a.out is not None:
         check_new_in(a.out, ("modes.json",), a.force)
-    f, H, outs, _ = read_frf_matrix(a.bag)
+    uff = read_uff(a.bag)  # once: the FRFs and the file's own geometry (UFF 164 / 15 / 82)
+    f, H, outs, _ = read_frf_matrix(a.bag, uff)
     lo, top = float(f[1]), float(f[-1])
     hi = FRF_TOP * top if a.f_max is None else float(a.f_max)
     if not lo < hi <= top:
@@ -222,7 +223,7 @@ def _identify_frf(a: argparse.Namespace) -> int:
     for k in range(mm.f_hz.size):
         print(f"{k + 1:>4} {mm.f_hz[k]:9.4f} {100 * zeta[k]:8.2f}")
     if a.out is not None:
-        g = read_uff(a.bag).geometry  # the FRF file's own (UFF 164 / 15 / 82), if any
+        g = uff.geometry
         geo = ({k: g[k] for k in ("nodes", "trace_lines", "units")} if g["nodes"] else None)
         doc = frf_modes_document(mm.f_hz, zeta, mm.shapes,
                                  [(f"{n}_{d}", n, d) for n, d in outs], str(a.bag),

@@ -22,7 +22,7 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.acquisition.hammer_test import HammerResult
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
-from modal_twin.io.uff import AXIS_CODES, read_uff, write_uff58_frf
+from modal_twin.io.uff import AXIS_CODES, UffContents, read_uff, write_uff58_frf
 
 __all__ = ["FRF_FILE", "SUMMARY_FILE", "channel_geometry", "dof_codes", "frf_modes_document",
            "hit_summary_lines", "read_frf_matrix", "read_window_tau", "write_hammer_result"]
@@ -105,12 +105,14 @@ def _place(text: str, where: str) -> tuple[str, str]:
     return m["node"], m["dir"]
 
 
-def read_frf_matrix(path: str | Path) -> tuple[FloatArray, ComplexArray, list[tuple[str, str]],
-                                               list[tuple[str, str]]]:
+def read_frf_matrix(path: str | Path, contents: UffContents | None = None
+                    ) -> tuple[FloatArray, ComplexArray, list[tuple[str, str]],
+                               list[tuple[str, str]]]:
     """FRF matrix of a UFF 58 file (function type 4): ``f_hz, H (n_out, n_in, n_f)``.
 
     With the (node, direction) of each response and of each reference (hit point), in the
-    order of first appearance.
+    order of first appearance. ``contents``: the file as :func:`read_uff` read it already
+    (a caller that also wants its geometry reads it once).
 
     Raises
     ------
@@ -118,7 +120,7 @@ def read_frf_matrix(path: str | Path) -> tuple[FloatArray, ComplexArray, list[tu
         No FRF in the file, a FRF without node and direction, or an incomplete matrix
         (a response / reference pair missing, repeated, or on other frequency lines).
     """
-    frfs = [s for s in read_uff(path).spectra if s["func_type"] == 4]
+    frfs = [s for s in (contents or read_uff(path)).spectra if s["func_type"] == 4]
     if not frfs:
         msg = (f"{path}: no FRF (UFF 58 function type 4) in the file; time records of a "
                "hammer test go through `modal-twin import` and `modal-twin impact` first")
