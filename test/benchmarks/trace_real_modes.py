@@ -143,6 +143,16 @@ def _poles_near(diag: Any, f0: float, rel: float = 0.03) -> list[str]:
             f"{t.d_next[k]:.4f}" for k in np.nonzero(np.abs(t.f / f0 - 1) <= rel)[0]]
 
 
+def references(yq: np.ndarray, fq: float, band: tuple[float, float]
+               ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """The references on decimated outputs, as ``bench_real_modes.py``: (block rows, FDD
+    peaks, plain SSI-cov columns, the modes both agree on), frequencies in Hz."""
+    rows = max(10, min(int(fq / (4 * band[0])), 1200 // yq.shape[0]))
+    f_fdd = fdd_peaks(yq, fq, band)[0]
+    f_ssi = ssi_cov_columns(yq, fq, band, rows=rows, orders=range(10, 61, 2))
+    return rows, f_fdd, f_ssi, agreed_modes(f_fdd, f_ssi)
+
+
 def _record(bag: Path, tag: str) -> tuple[list[str], dict[str, Any]]:
     from modal_twin.acquisition.decimation import decimate
     from modal_twin.identification.record import (
@@ -162,10 +172,7 @@ def _record(bag: Path, tag: str) -> tuple[list[str], dict[str, Any]]:
     s = _settings(y, blk.fs_hz, 0, IdentifyOptions(), _corners(outs))
     band = s.band_hz
     yq, fq = decimate(y, blk.fs_hz, s.factor).x, s.fs_hz
-    rows = max(10, min(int(fq / (4 * band[0])), 1200 // len(outs)))
-    f_fdd = fdd_peaks(yq, fq, band)[0]
-    f_ssi = ssi_cov_columns(yq, fq, band, rows=rows, orders=range(10, 61, 2))
-    agreed = agreed_modes(f_fdd, f_ssi)
+    rows, f_fdd, f_ssi, agreed = references(yq, fq, band)
     groups, note = scale_groups(yq, [c.quantity for c in outs])
     same = ["one"] * len(outs)
     steps = [("S1", same, rows, REF_ORDERS), ("S2", same, s.block_rows, REF_ORDERS),
