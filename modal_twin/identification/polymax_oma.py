@@ -205,7 +205,8 @@ def polymax_bands(band_hz: tuple[float, float], f_hz: FloatArray, min_lines: int
 
 def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
                    band_hz: tuple[float, float], *, ratio: float = BAND_RATIO,
-                   overlap: float = BAND_OVERLAP) -> tuple[PoleSweep, list[tuple[float, float]]]:
+                   overlap: float = BAND_OVERLAP, basis: float | None = None
+                   ) -> tuple[PoleSweep, list[tuple[float, float]]]:
     r"""PolyMAX (:func:`~modal_twin.identification.polymax.polymax`) fitted per sub-band.
 
     The linearised cost of pLSCF (Eqs. (1)-(4) of [002]) sums :math:`|B - H A|^2` over the
@@ -217,6 +218,14 @@ def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
     ``overlap``, with its own basis (Eq. (3): :math:`\Delta t = 1 / 2 f_{\max}` of the
     fitted band); the poles in the core make that order's set. Numerator shapes.
 
+    ``basis`` (None: the band's own, as above) puts the basis' Nyquist frequency at
+    ``basis`` times the fitted band's upper edge, :math:`\Delta t = 1 / (2\,
+    \mathrm{basis}\, f_{\max})`: with its own basis a sub-band's upper modes sit near
+    :math:`z = -1`, beside their conjugates' images, and on a stationary record with known
+    modes they come out 0.5-1 % low at every order; with ``basis=2`` within 0.3 %
+    (``test/benchmarks/trace_polymax_basis.py``; not the default: on the earthquake
+    records it reports fewer of the modes the references agree on).
+
     Returns
     -------
     (PoleSweep, list of (float, float))
@@ -226,7 +235,9 @@ def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
     parts = []
     for a, b in cores:
         fit = (max(band_hz[0], a / (1 + overlap)), min(band_hz[1], b * (1 + overlap)))
-        parts.append((a, b, polymax(H, f_hz, orders=orders, band_hz=fit, shapes="numerator")))
+        dt = None if basis is None else 1.0 / (2.0 * basis * fit[1])
+        parts.append((a, b, polymax(H, f_hz, orders=orders, band_hz=fit, dt_s=dt,
+                                    shapes="numerator")))
     sets = []
     for k, p in enumerate(orders):
         keep = [(sw.poles[k], (sw.poles[k].f_hz >= a) & (sw.poles[k].f_hz < b))

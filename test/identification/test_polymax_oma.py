@@ -8,7 +8,10 @@ peaks of the half-spectra and are kept, while poles put in the valleys between t
 high-order fit of a short record puts noise poles) are dropped, each with its reason;
 (3) the correlations from one FFT are the exact lag sums; (4) seven modes of a closed-form
 spectrum over 0.3-39 Hz (5 % noise) are found at every order when fitted octave by octave,
-while one fit of the whole band loses its lowest modes at many orders.
+while one fit of the whole band loses its lowest modes at many orders; (5) a mode at the
+top of its octave (closed-form half-spectra, 5 % noise) comes out low in frequency and
+damping with the octave's own basis, within 0.1 % and 5 % with a basis of twice the
+Nyquist (``polymax_banded(basis=2)``).
 """
 
 from __future__ import annotations
@@ -127,3 +130,50 @@ def test_sub_bands_find_the_modes_a_wide_band_fit_misses(seed: int) -> None:
     single = polymax(H, f, orders=orders, shapes="numerator")
     # one fit of the whole band: the low modes, crowded near z = 1 by its basis, come and go
     assert found(single)[:3].min() < 0.7
+
+
+F_TOP = np.array([1.9, 3.85, 7.7, 15.0])  # each near the top of its octave of 0.5-16 Hz
+Z_TOP = np.array([0.02, 0.015, 0.01, 0.01])
+
+
+def _top_of_octave_spectra(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form positive half-spectra (3 x 3) of four modes, 5 % complex noise."""
+    f = np.arange(0.0, 20.0, 0.01)
+    lam = 2 * np.pi * F_TOP * (-Z_TOP + 1j * np.sqrt(1 - Z_TOP**2))
+    phi = np.array([[1.0, 1.0, 1.0, 1.0], [0.6, -0.8, 0.3, -1.0], [-0.5, 0.7, 1.0, 0.4]])
+    s = 2j * np.pi * f
+    S = np.zeros((3, 3, f.size), complex)
+    for r in range(F_TOP.size):
+        R = np.outer(phi[:, r], phi[:, r]) * (1 - 0.3j) / F_TOP[r]
+        S += R[:, :, None] / (s - lam[r]) + R.conj()[:, :, None] / (s - lam[r].conj())
+    rng = np.random.default_rng(seed)
+    return f, S * (1 + 0.05 * (rng.standard_normal(S.shape)
+                               + 1j * rng.standard_normal(S.shape)))
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_own_sub_band_basis_damps_the_top_mode_low(seed: int) -> None:
+    """Session 14's measured cause of PolyMAX's low output-only damping (issue 22, 4): a
+    sub-band's own basis puts its top at z = -1, where a mode beside its conjugate's image
+    comes out under-damped; a basis with twice the Nyquist gives the truth back."""
+    from modal_twin.identification.polymax_oma import polymax_banded
+
+    f, S = _top_of_octave_spectra(seed)
+
+    def medians(basis: float | None) -> tuple[np.ndarray, np.ndarray]:
+        """Median over the orders 8..16 of each mode's nearest pole: f error, zeta ratio."""
+        sweep, cores = polymax_banded(S, f, list(range(2, 17)), (0.5, 16.0), basis=basis)
+        assert cores == [(0.5, 2.0), (2.0, 4.0), (4.0, 8.0), (8.0, 16.0)]
+        near = [[int(np.argmin(np.abs(p.f_hz - x))) for x in F_TOP]
+                for p in sweep.poles if p.order >= 8]
+        ps = [p for p in sweep.poles if p.order >= 8]
+        err = np.array([p.f_hz[k] / F_TOP - 1 for p, k in zip(ps, near, strict=True)])
+        zr = np.array([p.zeta[k] / Z_TOP for p, k in zip(ps, near, strict=True)])
+        return np.median(err, axis=0), np.median(zr, axis=0)
+
+    e2, z2 = medians(2.0)
+    np.testing.assert_array_less(np.abs(e2), 1e-3)  # every mode within 0.1 %
+    np.testing.assert_allclose(z2, 1.0, atol=0.05)  # and its damping within 5 %
+    e1, z1 = medians(None)  # the default: each octave's own basis
+    assert z1[-1] < 0.85 and e1[-1] < -1e-3  # 15 Hz (15 / 16 of the basis' Nyquist)
+    np.testing.assert_allclose(z1[:-1], 1.0, atol=0.1)  # the others about right
