@@ -25,7 +25,8 @@ from modal_twin.errors import ConfigError, SignalError
 from modal_twin.io.uff import AXIS_CODES, UffContents, read_uff, write_uff58_frf
 
 __all__ = ["FRF_FILE", "SUMMARY_FILE", "channel_geometry", "dof_codes", "frf_modes_document",
-           "hit_summary_lines", "measured_points_geometry", "read_frf_matrix",
+           "hit_summary_lines", "measured_points_geometry", "read_frf_coherence",
+           "read_frf_matrix",
            "read_window_tau", "structure_geometry", "write_hammer_result"]
 
 FRF_FILE = "frf.uff"
@@ -215,6 +216,30 @@ def read_frf_matrix(path: str | Path, contents: UffContents | None = None
         msg = f"{path}: FRFs with NaN or inf values"
         raise SignalError(msg)
     return f, H, outs, ins
+
+
+def read_frf_coherence(contents: UffContents, outputs: Sequence[tuple[str, str]],
+                       f_hz: FloatArray) -> tuple[FloatArray, int, int] | None:
+    """Each output's multiple coherence a FRF file carries (UFF 58 function type 6).
+
+    As :func:`~modal_twin.io.uff.write_uff58_frf` writes it (``export frf``): returns
+    ``(coherence (n_out, n_f), averages, n_in)`` in the order of ``outputs`` (the FRF
+    matrix's responses), or None when the file lacks one for some output, its lines differ
+    from the FRFs' or its id line 2 does not name the averages.
+    """
+    note = re.compile(r"over (\d+) averages of (\d+) inputs")
+    got: dict[tuple[str, str], tuple[Any, int, int]] = {}
+    for s in contents.spectra:
+        m = note.search(str(s.get("note", "")))
+        if s["func_type"] != 6 or m is None or not _PLACE.match(s["rsp"]):
+            continue
+        if s["f_hz"].shape != np.shape(f_hz) or not np.allclose(s["f_hz"], f_hz):
+            return None
+        got[_place(s["rsp"], "coherence")] = (np.real(s["data"]), int(m[1]), int(m[2]))
+    if not outputs or any(o not in got for o in outputs):
+        return None
+    first = got[outputs[0]]
+    return (np.array([got[o][0] for o in outputs], dtype=float), first[1], first[2])
 
 
 def read_window_tau(frf_file: str | Path) -> float | None:
