@@ -64,11 +64,12 @@ def _figures(folder: Path, notes: list[str]) -> list[tuple[str, bytes]]:
 
 
 def _modes_sections(mf: Any, source: str) -> dict[str, Any]:
-    from modal_twin.identification import automac
+    from modal_twin.identification.metrics import mac_measured
 
     labels = [f"{k + 1}: {f:.3f} Hz" for k, f in enumerate(mf.f_hz)]
     return {"modes": {"f_id_hz": mf.f_hz, "zeta_id": mf.zeta, "labels": labels},
-            "mac": (automac(mf.shapes), labels, labels), "selected_f_hz": mf.f_hz,
+            "mac": (mac_measured(mf.shapes, mf.shapes), labels, labels),  # NaN: unmeasured
+            "selected_f_hz": mf.f_hz,
             "source": source}
 
 

@@ -38,6 +38,7 @@ from modal_twin.exit_codes import ExitCode
 from modal_twin.progress import step
 
 if TYPE_CHECKING:
+    from modal_twin.io.modes_file import ModesFile
     from modal_twin.updating.matching import ModePairing
 
 __all__ = ["register", "run"]
@@ -101,6 +102,33 @@ def _measured(a: argparse.Namespace, file_dofs: np.ndarray | None,
                f"given; the modes do not fit the model's sensor list")
         raise ShapeError(msg)
     return dofs
+
+
+def _measured_modes(md: ModesFile, path: Path) -> ModesFile:
+    """Return the modes of ``md`` whose every shape entry was measured (said if some are not).
+
+    Merged setups leave empty (NaN) the entries of a mode at channels no setup that saw it
+    measured; such a mode has no shape to compare at every sensor, so it is left out.
+
+    Raises
+    ------
+    ConfigError
+        No mode is left.
+    """
+    from dataclasses import replace
+
+    ok = np.all(np.isfinite(md.shapes), axis=0)
+    if ok.all():
+        return md
+    if not ok.any():
+        msg = (f"{path}: every mode has shape entries that were not measured (merged setups "
+               "that each saw only some modes); nothing to update on")
+        raise ConfigError(msg)
+    print(f"update: {path.name}: left out {int((~ok).sum())} mode(s) with shape entries not "
+          f"measured (seen in some setups only): "
+          + ", ".join(f"{f:.4f} Hz" for f in md.f_hz[~ok]), file=sys.stderr, flush=True)
+    return replace(md, f_hz=md.f_hz[ok], zeta=md.zeta[ok], std_f_hz=md.std_f_hz[ok],
+                   shapes=md.shapes[:, ok], std_shapes=md.std_shapes[:, ok])
 
 
 def _version(out: Path) -> int:
@@ -182,7 +210,7 @@ def run(a: argparse.Namespace) -> int:
     if not mm.names:
         msg = f"{a.model}: no substructure stiffness K_<name> to update"
         raise ConfigError(msg)
-    md = read_modes(a.modes)
+    md = _measured_modes(read_modes(a.modes), a.modes)
     file_dofs = md.measured_dofs if md.measured_dofs is not None else _by_label(md.dofs,
                                                                                 mm.dofs)
     dofs = _measured(a, file_dofs, mm.measured_dofs, md.shapes.shape[0])
@@ -231,7 +259,7 @@ def _update_structure(a: argparse.Namespace) -> int:
     from modal_twin.models.sensors import match_outputs
     from modal_twin.updating.run import pairs_table, update_model
 
-    md = read_modes(a.modes)
+    md = _measured_modes(read_modes(a.modes), a.modes)
     if not md.dofs or not all(d.get("channel") for d in md.dofs):
         msg = (f"{a.modes}: a structure file is updated on an identify JSON (its shapes name "
                "their channels)")
