@@ -80,14 +80,21 @@ def _channels(labels: list[str], quantity: str, dofs: list[str], where: str) -> 
     return out
 
 
-def _fom_mac(pairing: Any, f_id: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """FOM of Eq. (1) of [000] over the matched modes, and each mode's df and MAC."""
+def _fom_mac(pr: Any, pairing: Any, theta: np.ndarray, f_id: np.ndarray
+             ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    """FOM of Eq. (1) of [000] over every mode at its partner, each mode's df and MAC.
+
+    An unmatched mode is at its nearest model mode (flagged in the last array;
+    :func:`~modal_twin.updating.matching.nearest_partners`).
+    """
+    from modal_twin.updating.matching import nearest_partners
     from modal_twin.updating.objectives import frequency_figure_of_merit
 
-    ok = np.asarray(pairing.fem_index) >= 0
-    df = np.asarray(pairing.df_rel, dtype=float)
+    md = pr.modes(theta)
+    _, df, mc, near = nearest_partners(pairing, f_id, pr.targets.shapes, md.f_hz, md.Phi_s)
+    ok = np.isfinite(df)
     fom = frequency_figure_of_merit(f_id[ok] * (1 + df[ok]), f_id[ok]) if ok.any() else np.inf
-    return fom, df, np.asarray(pairing.mac, dtype=float)
+    return fom, df, mc, near
 
 
 def run(a: argparse.Namespace) -> int:
@@ -160,13 +167,16 @@ def run(a: argparse.Namespace) -> int:
                          prior_weight=float(upd.get("prior_weight", 0.0)),
                          r_f=float(upd.get("r_f", 0.10)), r_mac=float(upd.get("r_mac", 0.15)))
     out = update(pr, global_stage=False, max_nfev=int(upd.get("max_nfev", 60)))
-    fom0, df0, mac0 = _fom_mac(out.pairing_before, mm.f_hz)
-    fom1, df1, mac1 = _fom_mac(out.pairing_after, mm.f_hz)
+    fom0, df0, mac0, near0 = _fom_mac(pr, out.pairing_before, out.theta_start, mm.f_hz)
+    fom1, df1, mac1, near1 = _fom_mac(pr, out.pairing_after, out.theta, mm.f_hz)
     print(f"{'mode':>4} {'f test':>9} {'df before %':>11} {'MAC':>6} {'df after %':>10} "
           f"{'MAC':>6}")
     for k, f in enumerate(mm.f_hz):
-        print(f"{k + 1:>4} {f:9.3f} {100 * df0[k]:11.3f} {mac0[k]:6.3f} {100 * df1[k]:10.3f} "
-              f"{mac1[k]:6.3f}")
+        print(f"{k + 1:>4} {f:9.3f} {100 * df0[k]:10.3f}{'*' if near0[k] else ' '} "
+              f"{mac0[k]:6.3f} {100 * df1[k]:9.3f}{'*' if near1[k] else ' '} {mac1[k]:6.3f}")
+    if near0.any() or near1.any():
+        print("  * unmatched (no model mode within the pairing windows of Eq. (4) of [004]): "
+              "its nearest partner, the cheapest model mode no pair uses")
     print(f"FOM (Eq. (1) of [000]): before {fom0:.3e}, after {fom1:.3e}; sqrt(FOM) "
           f"{np.sqrt(fom0):.4f} -> {np.sqrt(fom1):.4f}")
     for j, th in zip(JOINTS, out.theta, strict=True):
