@@ -165,11 +165,12 @@ def _print_pairs(rows: list[tuple[int, float, Partners, Partners]],
               "its nearest partner, the cheapest model mode no pair uses")
 
 
-def _table(res: object, pr: object) -> tuple[float, float, float, float]:
+def _table(res: object, pr: object
+           ) -> tuple[float, float, float, float, tuple[Partners, Partners]]:
     """Print df / MAC before and after for every mode.
 
-    Return max |df| before, min MAC before and the FOM of Eq. (1) of [000] before and
-    after, over every mode at its partner.
+    Return max |df| before, min MAC before, the FOM of Eq. (1) of [000] before and after,
+    over every mode at its partner, and the partners before and after.
     """
     from modal_twin.updating.matching import nearest_partners
     from modal_twin.updating.objectives import frequency_figure_of_merit
@@ -184,7 +185,8 @@ def _table(res: object, pr: object) -> tuple[float, float, float, float]:
     _print_pairs([(k, float(f), cols[0], cols[1]) for k, f in enumerate(f_id)])
     b = cols[0]
     fom = [frequency_figure_of_merit(f_id * (1 + c[1]), f_id) for c in cols]
-    return float(100 * np.nanmax(np.abs(b[1]))), float(np.nanmin(b[2])), fom[0], fom[1]
+    return (float(100 * np.nanmax(np.abs(b[1]))), float(np.nanmin(b[2])), fom[0], fom[1],
+            (cols[0], cols[1]))
 
 
 def run(a: argparse.Namespace) -> int:
@@ -221,7 +223,7 @@ def run(a: argparse.Namespace) -> int:
           file=sys.stderr, flush=True)
     with step("update: Gauss-Newton"):
         res = update(pr, global_stage=False, max_nfev=a.max_nfev)
-    df0, mac0, fom0, fom1 = _table(res, pr)
+    df0, mac0, fom0, fom1, partners = _table(res, pr)
     print(f"before: max |df| {df0:.3f} %, min MAC {mac0:.3f} (every mode, unmatched ones at "
           f"their nearest model mode); after: max |df| {res.max_abs_df_pct:.3f} %, "
           f"min MAC {res.min_mac:.3f}, "
@@ -237,7 +239,7 @@ def run(a: argparse.Namespace) -> int:
     for n, th in zip(mm.names, res.theta, strict=True):
         print(f"  {n:>10} {th:+.4f}")
     if a.out is not None:
-        _write(a.out, mm, res)
+        _write(a.out, mm, res, partners)
     return ExitCode.OK
 
 
@@ -278,7 +280,14 @@ def _update_structure(a: argparse.Namespace) -> int:
     return ExitCode.OK
 
 
-def _write(out: Path, mm: object, res: object) -> None:
+def _write(out: Path, mm: object, res: object,
+           partners: tuple[Partners, Partners]) -> None:
+    """Write ``model_vN.npz`` and ``update_vN.json``.
+
+    The JSON's df / MAC before and after are the table's: an unmatched mode at its nearest
+    model mode (``model_before`` / ``model_after``, 1-based, and ``unmatched_before`` /
+    ``unmatched_after`` say which), so no mode's error is hidden as null.
+    """
     from modal_twin.io.imported import atomic_file
     from modal_twin.models.matrix_model import sparse_members
 
@@ -286,7 +295,12 @@ def _write(out: Path, mm: object, res: object) -> None:
     arrays = sparse_members(mm.to_arrays(res.theta))  # type: ignore[attr-defined]
     with atomic_file(out / f"model_v{v}.npz") as tmp, tmp.open("wb") as fh:
         np.savez_compressed(fh, **arrays)
+    doc = res.as_dict()  # type: ignore[attr-defined]
+    for when, (idx, df, mc, near) in zip(("before", "after"), partners, strict=True):
+        doc[f"df_pct_{when}"] = (100 * df).tolist()
+        doc[f"mac_{when}"] = mc.tolist()
+        doc[f"model_{when}"] = (idx + 1).tolist()
+        doc[f"unmatched_{when}"] = near.tolist()
     with atomic_file(out / f"update_v{v}.json") as tmp:
-        tmp.write_text(json.dumps(res.as_dict(), indent=1, default=float)  # type: ignore[attr-defined]
-                       .replace("NaN", "null"))
+        tmp.write_text(json.dumps(doc, indent=1, default=float).replace("NaN", "null"))
     print(f"update: wrote {out}/model_v{v}.npz and update_v{v}.json")
