@@ -48,6 +48,28 @@ def test_the_frame_file_keeps_its_nodes_and_outline_through_npz(tmp_path: Path) 
     assert back.trace_nodes.tolist() == frame_outline()
 
 
+def test_the_rigs_channels_carry_their_nodes_positions() -> None:
+    """The channel map the acquisition publishes (and the bag records) places every force
+    and accelerometer at its node, so ``impact`` of the run's bag has the nodes too."""
+    from modal_twin.acquisition.hammer_test import hammer_channels
+    from modal_twin.io.impact_files import channel_geometry, structure_geometry
+    from modal_twin.models.rig_file import load_rig
+    from modal_twin.models.sensors import rig_channels
+
+    rig = load_rig(RIG)
+    chans = rig_channels(rig)
+    for c in chans:
+        np.testing.assert_allclose(c.position_m, expected(int(c.node)), atol=1e-12)
+    forces, resp = hammer_channels(chans)
+    assert [c.name for c in forces] == ["table_force_402_z", "table_force_203_x"]
+    geo = channel_geometry([*resp, *forces])
+    full = structure_geometry(rig.structure, [*forces, *resp])
+    assert geo is not None and full is not None
+    assert geo["nodes"].keys() == full["nodes"].keys()
+    for n, v in geo["nodes"].items():
+        np.testing.assert_allclose(v, full["nodes"][n], atol=1e-12)
+
+
 def test_bad_node_coordinates_are_refused_by_name() -> None:
     from modal_twin.errors import ShapeError
     from modal_twin.models.matrix_model import matrix_model_from_arrays

@@ -151,6 +151,8 @@ def test_impact_scenario_from_launch_to_updated_contact_stiffness(
                  str(acq["impact_force_range_n"]), "--out", str(tmp_path / "again")]) == 0
     _, H2, outs2, ins2 = read_frf_matrix(tmp_path / "again" / "frf.uff")
     assert (outs2, ins2) == (outs, ins)
+    again = read_uff(tmp_path / "again" / "frf.uff").geometry  # the recorded map's positions
+    assert again["nodes"] == {k: pytest.approx(v) for k, v in geo["nodes"].items()}
     np.testing.assert_allclose(H2, H, rtol=0, atol=1e-12 * np.abs(H).max())
 
     assert main(["identify", str(run / "impact" / "frf.uff"), "--f-max", "420",
