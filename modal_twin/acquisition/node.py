@@ -1,9 +1,10 @@
 """Acquisition node: /rig/raw -> calibrated, checked /measurement/frames (+ channel map).
 
 With ``mode: impact`` it also keeps the frames of a hammer test and, when it stops, writes
-the FRF matrix (``impact/frf.uff``, UFF 58) and every hit's verdict (``impact/hits.yaml``)
-into the run folder (``MODAL_TWIN_RUN_DIR``, set by the launcher; else the working
-directory), logging the hits averaged and each one rejected
+the FRF matrix (``impact/frf.uff``, UFF 58, after the measured points' geometry where the
+rig's structure file places its nodes: UFF 164 / 15 / 82) and every hit's verdict
+(``impact/hits.yaml``) into the run folder (``MODAL_TWIN_RUN_DIR``, set by the launcher;
+else the working directory), logging the hits averaged and each one rejected
 (:mod:`modal_twin.acquisition.hammer_test`).
 """
 
@@ -13,6 +14,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from modal_twin_msgs.msg import ChannelInfo, ChannelMap
 from modal_twin_msgs.msg import SignalBlock as SignalBlockMsg
@@ -23,7 +25,7 @@ from modal_twin.acquisition.frames import frame_from_raw
 from modal_twin.acquisition.hammer_test import HammerTest
 from modal_twin.errors import OptionError
 from modal_twin.io.convert import block_from_msg, block_to_msg, channel_map_to_msg
-from modal_twin.io.impact_files import write_hammer_result
+from modal_twin.io.impact_files import structure_geometry, write_hammer_result
 from modal_twin.io.params import declare_config
 from modal_twin.io.ros import configuring, guarded, qos_for, report, run_node
 from modal_twin.models.rig_file import load_rig
@@ -73,7 +75,8 @@ class AcquisitionNode(Node):
         super().__init__("acquisition")
         self.cfg = declare_config(self, AcquisitionConfig)
         with configuring(self, "building the channel map"):  # the rig's model: seconds
-            channels = rig_channels(load_rig(resolve_config(self.cfg.rig_file)))
+            rig = load_rig(resolve_config(self.cfg.rig_file))
+            channels = rig_channels(rig)
         self.channels = {c.name: c for c in channels}
         self.monitor = StreamMonitor(expected_channels=tuple(self.channels))
         self.pub = self.create_publisher(SignalBlockMsg, "/measurement/frames",
@@ -86,12 +89,16 @@ class AcquisitionNode(Node):
                                  guarded(self, "raw block", self._on_raw), qos_for("/rig/raw"))
         self.get_logger().info(f"channel map: {len(channels)} channels")
         self.hammer: HammerTest | None = None
+        self.geometry: dict[str, Any] | None = None
         self.exit_code = 0
         if self.cfg.mode == "impact":
             c = self.cfg
             self.hammer = HammerTest(
                 channels, block_s=c.impact_block_s, estimator=c.impact_estimator,  # type: ignore[arg-type]
                 tau_s=c.impact_tau_s or None, force_range=c.impact_force_range_n or None)
+            # the measured points where the rig's structure file places them (UFF 15 / 82)
+            self.geometry = structure_geometry(
+                rig.structure, [*self.hammer.inputs, *self.hammer.outputs])
             self.get_logger().info(
                 f"impact mode: {len(self.hammer.inputs)} hit points, "
                 f"{len(self.hammer.outputs)} responses, {c.impact_block_s:g} s blocks")
@@ -120,7 +127,7 @@ class AcquisitionNode(Node):
         try:
             res = self.hammer.finish()
             folder = Path(os.environ.get("MODAL_TWIN_RUN_DIR", ".")) / "impact"
-            frf, hits = write_hammer_result(folder, res)
+            frf, hits = write_hammer_result(folder, res, geometry=self.geometry)
         except Exception as err:  # said, never a traceback at shutdown
             log.error(f"impact: no FRFs written: {err}")
             self.exit_code = 1

@@ -2,7 +2,9 @@
 
 - ``modes``: an ``identify`` JSON (``modes.json``) -> UFF 55 (complex modes; the channels'
   nodes, directions and names, and the record's geometry as UFF 15 / 82);
-- ``frf``: a bag's H1 FRFs (inputs and outputs by role) -> UFF 58 (function type 4);
+- ``frf``: a bag's H1 FRFs (inputs and outputs by role; Welch blocks as ``identify``
+  chooses them) -> UFF 58 (function type 4), each output's multiple coherence after them
+  (function type 6, the averages named);
 - ``model``: a structure YAML or a matrix file -> NPZ with ``M``, ``K``, ``C``, ``dofs``
   (``"node:dof"`` labels), ``parameter_names``, ``theta0`` and one matrix per parameter
   (``K_<name>`` = dK/dtheta, ``M_<name>``, ``C_<name>``), the matrices sparse (CSR
@@ -144,6 +146,7 @@ def _modes(src: Path, out: Path, force: bool) -> str:
 
 def _frf(src: Path, out: Path, force: bool) -> str:
     from modal_twin.acquisition.frf import frf
+    from modal_twin.identification.record import welch_segment
     from modal_twin.io.imported import read_imported
     from modal_twin.io.uff import AXIS_CODES, write_uff58_frf
 
@@ -154,7 +157,8 @@ def _frf(src: Path, out: Path, force: bool) -> str:
         msg = f"{src}: FRFs need input and output channels (roles), got {len(ins)} / {len(outs)}"
         raise ConfigError(msg)
     est = frf(block.select([c.name for c in ins]).data,
-              block.select([c.name for c in outs]).data, block.fs_hz)
+              block.select([c.name for c in outs]).data, block.fs_hz,
+              nperseg=welch_segment(block.n_samples, len(ins)))  # identify's blocks
     nodes = sorted({c.node or c.name for c in chans})
 
     def dof(c: Any) -> tuple[int, int]:
@@ -165,8 +169,10 @@ def _frf(src: Path, out: Path, force: bool) -> str:
         tmp.unlink()
         write_uff58_frf(tmp, est.f_hz, H, [dof(c) for c in outs], [dof(c) for c in ins],
                         [c.quantity for c in outs], [c.quantity for c in ins],
-                        names=([c.name for c in outs], [c.name for c in ins]))
-    return f"{len(outs)} x {len(ins)} FRFs, {est.f_hz.size} lines"
+                        names=([c.name for c in outs], [c.name for c in ins]),
+                        coherence=np.nan_to_num(est.coherence), averages=est.n_averages)
+    return (f"{len(outs)} x {len(ins)} FRFs, {est.f_hz.size} lines, H1 over "
+            f"{est.n_averages} averages, each output's multiple coherence")
 
 
 def run(a: argparse.Namespace) -> int:

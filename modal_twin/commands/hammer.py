@@ -9,7 +9,8 @@ file the other commands read:
 1. ``test.uff``: the simulated test's time records (UFF 58: force and accelerations at
    their nodes and directions; ``modal-twin import`` + ``modal-twin impact`` read it), after
    the test geometry (UFF 164 SI, 15: the measured nodes at the model's coordinates, 82:
-   one trace line around the frame; :func:`measured_points_geometry`), as ``frf.uff`` and
+   one trace line around the frame;
+   :func:`~modal_twin.io.impact_files.measured_points_geometry`), as ``frf.uff`` and
    ``modes.json`` carry it;
 2. ``frf.uff`` and ``hits.yaml``: the FRF matrix from the accepted hits (double hits and
    overloads rejected and counted; :class:`~modal_twin.acquisition.hammer_test.HammerTest`);
@@ -33,7 +34,7 @@ import numpy as np
 from modal_twin.errors import ConfigError
 from modal_twin.exit_codes import ExitCode
 
-__all__ = ["OUTPUTS", "measured_points_geometry", "register", "run"]
+__all__ = ["OUTPUTS", "register", "run"]
 
 OUTPUTS = ("test.uff", "frf.uff", "hits.yaml", "modes.json", "nominal.npz", "update.json")
 HELP = "a simulated hammer test of a frame: test, FRFs, PolyMAX + LSFD modes, updated model"
@@ -79,39 +80,21 @@ def _channels(labels: list[str], quantity: str, dofs: list[str], where: str) -> 
     return out
 
 
-def measured_points_geometry(node_xyz: np.ndarray, measured: list[str], outline: list[int]
-                  ) -> dict[str, Any]:
-    """Test geometry of the measured nodes: their model coordinates (m) and one trace line.
+def _fom_mac(pr: Any, pairing: Any, theta: np.ndarray, f_id: np.ndarray
+             ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    """FOM of Eq. (1) of [000] over every mode at its partner, each mode's df and MAC.
 
-    ``node_xyz`` rows: (node, x, y, z)
-    (:func:`~modal_twin.models.tracking_frame.frame_matrices`);
-    the trace line joins the measured nodes in the order of ``outline`` (the frame's nodes
-    around it, closed), so it draws the frame through the points measured.
+    An unmatched mode is at its nearest model mode (flagged in the last array;
+    :func:`~modal_twin.updating.matching.nearest_partners`).
     """
-    from modal_twin.io.uff import SI_UNITS
-
-    xyz = {int(r[0]): [float(v) for v in r[1:4]] for r in np.asarray(node_xyz)}
-    ids = sorted({int(m) for m in measured})
-    missing = [n for n in ids if n not in xyz]
-    if missing:
-        msg = f"nodes {missing} are measured but not in the frame"
-        raise ConfigError(msg)
-    seq = [n for n in outline if n in ids]
-    if len(seq) > 2 and seq[0] != seq[-1] and outline[0] == outline[-1]:
-        seq.append(seq[0])
-    lines = [{"number": 1, "id": "frame through the measured nodes", "nodes": seq}]
-    return {"nodes": {str(n): xyz[n] for n in ids},
-            "trace_lines": lines if len(set(seq)) > 1 else [], "units": dict(SI_UNITS)}
-
-
-def _fom_mac(pairing: Any, f_id: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """FOM of Eq. (1) of [000] over the matched modes, and each mode's df and MAC."""
+    from modal_twin.updating.matching import nearest_partners
     from modal_twin.updating.objectives import frequency_figure_of_merit
 
-    ok = np.asarray(pairing.fem_index) >= 0
-    df = np.asarray(pairing.df_rel, dtype=float)
+    md = pr.modes(theta)
+    _, df, mc, near = nearest_partners(pairing, f_id, pr.targets.shapes, md.f_hz, md.Phi_s)
+    ok = np.isfinite(df)
     fom = frequency_figure_of_merit(f_id[ok] * (1 + df[ok]), f_id[ok]) if ok.any() else np.inf
-    return fom, df, np.asarray(pairing.mac, dtype=float)
+    return fom, df, mc, near
 
 
 def run(a: argparse.Namespace) -> int:
@@ -119,6 +102,7 @@ def run(a: argparse.Namespace) -> int:
     from modal_twin.acquisition.hammer_test import HammerTest
     from modal_twin.identification.frf_modes import modes_from_frf
     from modal_twin.io.impact_files import frf_modes_document, write_hammer_result
+    from modal_twin.io.impact_files import measured_points_geometry as points_geometry
     from modal_twin.io.uff import write_uff58_time
     from modal_twin.models.frame_file import spec_fields
     from modal_twin.models.tracking_frame import JOINTS, FrameSpec, frame_matrices, frame_outline
@@ -149,8 +133,7 @@ def run(a: argparse.Namespace) -> int:
                                   [dofs.index(r) for r in resp], plan)
     a.out.mkdir(parents=True, exist_ok=True)
     chans = [*forces, *outputs]
-    geo = measured_points_geometry(nominal["node_xyz"], [c.node for c in chans],
-                                   frame_outline(spec))
+    geo = points_geometry(nominal["node_xyz"], [c.node for c in chans], frame_outline(spec))
     write_uff58_time(a.out / "test.uff", chans, plan.fs_hz, np.vstack([F, A]), geometry=geo)
     proc = dict(doc.get("processing") or {})
     ht = HammerTest(chans, block_s=float(proc.get("block_s", 4.0)),
@@ -184,13 +167,16 @@ def run(a: argparse.Namespace) -> int:
                          prior_weight=float(upd.get("prior_weight", 0.0)),
                          r_f=float(upd.get("r_f", 0.10)), r_mac=float(upd.get("r_mac", 0.15)))
     out = update(pr, global_stage=False, max_nfev=int(upd.get("max_nfev", 60)))
-    fom0, df0, mac0 = _fom_mac(out.pairing_before, mm.f_hz)
-    fom1, df1, mac1 = _fom_mac(out.pairing_after, mm.f_hz)
+    fom0, df0, mac0, near0 = _fom_mac(pr, out.pairing_before, out.theta_start, mm.f_hz)
+    fom1, df1, mac1, near1 = _fom_mac(pr, out.pairing_after, out.theta, mm.f_hz)
     print(f"{'mode':>4} {'f test':>9} {'df before %':>11} {'MAC':>6} {'df after %':>10} "
           f"{'MAC':>6}")
     for k, f in enumerate(mm.f_hz):
-        print(f"{k + 1:>4} {f:9.3f} {100 * df0[k]:11.3f} {mac0[k]:6.3f} {100 * df1[k]:10.3f} "
-              f"{mac1[k]:6.3f}")
+        print(f"{k + 1:>4} {f:9.3f} {100 * df0[k]:10.3f}{'*' if near0[k] else ' '} "
+              f"{mac0[k]:6.3f} {100 * df1[k]:9.3f}{'*' if near1[k] else ' '} {mac1[k]:6.3f}")
+    if near0.any() or near1.any():
+        print("  * unmatched (no model mode within the pairing windows of Eq. (4) of [004]): "
+              "its nearest partner, the cheapest model mode no pair uses")
     print(f"FOM (Eq. (1) of [000]): before {fom0:.3e}, after {fom1:.3e}; sqrt(FOM) "
           f"{np.sqrt(fom0):.4f} -> {np.sqrt(fom1):.4f}")
     for j, th in zip(JOINTS, out.theta, strict=True):

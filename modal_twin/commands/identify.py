@@ -216,8 +216,7 @@ def _identify_frf(a: argparse.Namespace) -> int:
         print(f"identify: damping corrected for the exponential window of {tau:g} s "
               f"(hits.yaml): zeta - 1 / (tau w)")
     if mm.f_hz.size == 0:
-        print(f"warning: no mode found in {lo:.4g}-{hi:.4g} Hz; try another band (--f-max)",
-              file=sys.stderr)
+        print(_no_frf_mode(uff, f, outs, (lo, hi)), file=sys.stderr)
         return ExitCode.FAILED
     print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>8}")
     for k in range(mm.f_hz.size):
@@ -233,6 +232,39 @@ def _identify_frf(a: argparse.Namespace) -> int:
             tmp.write_text(json.dumps(doc, indent=1))
         print(f"identify: wrote {a.out / 'modes.json'}")
     return ExitCode.OK
+
+
+def _no_frf_mode(uff: Any, f: Any, outs: list[tuple[str, str]],
+                 band: tuple[float, float]) -> str:
+    """One line: why PolyMAX found no mode in a FRF file's band, as far as the file tells.
+
+    A file with each output's multiple coherence (``export frf``) below
+    :data:`~modal_twin.identification.record.COHERENT` (debiased) is the inputs' fault: H1
+    of inputs that explain that little of the response (ground motion at several supports,
+    unmeasured excitation) holds no consistent poles, and the record itself identifies
+    output-only.
+    """
+    from modal_twin.identification.record import COHERENT, debiased_coherence
+    from modal_twin.io.impact_files import read_frf_coherence
+
+    where = (f"no mode found in {band[0]:.4g}-{band[1]:.4g} Hz: no column of PolyMAX poles "
+             "is stable")
+    got = read_frf_coherence(uff, outs, f)
+    if got is None:
+        return (f"warning: {where} (the file holds no coherence to tell why); try another "
+                "band (--f-max)")
+    coh, n_avg, n_in = got
+    sel = (f >= band[0]) & (f <= band[1])
+    raw = float(coh[:, sel].mean())
+    c = debiased_coherence(raw, n_in, n_avg)
+    said = (f"the FRFs' multiple coherence in the band is {c:.2f} (debiased; {raw:.2f} over "
+            f"{n_avg} averages of {n_in} inputs)")
+    if c < COHERENT:
+        return (f"warning: {where}; {said}, below {COHERENT:g}: the inputs explain too little "
+                "of the response (ground motion at several supports, unmeasured excitation) "
+                "for H1 to hold consistent poles -- identify the record itself, output-only "
+                "(modal-twin identify BAG)")
+    return f"warning: {where}, though {said}; try another band (--f-max)"
 
 
 def _or_dash(x: float, width: int, decimals: int) -> str:

@@ -280,16 +280,31 @@ def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: 
     ConfigError
         Nothing to report: one line naming what is missing.
     """
+    from modal_twin.viz.report import write_report
+
+    rd = Path(run_dir)
+    target = check_new(out or rd / "report.html", force)
+    with step(f"report: {rd.name}"):  # said once the whole report runs over 2 s
+        data = _folder_data(rd, n_modes)
+        with step(f"report: writing {target.name}"):
+            return write_report(data, target)
+
+
+def _folder_data(rd: Path, n_modes: int) -> Any:
+    """Return the report data of any folder kind (:func:`make_report`).
+
+    Raises
+    ------
+    ConfigError
+        Nothing to report: one line naming what is missing.
+    """
     from modal_twin.commands.report_record import (
         is_launched_run,
         load_launched_run,
         load_record_folder,
     )
     from modal_twin.commands.report_vehicle import load_vehicle_run, vehicle_of_run
-    from modal_twin.viz.report import write_report
 
-    rd = Path(run_dir)
-    target = check_new(out or rd / "report.html", force)
     if vehicle_of_run(rd) is not None:  # a launched run of a car (bag/, params/)
         data, missing = load_vehicle_run(rd)
         if data is None:
@@ -308,8 +323,7 @@ def make_report(run_dir: str | Path, out: str | Path | None = None, *, n_modes: 
         data, missing = load_record_folder(rd)
         if data is None:
             raise ConfigError(missing)
-    with step(f"report: writing {target.name}"):
-        return write_report(data, target)
+    return data
 
 
 FIGURES = "force_state_*.png"

@@ -64,11 +64,12 @@ def _figures(folder: Path, notes: list[str]) -> list[tuple[str, bytes]]:
 
 
 def _modes_sections(mf: Any, source: str) -> dict[str, Any]:
-    from modal_twin.identification import automac
+    from modal_twin.identification.metrics import mac_measured
 
     labels = [f"{k + 1}: {f:.3f} Hz" for k, f in enumerate(mf.f_hz)]
     return {"modes": {"f_id_hz": mf.f_hz, "zeta_id": mf.zeta, "labels": labels},
-            "mac": (automac(mf.shapes), labels, labels), "selected_f_hz": mf.f_hz,
+            "mac": (mac_measured(mf.shapes, mf.shapes), labels, labels),  # NaN: unmeasured
+            "selected_f_hz": mf.f_hz,
             "source": source}
 
 
@@ -169,6 +170,7 @@ def _scene(folder: Path, mf: Any, notes: list[str]) -> str | None:
 def _sections(folder: Path, notes: list[str], *, identify: bool = True
               ) -> tuple[dict[str, Any], Any, list[tuple[str, bytes]], str | None]:
     """Return the report sections of one folder: data, its modes, its figures, its 3D view."""
+    from modal_twin.commands.report_results import campaign_section, update_section
     from modal_twin.io.impact_files import hit_summary_lines
     from modal_twin.io.modes_file import read_modes
 
@@ -187,6 +189,10 @@ def _sections(folder: Path, notes: list[str], *, identify: bool = True
         data.update(ident)
     if "frf" not in data:
         data.update(_frf_file(folder, notes))
+    results = [sec for sec in (update_section(folder, notes), campaign_section(folder, notes))
+               if sec is not None]  # update --out, campaign --out
+    if results:
+        data["sections"] = results
     notes += hit_summary_lines(folder)
     images = _figures(folder, notes)
     with step("report: 3D view"):
@@ -208,8 +214,9 @@ def load_record_folder(folder: Path) -> tuple[Any, str]:
         return None, (f"{folder}: nothing to report: no run (*/bag, models/, or a launched "
                       "run's bag/ with params/), no imported "
                       "record (channel_map.json with a bag), no modes (modes.json, "
-                      "modes_*.json), no FRF matrix (frf.uff) and no test geometry "
-                      "(geometry_*.json)")
+                      "modes_*.json), no FRF matrix (frf.uff), no test geometry "
+                      "(geometry_*.json), no update result (update_v*.json) and no campaign "
+                      "(campaign.json)")
     return RunData(f"modal_twin record {folder.name} ({source})", scene_html=scene,
                    figures=images, notes=notes, **data), ""
 

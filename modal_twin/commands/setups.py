@@ -12,11 +12,15 @@ must name the channels of their shape entries, so a ``.mat`` is refused). This c
    common channels (:func:`~modal_twin.identification.setups.cross_mac`): per mode of the
    first setup, its best partner, both frequencies and the MAC;
 4. joins the setups by PoSER (:func:`~modal_twin.identification.setups.merge_setups`):
-   every setup's shape scaled in least squares so that its reference part matches the
-   first setup's (the merged shapes keep the first setup's complex scale), the roving parts
-   side by side, f and zeta the means over the setups with their spreads;
+   the modes of every setup grouped by frequency and reference MAC, each member's shape
+   scaled in least squares so that its reference part matches that of the setup that saw
+   the mode first (the first setup's complex scale for every mode it holds), the roving
+   parts side by side, f and zeta the means over the setups with their spreads; a mode
+   some setups lack is kept and said with the setups that saw it, its entries at channels
+   none of them measured left empty (null in ``modes.json``, NaN in ``modes.uff``);
 5. writes ``modes.json`` and ``modes.uff`` (UFF 55) over every channel into ``--out``
-   (``export modes``, ``report``, ``view --modes`` and ``update --modes`` read them).
+   (``export modes``, ``report``, ``view --modes`` and ``update --modes`` read them;
+   ``update`` leaves out the modes with empty entries, said).
 """
 
 from __future__ import annotations
@@ -196,6 +200,9 @@ def merged_document(merged: Any, files: list[Any], paths: list[Path], refs: list
                        "f_spread_hz": float(merged.f_spread_hz[k]),
                        "zeta_spread": float(merged.zeta_spread[k]),
                        "reference_mac": [float(v) for v in merged.ref_mac[k]],
+                       "seen_in": [paths[i].name for i in merged.seen_in[k]],
+                       "not_measured": [c for i, c in enumerate(merged.channels)
+                                        if not np.isfinite(S[i, k])],
                        "shape_re": S[:, k].real.tolist(), "shape_im": S[:, k].imag.tolist()}
                       for k in range(merged.f_hz.size)]}
 
@@ -219,13 +226,23 @@ def run(a: argparse.Namespace) -> int:
           + ("" if a.references else " (the channels every setup measured)"))
     _print_cross_mac(setups, paths)
     merged = merge_setups(setups, refs, df_rel=a.df_rel, min_mac=a.min_mac)
-    print(f"setups: {merged.f_hz.size} of {setups[0].f_hz.size} modes of {paths[0].name} "
-          f"found in every setup (within {100 * a.df_rel:g} % and reference MAC >= "
-          f"{a.min_mac:g}), merged over {len(merged.channels)} channels; {SCALING}")
-    print(f"{'mode':>4} {'f [Hz]':>9} {'spread f':>9} {'zeta [%]':>8} {'min ref MAC':>11}")
+    full = merged.complete()
+    print(f"setups: {merged.f_hz.size} modes (paired within {100 * a.df_rel:g} % and reference "
+          f"MAC >= {a.min_mac:g}): {int(full.sum())} seen in every setup, "
+          f"{int((~full).sum())} in some only; merged over {len(merged.channels)} channels; "
+          f"{SCALING}")
+    print(f"{'mode':>4} {'f [Hz]':>9} {'spread f':>9} {'zeta [%]':>8} {'min ref MAC':>11} "
+          "seen in setups")
     for k in range(merged.f_hz.size):
+        seen = "all" if full[k] else ", ".join(str(i + 1) for i in merged.seen_in[k])
         print(f"{k + 1:>4} {merged.f_hz[k]:9.4f} {merged.f_spread_hz[k]:9.4f} "
-              f"{100 * merged.zeta[k]:8.2f} {merged.ref_mac[k].min():11.4f}")
+              f"{100 * merged.zeta[k]:8.2f} {np.nanmin(merged.ref_mac[k]):11.4f} {seen}")
+    for k in map(int, np.flatnonzero(~full)):
+        absent = [c for i, c in enumerate(merged.channels)
+                  if not np.isfinite(merged.shapes[i, k])]
+        print(f"  mode {k + 1} ({merged.f_hz[k]:.4f} Hz): seen in "
+              f"{', '.join(paths[i].name for i in merged.seen_in[k])} only; not measured "
+              f"there: {', '.join(absent) or 'none'} (left empty, not zero)")
     if a.out is not None:
         doc = merged_document(merged, files, paths, refs)
         a.out.mkdir(parents=True, exist_ok=True)

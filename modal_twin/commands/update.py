@@ -38,7 +38,7 @@ from modal_twin.exit_codes import ExitCode
 from modal_twin.progress import step
 
 if TYPE_CHECKING:
-    from modal_twin.updating.matching import ModePairing
+    from modal_twin.io.modes_file import ModesFile
 
 __all__ = ["register", "run"]
 
@@ -103,6 +103,33 @@ def _measured(a: argparse.Namespace, file_dofs: np.ndarray | None,
     return dofs
 
 
+def _measured_modes(md: ModesFile, path: Path) -> ModesFile:
+    """Return the modes of ``md`` whose every shape entry was measured (said if some are not).
+
+    Merged setups leave empty (NaN) the entries of a mode at channels no setup that saw it
+    measured; such a mode has no shape to compare at every sensor, so it is left out.
+
+    Raises
+    ------
+    ConfigError
+        No mode is left.
+    """
+    from dataclasses import replace
+
+    ok = np.all(np.isfinite(md.shapes), axis=0)
+    if ok.all():
+        return md
+    if not ok.any():
+        msg = (f"{path}: every mode has shape entries that were not measured (merged setups "
+               "that each saw only some modes); nothing to update on")
+        raise ConfigError(msg)
+    print(f"update: {path.name}: left out {int((~ok).sum())} mode(s) with shape entries not "
+          f"measured (seen in some setups only): "
+          + ", ".join(f"{f:.4f} Hz" for f in md.f_hz[~ok]), file=sys.stderr, flush=True)
+    return replace(md, f_hz=md.f_hz[ok], zeta=md.zeta[ok], std_f_hz=md.std_f_hz[ok],
+                   shapes=md.shapes[:, ok], std_shapes=md.std_shapes[:, ok])
+
+
 def _version(out: Path) -> int:
     out.mkdir(parents=True, exist_ok=True)
     nums = [int(p.stem.removeprefix("model_v")) for p in out.glob("model_v*.npz")
@@ -110,37 +137,42 @@ def _version(out: Path) -> int:
     return max(nums, default=0) + 1
 
 
-def _pairs(pairing: ModePairing, f_id: np.ndarray, shapes: np.ndarray, f_fem: np.ndarray,
-           phi_fem: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Return df, MAC and model mode of every identified mode, and which are unmatched.
+Partners = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""Model mode, df, MAC and unmatched flag of each identified mode (``nearest_partners``)."""
 
-    A matched mode gets its pair; an unmatched one (flagged) its nearest partner: the
-    cheapest model mode no pair uses, by the pair cost ``|df| + (1 - MAC)`` of Eq. (3b) of
-    [004] (one partner each).
+
+def _print_pairs(rows: list[tuple[int, float, Partners, Partners]],
+                 stage_of: list[str] | None = None) -> None:
+    """Print the df / MAC table: per identified mode, its partner before and after.
+
+    ``rows``: (index in the partners, f id, before, after); ``stage_of``: a heading before
+    the first row of each stage.
     """
-    import scipy.optimize as so
+    print(f"{'mode':>4} {'f id [Hz]':>10} {'model':>5} {'df before %':>11} {'MAC before':>10} "
+          f"{'model':>5} {'df after %':>10} {'MAC after':>9}")
 
-    from modal_twin.updating.matching import pair_costs
+    def cell(c: Partners, k: int, w: int) -> str:
+        idx, df, mc, near = c
+        mark = "*" if near[k] else " "
+        return f"{idx[k] + 1:>4}{mark} {100 * df[k]:{w}.3f} {mc[k]:{w - 1}.3f}"
 
-    idx = np.array(pairing.fem_index)
-    df = np.array(pairing.df_rel, dtype=np.float64)
-    mc = np.array(pairing.mac, dtype=np.float64)
-    near = idx < 0
-    miss = np.flatnonzero(near)
-    free = np.setdiff1d(np.arange(f_fem.size), idx[idx >= 0])
-    if miss.size and free.size:
-        cost, d, m, *_ = pair_costs(f_id[miss], shapes[:, miss], f_fem[free], phi_fem[:, free])
-        r, c = so.linear_sum_assignment(cost)
-        idx[miss[r]], df[miss[r]], mc[miss[r]] = free[c], d[r, c], m[r, c]
-    return idx, df, mc, near
+    for n, (k, f, before, after) in enumerate(rows):
+        if stage_of is not None and (n == 0 or stage_of[n] != stage_of[n - 1]):
+            print(f"stage {stage_of[n]}:")
+        print(f"{k + 1:>4} {f:10.4f} {cell(before, k, 11)} {cell(after, k, 10)}")
+    if any(c[3][k] for k, _, *cs in rows for c in cs):
+        print("  * unmatched (no model mode within the pairing windows of Eq. (4) of [004]): "
+              "its nearest partner, the cheapest model mode no pair uses")
 
 
-def _table(res: object, pr: object) -> tuple[float, float, float, float]:
+def _table(res: object, pr: object
+           ) -> tuple[float, float, float, float, tuple[Partners, Partners]]:
     """Print df / MAC before and after for every mode.
 
-    Return max |df| before, min MAC before and the FOM of Eq. (1) of [000] before and
-    after, over every mode at its partner.
+    Return max |df| before, min MAC before, the FOM of Eq. (1) of [000] before and after,
+    over every mode at its partner, and the partners before and after.
     """
+    from modal_twin.updating.matching import nearest_partners
     from modal_twin.updating.objectives import frequency_figure_of_merit
 
     f_id = np.asarray(res.f_id)  # type: ignore[attr-defined]
@@ -149,23 +181,12 @@ def _table(res: object, pr: object) -> tuple[float, float, float, float]:
     for pairing, theta in ((res.pairing_before, res.theta_start),  # type: ignore[attr-defined]
                            (res.pairing_after, res.theta)):  # type: ignore[attr-defined]
         md = pr.modes(theta)  # type: ignore[attr-defined]
-        cols.append(_pairs(pairing, f_id, shapes, md.f_hz, md.Phi_s))
-    print(f"{'mode':>4} {'f id [Hz]':>10} {'model':>5} {'df before %':>11} {'MAC before':>10} "
-          f"{'model':>5} {'df after %':>10} {'MAC after':>9}")
-
-    def cell(c: tuple[np.ndarray, ...], k: int, w: int) -> str:
-        idx, df, mc, near = c
-        mark = "*" if near[k] else " "
-        return f"{idx[k] + 1:>4}{mark} {100 * df[k]:{w}.3f} {mc[k]:{w - 1}.3f}"
-
-    for k, f in enumerate(f_id):
-        print(f"{k + 1:>4} {f:10.4f} {cell(cols[0], k, 11)} {cell(cols[1], k, 10)}")
-    if any(c[3].any() for c in cols):
-        print("  * unmatched (no model mode within the pairing windows of Eq. (4) of [004]): "
-              "its nearest partner, the cheapest model mode no pair uses")
+        cols.append(nearest_partners(pairing, f_id, shapes, md.f_hz, md.Phi_s))
+    _print_pairs([(k, float(f), cols[0], cols[1]) for k, f in enumerate(f_id)])
     b = cols[0]
     fom = [frequency_figure_of_merit(f_id * (1 + c[1]), f_id) for c in cols]
-    return float(100 * np.nanmax(np.abs(b[1]))), float(np.nanmin(b[2])), fom[0], fom[1]
+    return (float(100 * np.nanmax(np.abs(b[1]))), float(np.nanmin(b[2])), fom[0], fom[1],
+            (cols[0], cols[1]))
 
 
 def run(a: argparse.Namespace) -> int:
@@ -182,7 +203,7 @@ def run(a: argparse.Namespace) -> int:
     if not mm.names:
         msg = f"{a.model}: no substructure stiffness K_<name> to update"
         raise ConfigError(msg)
-    md = read_modes(a.modes)
+    md = _measured_modes(read_modes(a.modes), a.modes)
     file_dofs = md.measured_dofs if md.measured_dofs is not None else _by_label(md.dofs,
                                                                                 mm.dofs)
     dofs = _measured(a, file_dofs, mm.measured_dofs, md.shapes.shape[0])
@@ -202,7 +223,7 @@ def run(a: argparse.Namespace) -> int:
           file=sys.stderr, flush=True)
     with step("update: Gauss-Newton"):
         res = update(pr, global_stage=False, max_nfev=a.max_nfev)
-    df0, mac0, fom0, fom1 = _table(res, pr)
+    df0, mac0, fom0, fom1, partners = _table(res, pr)
     print(f"before: max |df| {df0:.3f} %, min MAC {mac0:.3f} (every mode, unmatched ones at "
           f"their nearest model mode); after: max |df| {res.max_abs_df_pct:.3f} %, "
           f"min MAC {res.min_mac:.3f}, "
@@ -218,7 +239,7 @@ def run(a: argparse.Namespace) -> int:
     for n, th in zip(mm.names, res.theta, strict=True):
         print(f"  {n:>10} {th:+.4f}")
     if a.out is not None:
-        _write(a.out, mm, res)
+        _write(a.out, mm, res, partners)
     return ExitCode.OK
 
 
@@ -229,9 +250,9 @@ def _update_structure(a: argparse.Namespace) -> int:
     from modal_twin.io.modes_file import read_modes
     from modal_twin.models.loading import load_model
     from modal_twin.models.sensors import match_outputs
-    from modal_twin.updating.run import pairs_table, update_model
+    from modal_twin.updating.run import update_model
 
-    md = read_modes(a.modes)
+    md = _measured_modes(read_modes(a.modes), a.modes)
     if not md.dofs or not all(d.get("channel") for d in md.dofs):
         msg = (f"{a.modes}: a structure file is updated on an identify JSON (its shapes name "
                "their channels)")
@@ -249,19 +270,24 @@ def _update_structure(a: argparse.Namespace) -> int:
           f"{len(specs)} channels", file=sys.stderr, flush=True)
     with step("update: two stages"):
         upd = update_model(a.model, modes, names, out)
-    print(f"{'mode':>4} {'f id [Hz]':>10} {'f before':>9} {'df %':>7} {'MAC':>6} "
-          f"{'f after':>9} {'df %':>7} {'MAC':>6}")
-    stages = iter(upd.result.stage_names)
-    for i, _, f, fb, fa, mb, ma in pairs_table(upd):
-        if i == 0:
-            print(f"stage {next(stages, '?')}:")
-        print(f"{i + 1:>4} {f:10.4f} {fb:9.4f} {100 * (fb / f - 1):7.2f} {mb:6.3f} "
-              f"{fa:9.4f} {100 * (fa / f - 1):7.2f} {ma:6.3f}")
+    rows = [(k, f, before, after) for _, k, f, before, after in upd.partners]
+    _print_pairs(rows, [st for st, *_ in upd.partners])
+    b = [(before[1][k], before[2][k]) for _, k, _, before, _ in upd.partners]
+    print(f"before: max |df| {100 * np.nanmax(np.abs([d for d, _ in b])):.3f} %, min MAC "
+          f"{np.nanmin([m for _, m in b]):.3f} (every mode, unmatched ones at their nearest "
+          "model mode)")
     print(f"update: wrote {upd.version.path} ({upd.version.note})")
     return ExitCode.OK
 
 
-def _write(out: Path, mm: object, res: object) -> None:
+def _write(out: Path, mm: object, res: object,
+           partners: tuple[Partners, Partners]) -> None:
+    """Write ``model_vN.npz`` and ``update_vN.json``.
+
+    The JSON's df / MAC before and after are the table's: an unmatched mode at its nearest
+    model mode (``model_before`` / ``model_after``, 1-based, and ``unmatched_before`` /
+    ``unmatched_after`` say which), so no mode's error is hidden as null.
+    """
     from modal_twin.io.imported import atomic_file
     from modal_twin.models.matrix_model import sparse_members
 
@@ -269,7 +295,12 @@ def _write(out: Path, mm: object, res: object) -> None:
     arrays = sparse_members(mm.to_arrays(res.theta))  # type: ignore[attr-defined]
     with atomic_file(out / f"model_v{v}.npz") as tmp, tmp.open("wb") as fh:
         np.savez_compressed(fh, **arrays)
+    doc = res.as_dict()  # type: ignore[attr-defined]
+    for when, (idx, df, mc, near) in zip(("before", "after"), partners, strict=True):
+        doc[f"df_pct_{when}"] = (100 * df).tolist()
+        doc[f"mac_{when}"] = mc.tolist()
+        doc[f"model_{when}"] = (idx + 1).tolist()
+        doc[f"unmatched_{when}"] = near.tolist()
     with atomic_file(out / f"update_v{v}.json") as tmp:
-        tmp.write_text(json.dumps(res.as_dict(), indent=1, default=float)  # type: ignore[attr-defined]
-                       .replace("NaN", "null"))
+        tmp.write_text(json.dumps(doc, indent=1, default=float).replace("NaN", "null"))
     print(f"update: wrote {out}/model_v{v}.npz and update_v{v}.json")

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import ShapeError, SignalError
 
-__all__ = ["automac", "complexity", "mac", "mpc"]
+__all__ = ["automac", "complexity", "mac", "mac_measured", "mpc"]
 
 
 def _shapes(phi: ArrayLike, name: str) -> ComplexArray:
@@ -72,6 +72,28 @@ def mac(phi_a: ArrayLike, phi_b: ArrayLike) -> FloatArray:
 def automac(phi: ArrayLike) -> FloatArray:
     """MAC of a set of shapes against itself, shape (n_modes, n_modes), unit diagonal."""
     return mac(phi, phi)
+
+
+def mac_measured(phi_a: ArrayLike, phi_b: ArrayLike) -> FloatArray:
+    """MAC (:func:`mac`) of each pair of shapes over the entries both have measured.
+
+    NaN marks an entry not measured (a mode some roving setups lacked, merged from the
+    others: :func:`~modal_twin.identification.setups.merge_setups`); each pair's MAC is
+    taken over the channels finite in both, NaN where they share none.
+    """
+    a = np.asarray(phi_a, dtype=np.complex128)
+    b = np.asarray(phi_b, dtype=np.complex128)
+    a, b = (a[:, None] if a.ndim == 1 else a), (b[:, None] if b.ndim == 1 else b)
+    if a.ndim != 2 or b.ndim != 2 or a.shape[0] != b.shape[0]:
+        msg = f"mac_measured: expected shapes over the same channels, got {a.shape}, {b.shape}"
+        raise ShapeError(msg)
+    out = np.full((a.shape[1], b.shape[1]), np.nan)
+    for k in range(a.shape[1]):
+        for m in range(b.shape[1]):
+            both = np.isfinite(a[:, k]) & np.isfinite(b[:, m])
+            if both.any():
+                out[k, m] = mac(a[both, k], b[both, m])[0, 0]
+    return out
 
 
 def mpc(phi: ArrayLike) -> FloatArray:

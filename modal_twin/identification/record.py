@@ -104,6 +104,7 @@ __all__ = [
     "IdentifyOptions",
     "RecordModes",
     "cmif",
+    "debiased_coherence",
     "half_spectra",
     "identify_record",
     "polymax_orders",
@@ -522,8 +523,17 @@ def _coherence(u: FloatArray, y: FloatArray, fs_hz: float, band: tuple[float, fl
     sel = (est.f_hz >= band[0]) & (est.f_hz <= band[1])
     if not sel.any():
         return 0.0
-    b = min(u.shape[0] / max(est.n_averages, 1), 0.99)
-    return float(np.clip((est.coherence[:, sel].mean() - b) / (1 - b), 0.0, 1.0))
+    return debiased_coherence(float(est.coherence[:, sel].mean()), u.shape[0], est.n_averages)
+
+
+def debiased_coherence(mean: float, n_in: int, n_averages: int) -> float:
+    r"""Return a mean multiple coherence of ``n_averages`` averages of ``n_in`` inputs, debiased.
+
+    :math:`(\hat\gamma^2 - b) / (1 - b)` with :math:`b = m / n_d` (:func:`_coherence`),
+    clipped to [0, 1].
+    """
+    b = min(n_in / max(n_averages, 1), 0.99)
+    return float(np.clip((mean - b) / (1 - b), 0.0, 1.0))
 
 
 def _select(sweep: PoleSweep, opts: IdentifyOptions, band: tuple[float, float],

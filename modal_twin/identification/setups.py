@@ -3,17 +3,21 @@ r"""Several setups, one set of shapes: roving sensors merged through reference c
 A structure with more measurement points than sensors is tested in setups: some sensors
 stay put (the **references**), the others rove. Each setup is identified on its own, so
 each gives its modes with shapes of an arbitrary complex scale. PoSER (post separate
-estimation re-scaling) joins them: the modes of the setups are paired by frequency and by
-the MAC of their reference parts, every setup's shape is scaled so that its reference part
-matches the first setup's in least squares,
+estimation re-scaling) joins them: the modes of all the setups are grouped by frequency and
+by the MAC of their reference parts (a mode first seen in a later setup, one the first
+setup's identification missed, starts its own group and is kept), every member's shape is
+scaled so that its reference part matches the group's first member's in least squares,
 
-.. math:: \alpha_s = \frac{\phi_{R,1}^H \phi_{R,s}}{\phi_{R,s}^H \phi_{R,s}}\;\text{(conj.)},
+.. math:: \alpha_s = \frac{\phi_{R,s}^H \phi_{R,a}}{\phi_{R,s}^H \phi_{R,s}},
           \qquad \phi_s \leftarrow \alpha_s \phi_s ,
 
-and the scaled roving parts are put side by side (a channel measured in several setups
-keeps the mean of its scaled values). Frequencies and damping ratios are the means over
-the setups; their spread is returned with them. :func:`cross_mac` gives the MAC between the
-modes of two setups on their common channels, the check that the pairing is sound.
+(:math:`a` the setup that saw the mode first: the first setup for every mode it holds) and
+the scaled roving parts are put side by side (a channel measured in several setups keeps
+the mean of its scaled values). A channel that no setup seeing the mode measured stays
+NaN: unmeasured, not zero. Frequencies and damping ratios are the means over the setups
+that saw the mode; their spread is returned with them, and which setups those were.
+:func:`cross_mac` gives the MAC between the modes of two setups on their common channels,
+the check that the pairing is sound.
 """
 
 from __future__ import annotations
@@ -56,10 +60,15 @@ class MergedModes:
     channels : tuple of str
         Every channel measured in some setup (first appearance order).
     f_hz, zeta : (n_modes,) arrays
-        Means over the setups; ``f_spread_hz`` / ``zeta_spread`` their ranges.
+        Means over the setups that saw the mode; ``f_spread_hz`` / ``zeta_spread`` their
+        ranges.
     shapes : (n_channels, n_modes) complex array
+        NaN at the channels no setup that saw the mode measured.
     ref_mac : (n_modes, n_setups) array
-        MAC of each setup's reference part with the first setup's, per mode.
+        MAC of each setup's reference part with that of the setup that saw the mode first
+        (NaN: the setup did not see it).
+    seen_in : tuple of tuple of int
+        Per mode, the setups (0-based) that saw it.
     """
 
     channels: tuple[str, ...]
@@ -69,6 +78,11 @@ class MergedModes:
     f_spread_hz: FloatArray
     zeta_spread: FloatArray
     ref_mac: FloatArray
+    seen_in: tuple[tuple[int, ...], ...] = ()
+
+    def complete(self) -> np.ndarray:
+        """Return whether each mode was seen in every setup (boolean, per mode)."""
+        return np.all(np.isfinite(self.ref_mac), axis=1)
 
 
 def _rows(setup: SetupModes, names: Sequence[str]) -> list[int]:
@@ -85,17 +99,49 @@ def cross_mac(a: SetupModes, b: SetupModes) -> FloatArray:
     return mac(np.asarray(a.shapes)[_rows(a, common)], np.asarray(b.shapes)[_rows(b, common)])
 
 
+def _groups(setups: Sequence[SetupModes], refs: list[str], df_rel: float, min_mac: float
+            ) -> list[dict[int, tuple[int, float]]]:
+    """Each mode as ``{setup: (mode index, reference MAC with its first member)}``.
+
+    Setup by setup, its modes join the groups so far one to one, best reference MAC first
+    (within ``df_rel`` of the group's first frequency and a MAC of at least ``min_mac``);
+    a mode that joins none starts a group.
+    """
+    groups: list[dict[int, tuple[int, float]]] = []
+    anchors: list[tuple[float, ComplexArray]] = []
+    for k, s in enumerate(setups):
+        phi_r = np.asarray(s.shapes)[_rows(s, refs)]
+        cand = []
+        for g, (f0, r0) in enumerate(anchors):
+            near = np.flatnonzero(np.abs(s.f_hz - f0) <= df_rel * f0)
+            if near.size:
+                scores = mac(r0[:, None], phi_r[:, near])[0]
+                cand += [(float(sc), g, int(j)) for sc, j in zip(scores, near, strict=True)
+                         if sc >= min_mac]
+        used: set[int] = set()
+        for sc, g, j in sorted(cand, reverse=True):
+            if k not in groups[g] and j not in used:
+                groups[g][k] = (j, sc)
+                used.add(j)
+        for j in range(len(s.f_hz)):
+            if j not in used:
+                groups.append({k: (j, 1.0)})
+                anchors.append((float(s.f_hz[j]), phi_r[:, j]))
+    return groups
+
+
 def merge_setups(setups: Sequence[SetupModes], references: Sequence[str], *,
                  df_rel: float = 0.05, min_mac: float = 0.8) -> MergedModes:
     """Join the setups' modes into shapes over every channel (PoSER, module docstring).
 
-    A mode of the first setup is kept when every other setup has a mode within ``df_rel``
-    of its frequency whose reference part has a MAC of at least ``min_mac`` with it.
+    Modes of different setups are one mode when their frequencies are within ``df_rel``
+    and their reference parts have a MAC of at least ``min_mac``; every mode of every
+    setup is kept, with the setups that saw it (``seen_in``), in ascending frequency.
 
     Raises
     ------
     SignalError
-        A reference channel missing from a setup, or no mode found in every setup.
+        No setup, or a reference channel missing from a setup.
     """
     if not setups:
         msg = "merge_setups: expected at least one setup"
@@ -106,27 +152,15 @@ def merge_setups(setups: Sequence[SetupModes], references: Sequence[str], *,
         if missing:
             msg = f"setup {k}: lacks reference channels {missing}"
             raise SignalError(msg)
-    first = setups[0]
     channels = list(dict.fromkeys(c for s in setups for c in s.channels))
+    groups = _groups(setups, refs, df_rel, min_mac)
     f_out, z_out, fs_out, zs_out, shapes, macs = [], [], [], [], [], []
-    for m in range(len(first.f_hz)):
-        ref0 = np.asarray(first.shapes)[_rows(first, refs), m]
-        picks: list[tuple[int, int, float]] = []
-        for s in setups:
-            phi_r = np.asarray(s.shapes)[_rows(s, refs)]
-            near = np.flatnonzero(np.abs(s.f_hz - first.f_hz[m]) <= df_rel * first.f_hz[m])
-            if near.size == 0:
-                break
-            scores = mac(ref0[:, None], phi_r[:, near])[0]
-            j = int(near[int(np.argmax(scores))])
-            if float(scores.max()) < min_mac:
-                break
-            picks.append((setups.index(s), j, float(scores.max())))
-        if len(picks) != len(setups):
-            continue
+    for g in groups:
+        a = min(g)
+        ref0 = np.asarray(setups[a].shapes)[_rows(setups[a], refs), g[a][0]]
         total = np.zeros(len(channels), complex)
         count = np.zeros(len(channels))
-        for k, j, _ in picks:
+        for k, (j, _) in g.items():
             s = setups[k]
             phi = np.asarray(s.shapes)[:, j]
             pr = phi[_rows(s, refs)]
@@ -134,18 +168,18 @@ def merge_setups(setups: Sequence[SetupModes], references: Sequence[str], *,
             for i, c in enumerate(s.channels):
                 total[channels.index(c)] += alpha * phi[i]
                 count[channels.index(c)] += 1
-        shapes.append(total / count)
-        fk = np.array([setups[k].f_hz[j] for k, j, _ in picks])
-        zk = np.array([setups[k].zeta[j] for k, j, _ in picks])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            shapes.append(np.where(count > 0, total / np.maximum(count, 1), np.nan + 0j))
+        fk = np.array([setups[k].f_hz[j] for k, (j, _) in g.items()])
+        zk = np.array([setups[k].zeta[j] for k, (j, _) in g.items()])
         f_out.append(fk.mean())
         z_out.append(zk.mean())
         fs_out.append(np.ptp(fk))
         zs_out.append(np.ptp(zk))
-        macs.append([sc for _, _, sc in picks])
-    if not shapes:
-        msg = "merge_setups: no mode of the first setup was found in every setup"
-        raise SignalError(msg)
-    return MergedModes(tuple(channels), np.array(f_out), np.array(z_out),
-                       np.asarray(shapes, dtype=np.complex128).T, np.array(fs_out),
-                       np.array(zs_out),
-                       np.array(macs))
+        macs.append([g[k][1] if k in g else np.nan for k in range(len(setups))])
+    order = np.argsort(f_out, kind="stable")
+    return MergedModes(tuple(channels), np.array(f_out)[order], np.array(z_out)[order],
+                       np.asarray(shapes, dtype=np.complex128).T[:, order],
+                       np.array(fs_out)[order], np.array(zs_out)[order],
+                       np.array(macs, dtype=float)[order],
+                       tuple(tuple(sorted(groups[i])) for i in order))

@@ -25,7 +25,9 @@ from modal_twin.errors import ConfigError, SignalError
 from modal_twin.io.uff import AXIS_CODES, UffContents, read_uff, write_uff58_frf
 
 __all__ = ["FRF_FILE", "SUMMARY_FILE", "channel_geometry", "dof_codes", "frf_modes_document",
-           "hit_summary_lines", "read_frf_matrix", "read_window_tau", "write_hammer_result"]
+           "hit_summary_lines", "measured_points_geometry", "read_frf_coherence",
+           "read_frf_matrix",
+           "read_window_tau", "structure_geometry", "write_hammer_result"]
 
 FRF_FILE = "frf.uff"
 SUMMARY_FILE = "hits.yaml"
@@ -51,6 +53,69 @@ def channel_geometry(channels: Sequence[ChannelSpec]) -> dict[str, Any] | None:
              for c, (n, _) in zip(channels, dof_codes(channels), strict=True)
              if any(v != 0.0 for v in c.position_m)}
     return {"nodes": nodes, "trace_lines": [], "units": dict(SI_UNITS)} if nodes else None
+
+
+def measured_points_geometry(node_xyz: np.ndarray, measured: Sequence[str],
+                             outline: Sequence[int]) -> dict[str, Any]:
+    """Test geometry of the measured nodes: their model coordinates (m) and trace lines.
+
+    ``node_xyz`` rows: (node, x, y, z) (a matrix model's ``node_xyz``,
+    :func:`~modal_twin.models.tracking_frame.frame_matrices`); ``outline``: node numbers
+    joined in order (0 lifts the pen; a frame file's ``trace_nodes``). Each piece of the
+    outline becomes a trace line through the measured nodes in its order (closed where the
+    piece is), so it draws the structure through the points measured.
+
+    Raises
+    ------
+    ConfigError
+        A measured node without coordinates.
+    """
+    from modal_twin.io.uff import SI_UNITS
+
+    xyz = {int(r[0]): [float(v) for v in r[1:4]] for r in np.asarray(node_xyz)}
+    ids = sorted({int(m) for m in measured if str(m).isdigit()})
+    missing = [n for n in ids if n not in xyz]
+    if missing:
+        msg = f"nodes {missing} are measured but have no coordinates in the model"
+        raise ConfigError(msg)
+    pieces: list[list[int]] = [[]]
+    for n in (int(v) for v in outline):
+        if n == 0:
+            pieces.append([])
+        else:
+            pieces[-1].append(n)
+    lines: list[dict[str, Any]] = []
+    for piece in pieces:
+        seq = [n for n in piece if n in ids]
+        if len(seq) > 2 and seq[0] != seq[-1] and piece[0] == piece[-1]:
+            seq.append(seq[0])
+        if len(set(seq)) > 1:
+            lines.append({"number": len(lines) + 1, "id": "frame through the measured nodes"
+                          if len(pieces) == 1 else f"line {len(lines) + 1} through the "
+                          "measured nodes", "nodes": seq})
+    return {"nodes": {str(n): xyz[n] for n in ids}, "trace_lines": lines,
+            "units": dict(SI_UNITS)}
+
+
+def structure_geometry(structure: str | Path, channels: Sequence[ChannelSpec]
+                       ) -> dict[str, Any] | None:
+    """Test geometry of ``channels`` on the structure file a rig names.
+
+    A matrix model or frame file with node coordinates (``node_xyz``, and ``trace_nodes``
+    for the lines): the channels' nodes there (:func:`measured_points_geometry`); any other
+    structure: the channels' own positions (:func:`channel_geometry`, None without).
+    """
+    from modal_twin.models.frame_file import is_frame_file
+    from modal_twin.models.matrix_model import MATRIX_SUFFIXES, load_matrix_model
+
+    p = Path(structure)
+    if is_frame_file(p) or p.suffix.lower() in MATRIX_SUFFIXES:
+        mm = load_matrix_model(p)
+        if mm.node_xyz is not None:
+            return measured_points_geometry(
+                mm.node_xyz, [c.node for c in channels],
+                mm.trace_nodes.tolist() if mm.trace_nodes is not None else [])
+    return channel_geometry(channels)
 
 
 def write_hammer_result(folder: str | Path, res: HammerResult,
@@ -151,6 +216,30 @@ def read_frf_matrix(path: str | Path, contents: UffContents | None = None
         msg = f"{path}: FRFs with NaN or inf values"
         raise SignalError(msg)
     return f, H, outs, ins
+
+
+def read_frf_coherence(contents: UffContents, outputs: Sequence[tuple[str, str]],
+                       f_hz: FloatArray) -> tuple[FloatArray, int, int] | None:
+    """Each output's multiple coherence a FRF file carries (UFF 58 function type 6).
+
+    As :func:`~modal_twin.io.uff.write_uff58_frf` writes it (``export frf``): returns
+    ``(coherence (n_out, n_f), averages, n_in)`` in the order of ``outputs`` (the FRF
+    matrix's responses), or None when the file lacks one for some output, its lines differ
+    from the FRFs' or its id line 2 does not name the averages.
+    """
+    note = re.compile(r"over (\d+) averages of (\d+) inputs")
+    got: dict[tuple[str, str], tuple[Any, int, int]] = {}
+    for s in contents.spectra:
+        m = note.search(str(s.get("note", "")))
+        if s["func_type"] != 6 or m is None or not _PLACE.match(s["rsp"]):
+            continue
+        if s["f_hz"].shape != np.shape(f_hz) or not np.allclose(s["f_hz"], f_hz):
+            return None
+        got[_place(s["rsp"], "coherence")] = (np.real(s["data"]), int(m[1]), int(m[2]))
+    if not outputs or any(o not in got for o in outputs):
+        return None
+    first = got[outputs[0]]
+    return (np.array([got[o][0] for o in outputs], dtype=float), first[1], first[2])
 
 
 def read_window_tau(frf_file: str | Path) -> float | None:

@@ -66,7 +66,8 @@ def _json(p: Path) -> ModesFile:
         d = json.loads(read_text(p, "modes file"))  # bounded before parsing
         modes = d["modes"]
         f = np.array([m["f_hz"] for m in modes], dtype=float)
-        S = np.array([np.asarray(m["shape_re"]) + 1j * np.asarray(m["shape_im"])
+        S = np.array([np.asarray(m["shape_re"], dtype=float)  # null: not measured, NaN
+                      + 1j * np.asarray(m["shape_im"], dtype=float)
                       for m in modes]).T.reshape(len(d["dofs"]), len(modes))
         z = np.array([m["zeta"] for m in modes], dtype=float)
         sf = np.array([np.nan if m.get("std_f_hz") is None else m["std_f_hz"] for m in modes],

@@ -38,9 +38,9 @@ from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
 from modal_twin.models.array_files import check_text_file
 
-__all__ = ["AXIS_CODES", "CHANNELS_TAG", "SI_UNITS", "UffContents", "rate_from_increment",
-           "read_uff", "read_uff55", "uff_role", "write_uff55", "write_uff58_frf",
-           "write_uff58_time"]
+__all__ = ["AXIS_CODES", "CHANNELS_TAG", "COHERENCE_NOTE", "SI_UNITS", "UffContents",
+           "rate_from_increment", "read_uff", "read_uff55", "uff_role", "write_uff55",
+           "write_uff58_frf", "write_uff58_time"]
 
 log = logging.getLogger(__name__)
 
@@ -274,7 +274,8 @@ def read_uff(path: str | Path) -> UffContents:
                             "data": np.asarray(s["data"]).astype(complex),
                             "rsp": f"{s.get('rsp_node', 0)}{_DIRS.get(s.get('rsp_dir', 0), '')}",
                             "ref": f"{s.get('ref_node', 0)}{_DIRS.get(s.get('ref_dir', 0), '')}",
-                            "unit": str(s.get("ordinate_axis_units_lab", "")).strip()})
+                            "unit": str(s.get("ordinate_axis_units_lab", "")).strip(),
+                            "note": str(s.get("id2", "")).strip()})
     time = _with_roles(time, sets)
     geo = _geometry([s for s in sets if s["type"] in _GEOMETRY and not s.get("_skipped")])
     if set(skipped) - {55}:  # modes are read by read_uff55 (import does), not skipped
@@ -490,8 +491,14 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
                     rsp_quantity: Sequence[str] | None = None,
                     ref_quantity: Sequence[str] | None = None,
                     names: tuple[Sequence[str], Sequence[str]] | None = None,
-                    geometry: Mapping[str, Any] | None = None) -> Path:
+                    geometry: Mapping[str, Any] | None = None,
+                    coherence: FloatArray | None = None, averages: int = 0) -> Path:
     """Write FRFs ``H (n_out, n_in, n_f)`` as UFF 58 function type 4.
+
+    ``coherence`` (``(n_out, n_f)``: each output's multiple coherence with the inputs) is
+    written after the FRFs as function type 6 (coherence; pyuff writes no type 26, multiple
+    coherence: id line 1 says which), at the output's node and direction, reference node
+    0, id line 2 ``H1 over <averages> averages of <n_in> inputs`` (:data:`COHERENCE_NOTE`).
 
     ``geometry`` (``nodes``: id -> xyz, ``trace_lines``, ``units``; as :func:`write_uff55`)
     is written first as UFF 164, 15 and 82.
@@ -544,8 +551,36 @@ def write_uff58_frf(path: str | Path, f_hz: FloatArray, H: ComplexArray,
                 z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE",
                 data=np.asarray(H[o, i], dtype=complex), x=np.asarray(f_hz, dtype=float),
                 return_full_dict=True))
+    if coherence is not None:
+        coh = np.asarray(coherence, dtype=float)
+        if coh.shape != (len(rsp), len(f_hz)):
+            msg = (f"write_uff58_frf: coherence of shape {coh.shape}, expected "
+                   f"{(len(rsp), len(f_hz))}")
+            raise SignalError(msg)
+        for o, (rn, rd) in enumerate(rsp):
+            sets.append(pyuff.prepare_58(
+                binary=0, id1=f"multiple coherence {rn}{_DIRS.get(rd, '')}",
+                id2=COHERENCE_NOTE.format(averages=int(averages), n_in=len(ref)),
+                id3=f"rsp {names[0][o]}"[:_ID_LEN] if names is not None else "NONE",
+                id4="NONE", id5="NONE", func_type=6, ver_num=0, load_case_id=0,
+                rsp_ent_name=f"N{rn}", rsp_node=rn, rsp_dir=rd, ref_ent_name="NONE",
+                ref_node=0, ref_dir=0, ord_data_type=4, num_pts=len(f_hz),
+                abscissa_spacing=1, abscissa_min=float(f_hz[0]),
+                abscissa_inc=float(f_hz[1] - f_hz[0]), z_axis_value=0.0,
+                abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz",
+                ordinate_spec_data_type=0, ordinate_axis_units_lab="NONE",
+                orddenom_spec_data_type=0, orddenom_axis_units_lab="NONE",
+                z_axis_spec_data_type=0, z_axis_axis_units_lab="NONE",
+                **{f"{a}_{q}_unit_exp": 0 for a in ("abscissa", "ordinate", "orddenom",
+                                                    "z_axis") for q in ("len", "force", "temp")},
+                data=coh[o], x=np.asarray(f_hz, dtype=float), return_full_dict=True))
     u.write_sets(sets, mode="overwrite")
     return p
+
+
+COHERENCE_NOTE = "H1 over {averages} averages of {n_in} inputs"
+"""Id line 2 of a multiple coherence :func:`write_uff58_frf` writes (the estimate's bias
+depends on both: :func:`~modal_twin.identification.record.debiased_coherence`)."""
 
 
 def write_uff58_time(path: str | Path, channels: Sequence[ChannelSpec], fs_hz: float,

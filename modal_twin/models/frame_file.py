@@ -15,7 +15,9 @@ It is read as a matrix model (:func:`frame_arrays`, the arrays
 :func:`~modal_twin.models.matrix_model.matrix_model_from_arrays` takes): ``K(theta) = K0 +
 sum_j theta_j K_j`` with ``K_feet`` and ``K_bearings`` the nominal contact springs, so a
 rig, ``update`` and ``model`` take it like a ``.npz`` matrix model, driven by point forces
-at ``forces`` (:class:`~modal_twin.models.matrix_factory.MatrixFactory`).
+at ``forces`` (:class:`~modal_twin.models.matrix_factory.MatrixFactory`); with the nodes'
+coordinates (``node_xyz``) and the frame's outline (``trace_nodes``,
+:func:`~modal_twin.models.tracking_frame.frame_outline`), so a test on it has a geometry.
 """
 
 from __future__ import annotations
@@ -104,7 +106,7 @@ def frame_arrays(path: str | Path) -> dict[str, Any]:
     ConfigError
         Not a frame file, unknown keys, bad spec fields, DOF labels or bounds.
     """
-    from modal_twin.models.tracking_frame import JOINTS, FrameSpec, frame_matrices
+    from modal_twin.models.tracking_frame import JOINTS, FrameSpec, frame_matrices, frame_outline
     from modal_twin.yaml_files import read_yaml
 
     src = str(path)
@@ -127,7 +129,9 @@ def frame_arrays(path: str | Path) -> dict[str, Any]:
                            "parameter_names": np.array(JOINTS),
                            **{f"K_{j}": nom[f"K_{j}"] for j in JOINTS},
                            "measured_dofs": _labels(doc, "sensors", dofs, src),
-                           "force_dofs": _labels(doc, "forces", dofs, src)}
+                           "force_dofs": _labels(doc, "forces", dofs, src),
+                           "node_xyz": nom["node_xyz"],
+                           "trace_nodes": np.array(frame_outline(spec), dtype=np.int64)}
     if "bounds" in doc:
         b = doc["bounds"]
         if not (isinstance(b, list) and len(b) == 2 and all(_number(v) for v in b)

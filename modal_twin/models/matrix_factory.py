@@ -23,7 +23,8 @@ A model whose file names ``force_dofs`` (the points a hammer or a shaker hits; a
    \ddot q + C \dot q + \Omega^2 q = \Phi_f^T f(t), \qquad \ddot x_s = \Phi_s \ddot q,
 
 its inputs named ``force_<node>_<direction>`` (quantity ``force``, each with its node and
-direction) and its channels the accelerations of the measured DOFs.
+direction) and its channels the accelerations of the measured DOFs. Where the file gives
+its nodes' coordinates (``node_xyz``) every channel and input carries its node's position.
 """
 
 from __future__ import annotations
@@ -139,10 +140,12 @@ class MatrixFactory:
         system = ReducedSystem(M=np.eye(r), C=C, K=np.diag(omega ** 2),
                                Gamma=Phi.T @ (M @ P), devices=(), C_out=C_out, D_out=P[rows])
         chans = []
+        xyz = self._positions()
         for i in rows:
             node, d = places[i]
             name = f"{node}_{d}" if d else f"dof{i}"
-            chans.append(ChannelSpec(name, "acceleration", node, d, node=node))
+            chans.append(ChannelSpec(name, "acceleration", node, d,
+                                     position_m=xyz.get(node, (0.0, 0.0, 0.0)), node=node))
         return Plant(system, tuple(f"a{_AXES[k]}" for k in keep),
                      ("acceleration",) * keep.size, tuple(chans),
                      tuple(("y", k) for k in range(n_out)), self.label)
@@ -170,14 +173,26 @@ class MatrixFactory:
         # the simulator's M q'' + C q' + K q = -Gamma u: a force enters as +Phi_f^T f
         system = ReducedSystem(M=np.eye(r), C=C, K=np.diag(omega ** 2), Gamma=-Phi[f].T,
                                devices=(), C_out=C_out, D_out=np.zeros((rows.size, len(f))))
+        xyz = self._positions()
         chans = tuple(ChannelSpec(f"{places[i][0]}_{places[i][1]}" if places[i][1]
                                   else f"dof{i}", "acceleration", places[i][0],
-                                  places[i][1], node=places[i][0]) for i in rows)
+                                  places[i][1],
+                                  position_m=xyz.get(places[i][0], (0.0, 0.0, 0.0)),
+                                  node=places[i][0]) for i in rows)
         names = tuple(f"force_{places[i][0]}_{places[i][1]}" if places[i][1] else f"force_{i}"
                       for i in f)
         return Plant(system, names, ("force",) * len(f), chans,
                      tuple(("y", k) for k in range(rows.size)), self.label,
-                     input_places=tuple(places[i] for i in f))
+                     input_places=tuple(places[i] for i in f),
+                     input_positions_m=tuple(xyz.get(places[i][0], (0.0, 0.0, 0.0))
+                                             for i in f) if xyz else ())
+
+    def _positions(self) -> dict[str, tuple[float, float, float]]:
+        """Node (as the DOF labels name it) -> (x, y, z) m, from the file's ``node_xyz``."""
+        xyz = self.mm.node_xyz
+        if xyz is None:
+            return {}
+        return {str(int(r[0])): (float(r[1]), float(r[2]), float(r[3])) for r in xyz}
 
     def parameter_info(self, name: str) -> ParameterInfo:
         """Return what a substructure factor is: a stiffness of that substructure.

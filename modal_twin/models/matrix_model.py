@@ -17,7 +17,10 @@ the one reader of matrix files, or any mapping of names to arrays):
   the structure (optional; a model with force DOFs is driven by those forces, one without
   by uniform base motion: :class:`~modal_twin.models.matrix_factory.MatrixFactory`);
 - ``lower`` / ``upper``: bounds of ``theta`` (optional); ``parameter_names``: the order of
-  the ``theta_j`` (optional; what :meth:`MatrixModel.to_arrays` writes).
+  the ``theta_j`` (optional; what :meth:`MatrixModel.to_arrays` writes);
+- ``node_xyz``: ``(n_nodes, 4)`` rows of node number, x, y, z in metres (optional: where
+  the DOF labels' nodes are, so a test on the model has a geometry); ``trace_nodes``: node
+  numbers to join by lines (optional; 0 lifts the pen, as UFF 82).
 
 Any matrix may be stored dense or sparse. Sparse in an NPZ (what ``export model`` and
 ``update`` write, :func:`sparse_members`): the marker ``sparse_format = "csr"`` and, for a
@@ -88,6 +91,10 @@ class MatrixModel:
     source : str
     force_dofs : tuple of int
         0-based DOFs driven by measured point forces (empty: base motion drives it).
+    node_xyz : (n_nodes, 4) float array or None
+        Node number, x, y, z (m) of the nodes the DOF labels name, when the file gives them.
+    trace_nodes : (k,) int array or None
+        Node numbers joined by lines to draw the structure (0: a break).
     """
 
     M: sp.csr_array
@@ -101,6 +108,8 @@ class MatrixModel:
     upper: FloatArray | None
     source: str = ""
     force_dofs: tuple[int, ...] = ()
+    node_xyz: FloatArray | None = None
+    trace_nodes: IntArray | None = None
 
     @property
     def n_dof(self) -> int:
@@ -133,6 +142,10 @@ class MatrixModel:
             out[f"K_{n}"] = Kj
         if self.lower is not None and self.upper is not None:
             out["lower"], out["upper"] = self.lower, self.upper
+        if self.node_xyz is not None:
+            out["node_xyz"] = self.node_xyz
+        if self.trace_nodes is not None:
+            out["trace_nodes"] = self.trace_nodes
         return out
 
 
@@ -175,6 +188,26 @@ def _dofs(a: Mapping[str, Any], n: int, source: str) -> tuple[str, ...]:
         msg = f"{source}: dofs expected {n} labels, got {len(d)}"
         raise ShapeError(msg)
     return d
+
+
+def _geometry(a: Mapping[str, Any], source: str) -> tuple[FloatArray | None, IntArray | None]:
+    """``node_xyz`` and ``trace_nodes`` of the arrays, checked (module docstring)."""
+    xyz = trace = None
+    if "node_xyz" in a:
+        xyz = np.asarray(a["node_xyz"], dtype=float)
+        if (xyz.ndim != 2 or xyz.shape[1] != 4 or not np.all(np.isfinite(xyz))
+                or not np.all(xyz[:, 0] == np.round(xyz[:, 0])) or np.any(xyz[:, 0] <= 0)
+                or np.unique(xyz[:, 0]).size != xyz.shape[0]):
+            msg = (f"{source}: node_xyz expected rows of (node number > 0, x, y, z), finite, "
+                   f"distinct nodes; got shape {xyz.shape}")
+            raise ShapeError(msg)
+    if "trace_nodes" in a:
+        trace = np.asarray(a["trace_nodes"]).ravel()
+        if trace.dtype.kind not in "iu" or np.any(trace < 0):
+            msg = f"{source}: trace_nodes expected node numbers (0: a break), got {trace[:5]}"
+            raise ShapeError(msg)
+        trace = trace.astype(np.int64)
+    return xyz, trace
 
 
 def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
@@ -235,8 +268,9 @@ def matrix_model_from_arrays(a: Mapping[str, Any], source: str = "matrices",
         raise ShapeError(msg)
     lo = np.asarray(a["lower"], dtype=float).ravel() if "lower" in a else None
     hi = np.asarray(a["upper"], dtype=float).ravel() if "upper" in a else None
+    xyz, trace = _geometry(a, source)
     return MatrixModel(M, K0, C, K_j, names, _dofs(a, n, source), meas, lo, hi, source,
-                       tuple(int(i) for i in force))
+                       tuple(int(i) for i in force), xyz, trace)
 
 
 def sparse_members(arrays: Mapping[str, Any]) -> dict[str, Any]:

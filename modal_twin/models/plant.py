@@ -58,6 +58,9 @@ class Plant:
         sample the :class:`DelayLine` sees), added after the delays by the same line.
     input_places : tuple of (node, direction)
         Where each input acts, when it acts at a node (a point force); empty otherwise.
+    input_positions_m : tuple of (x, y, z)
+        The position of each such node, when the model knows it (a matrix model's
+        ``node_xyz``); empty otherwise.
     """
 
     system: ReducedSystem
@@ -70,6 +73,7 @@ class Plant:
     delays_s: tuple[tuple[int, float], ...] = ()
     zeros: tuple[tuple[int, float, float], ...] = ()
     input_places: tuple[tuple[str, str], ...] = ()
+    input_positions_m: tuple[tuple[float, float, float], ...] = ()
 
     def __post_init__(self) -> None:
         if len(self.sources) != len(self.channels):
@@ -87,6 +91,10 @@ class Plant:
         if self.input_places and len(self.input_places) != len(self.input_names):
             msg = (f"input_places: expected one per input ({len(self.input_names)}) or none, "
                    f"got {len(self.input_places)}")
+            raise ShapeError(msg)
+        if self.input_positions_m and len(self.input_positions_m) != len(self.input_places):
+            msg = (f"input_positions_m: expected one per input place "
+                   f"({len(self.input_places)}) or none, got {len(self.input_positions_m)}")
             raise ShapeError(msg)
 
     @property

@@ -61,12 +61,14 @@ def table_channels(plant: Plant) -> tuple[ChannelSpec, ...]:
     """Measured input channels ``table_<input>`` of a plant.
 
     (table motion, track irregularity, a hammer's force), each with the plant's quantity
-    for it; an input acting at a node (``plant.input_places``) has its node and direction.
+    for it; an input acting at a node (``plant.input_places``) has its node and direction
+    (and the node's position where the plant knows it, ``plant.input_positions_m``).
     """
     if plant.input_places:
-        return tuple(ChannelSpec(f"table_{n}", q, "", d, node=node) for n, q, (node, d) in
-                     zip(plant.input_names, plant.input_quantities, plant.input_places,
-                         strict=True))
+        pos = plant.input_positions_m or ((0.0, 0.0, 0.0),) * len(plant.input_places)
+        return tuple(ChannelSpec(f"table_{n}", q, "", d, position_m=xyz, node=node)
+                     for n, q, (node, d), xyz in zip(plant.input_names, plant.input_quantities,
+                                                     plant.input_places, pos, strict=True))
     return tuple(ChannelSpec(f"table_{n}", q, "table", n.removeprefix("a"))
                  for n, q in zip(plant.input_names, plant.input_quantities, strict=True))
 

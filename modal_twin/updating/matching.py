@@ -36,7 +36,7 @@ from modal_twin._types import FloatArray, IntArray
 from modal_twin.errors import OptionError, ShapeError
 from modal_twin.identification.metrics import mac
 
-__all__ = ["ModePairing", "match_modes", "pair_costs"]
+__all__ = ["ModePairing", "match_modes", "nearest_partners", "pair_costs"]
 
 Method = Literal["assignment", "greedy", "exhaustive"]
 _BIG = 1e6  # cost of a pair outside the windows (any matched pair costs far less)
@@ -276,3 +276,28 @@ def match_modes(
         unmatched_id=tuple(int(i) for i in np.flatnonzero(~sel)),
         unused_fem=tuple(sorted(set(range(n_fem)) - {int(l) for l in pick})),
         method=method)
+
+
+def nearest_partners(pairing: ModePairing, f_id: ArrayLike, phi_id: ArrayLike,
+                     f_fem: ArrayLike, phi_fem: ArrayLike
+                     ) -> tuple[IntArray, FloatArray, FloatArray, np.ndarray]:
+    """Return model mode, df and MAC of every identified mode, and which are unmatched.
+
+    A matched mode keeps its pair; an unmatched one (flagged) gets its nearest partner: the
+    cheapest model mode no pair uses, by the pair cost ``|df| + (1 - MAC)`` of Eq. (3b) of
+    [004] (one partner each), so a table shows how far off the model is at every mode.
+    """
+    idx = np.array(pairing.fem_index)
+    df = np.array(pairing.df_rel, dtype=np.float64)
+    mc = np.array(pairing.mac, dtype=np.float64)
+    near = idx < 0
+    miss = np.flatnonzero(near)
+    ff = np.asarray(f_fem, dtype=float)
+    free = np.setdiff1d(np.arange(ff.size), idx[idx >= 0])
+    if miss.size and free.size:
+        cost, d, m, *_ = pair_costs(np.asarray(f_id, dtype=float)[miss],
+                                    np.asarray(phi_id)[:, miss], ff[free],
+                                    np.asarray(phi_fem)[:, free])
+        r, c = so.linear_sum_assignment(cost)
+        idx[miss[r]], df[miss[r]], mc[miss[r]] = free[c], d[r, c], m[r, c]
+    return idx, df, mc, near

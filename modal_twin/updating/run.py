@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -23,19 +24,33 @@ from modal_twin.models.versions import (
     read_version,
     write_version,
 )
+from modal_twin.updating.matching import nearest_partners
 from modal_twin.updating.problem import ModeTargets
-from modal_twin.updating.stages import StagedResult, building_stages, staged_update
+from modal_twin.updating.stages import (
+    StagedResult,
+    building_stages,
+    stage_problem,
+    staged_update,
+)
 
 __all__ = ["ModelUpdate", "accepted_theta", "pairs_table", "update_model"]
 
 
 @dataclass(frozen=True, slots=True)
 class ModelUpdate:
-    """A staged update and the model version it wrote."""
+    """A staged update and the model version it wrote.
+
+    ``partners``: per stage and identified mode, (stage name, index in the stage, f id,
+    before, after), before (the model as given) / after (the estimate of all stages) each
+    the model mode, df, MAC and unmatched flag of
+    :func:`~modal_twin.updating.matching.nearest_partners` (an unmatched mode at its
+    nearest model mode, so every mode shows how far off the model is).
+    """
 
     result: StagedResult
     version: ModelVersion
     channels: tuple[str, ...]
+    partners: tuple[tuple[str, int, float, tuple[Any, ...], tuple[Any, ...]], ...] = ()
 
 
 def update_model(
@@ -95,7 +110,30 @@ def update_model(
         note += f"; rejected (fewer matches or higher cost): {', '.join(rejected)}"
     new = replace(mv, theta={**mv.theta, **theta}, note=note)
     used = tuple(channel_names[i] for i in cols)
-    return ModelUpdate(out, write_version(versions_dir, new), used)
+    return ModelUpdate(out, write_version(versions_dir, new), used,
+                       _partners(out, par, bld.S[rows], targets, stages))
+
+
+def _partners(out: StagedResult, par: Any, S: Any, targets: ModeTargets,
+              stages: list[Any]) -> tuple[tuple[str, int, float, tuple[Any, ...],
+                                                tuple[Any, ...]], ...]:
+    """Every stage's modes at their partners before and after (:class:`ModelUpdate`).
+
+    Before: the model as given (every parameter at its start); after: the estimate of all
+    the stages. Each stage's modes and pairing windows as
+    :func:`~modal_twin.updating.stages.staged_update` posed them.
+    """
+    rows = []
+    for st, res, name in zip(stages, out.stages, out.stage_names, strict=True):
+        cols = []
+        for full, theta in ((out.theta_start, res.theta_start), (out.theta, res.theta)):
+            pr = stage_problem(par, S, targets, st, np.array(full, dtype=float),
+                               n_modes=None, r_f=0.10, r_mac=0.15)
+            md = pr.modes(theta)
+            cols.append(nearest_partners(pr.pairing(theta), pr.targets.f_hz,
+                                         pr.targets.shapes, md.f_hz, md.Phi_s))
+        rows += [(name, k, float(f), cols[0], cols[1]) for k, f in enumerate(res.f_id)]
+    return tuple(rows)
 
 
 def accepted_theta(out: StagedResult) -> tuple[dict[str, float], list[str]]:

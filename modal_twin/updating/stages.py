@@ -24,7 +24,7 @@ from modal_twin.updating.optimize import update
 from modal_twin.updating.problem import Matrix, ModeTargets, UpdatingProblem
 from modal_twin.updating.results import UpdateResult
 
-__all__ = ["Stage", "StagedResult", "building_stages", "staged_update"]
+__all__ = ["Stage", "StagedResult", "building_stages", "stage_problem", "staged_update"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,7 +114,7 @@ def _f_scale(t: ModeTargets, use_std: bool) -> FloatArray:
     return np.where(ok, s, fill)
 
 
-def _stage_problem(
+def stage_problem(
     par: ParametricMatrices, S: Matrix | IntArray, targets: ModeTargets, st: Stage,
     th: FloatArray, *, n_modes: int | None, r_f: float, r_mac: float,
 ) -> UpdatingProblem:
@@ -177,7 +177,7 @@ def staged_update(
     n_solves = 0
     with make_executor(executor) as ex:  # one pool for every stage
         for st in stages:
-            pr = _stage_problem(par, S, targets, st, th, n_modes=n_modes, r_f=r_f, r_mac=r_mac)
+            pr = stage_problem(par, S, targets, st, th, n_modes=n_modes, r_f=r_f, r_mac=r_mac)
             res = update(pr, global_stage=st.global_stage, maxiter=maxiter, popsize=popsize,
                          seed=seed, executor=ex, max_nfev=max_nfev, reduced=reduced,
                          n_starts=n_starts, label=f"stage {st.name!r}: global search")

@@ -59,6 +59,16 @@ def test_campaign_over_two_bags(tmp_path: Path) -> None:
     assert doc["n_windows"] == 4
     assert doc["channels"] == list(CH)
     assert (tmp_path / "out" / "campaign.png").stat().st_size > 10_000
+    # report of the campaign folder: the plot and each track's range over the events
+    from modal_twin.cli import main
+
+    assert main(["report", str(tmp_path / "out"), "--out", str(tmp_path / "c.html")]) == 0
+    page = (tmp_path / "c.html").read_text()
+    assert "<h2>Monitoring campaign</h2>" in page and 'alt="campaign"' in page
+    row = page.split("<tr><td>0</td>")[1].split("</tr>")[0]
+    cells = [c.split("<")[0] for c in row.split("<td>")[1:]]
+    assert cells[0] == "4"
+    np.testing.assert_allclose([float(cells[1]), float(cells[2])], [1.41, 1.5], rtol=0.01)
     again = ("--window", "400", "--f-range", "0.5,10", "--jobs", "1", "--out",
              str(tmp_path / "out"))
     kept = _cli(str(tmp_path / "day1"), *again)  # the outputs exist: refused, kept

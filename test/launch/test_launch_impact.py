@@ -103,6 +103,7 @@ def test_impact_scenario_from_launch_to_updated_contact_stiffness(
         domain_id: int, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     from modal_twin.cli import main
     from modal_twin.io.impact_files import read_frf_matrix
+    from modal_twin.io.uff import read_uff
     from modal_twin.models.tracking_frame import frame_matrices
 
     doc = yaml.safe_load(SCENARIO.read_text())
@@ -123,6 +124,14 @@ def test_impact_scenario_from_launch_to_updated_contact_stiffness(
 
     f, H, outs, ins = read_frf_matrix(run / "impact" / "frf.uff")
     assert ins == [("402", "z"), ("203", "x")] and len(outs) == 10
+    # the measured points where the frame file places them (UFF 164 / 15 / 82)
+    geo = read_uff(run / "impact" / "frf.uff").geometry
+    m = {str(int(r[0])): r[1:] for r in frame_matrices()["node_xyz"]}
+    assert sorted(geo["nodes"]) == sorted({n for n, _ in outs + ins})
+    for n, v in geo["nodes"].items():
+        np.testing.assert_allclose(v, m[n], atol=1e-6)
+    assert geo["trace_lines"][0]["nodes"] == [101, 105, 301, 303, 405, 404, 402, 401, 203,
+                                              201, 101]
     acq = doc["acquisition"]["ros__parameters"]
     f0, H0 = _in_process_frf(doc["excitation"]["ros__parameters"],
                              doc["rig"]["ros__parameters"]["rig_file"], acq)
@@ -142,11 +151,14 @@ def test_impact_scenario_from_launch_to_updated_contact_stiffness(
                  str(acq["impact_force_range_n"]), "--out", str(tmp_path / "again")]) == 0
     _, H2, outs2, ins2 = read_frf_matrix(tmp_path / "again" / "frf.uff")
     assert (outs2, ins2) == (outs, ins)
+    again = read_uff(tmp_path / "again" / "frf.uff").geometry  # the recorded map's positions
+    assert again["nodes"] == {k: pytest.approx(v) for k, v in geo["nodes"].items()}
     np.testing.assert_allclose(H2, H, rtol=0, atol=1e-12 * np.abs(H).max())
 
     assert main(["identify", str(run / "impact" / "frf.uff"), "--f-max", "420",
                  "--out", str(tmp_path / "modes")]) == 0
     modes = json.loads((tmp_path / "modes" / "modes.json").read_text())
+    assert modes["geometry"]["nodes"] == {k: pytest.approx(v) for k, v in geo["nodes"].items()}
     f_id = np.array([m["f_hz"] for m in modes["modes"]])
     true = frame_matrices(theta=TRUTH)
     wn = np.sqrt(linalg.eigh(true["K0"], true["M"], eigvals_only=True)) / (2 * np.pi)

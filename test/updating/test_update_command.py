@@ -63,3 +63,35 @@ def test_update_of_a_structure_needs_named_channels(tmp_path: Path,
     assert main(["update", str(DEFAULT_BUILDING_YAML), "--modes", str(modes)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "shapes name their channels" in err[0]
+
+
+def test_update_table_shows_every_mode_before_and_after(tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture) -> None:
+    """Moduli -40 % / +40 %: the nominal is so far off that two superstructure modes find no
+    model mode inside the pairing windows (they printed ``nan`` before). Known answer:
+    each row's df before is the nominal model's own frequency of the printed partner over
+    the identified one (``modal_reduction`` at the nominal), every row finite."""
+    import numpy as np
+
+    truth = {"E_Fc36": 0.60 * E36, "E_Fc27": 1.40 * E27}
+    modes = modes_json(tmp_path / "modes.json", truth)
+    assert main(["update", str(DEFAULT_BUILDING_YAML), "--modes", str(modes), "--out",
+                 str(tmp_path / "v")]) == 0
+    out = capsys.readouterr().out
+    assert "nan" not in out
+    rows = [ln.split() for ln in out.splitlines() if ln.split()[:1] and
+            ln.split()[0].isdigit()]
+    assert len(rows) == 10
+    f_nom = modal_reduction(build_building(DEFAULT_BUILDING_YAML), 12).f_hz
+    starred = 0
+    for r in rows:
+        j = int(r[2].rstrip("*"))
+        starred += r[2].endswith("*")
+        # the update solves the full parametric FE model: within 0.01 points of the reduction
+        assert float(r[3]) == pytest.approx(100 * (f_nom[j - 1] / float(r[1]) - 1), abs=0.01)
+        assert 0.0 <= float(r[4]) <= 1.0
+        assert abs(float(r[6])) < 0.01
+    assert starred == 2
+    worst = max(abs(float(r[3])) for r in rows)
+    assert f"before: max |df| {worst:.3f} %" in out
+    assert np.isfinite(worst) and worst > 9.0
