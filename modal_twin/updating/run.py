@@ -17,7 +17,7 @@ from modal_twin._types import FloatArray
 from modal_twin.errors import OptionError
 from modal_twin.identification.modal_model import ModalModel
 from modal_twin.models.building import BuildingModel, build_building
-from modal_twin.models.fe import solve_modes
+from modal_twin.models.fe import ParametricMatrices, solve_modes
 from modal_twin.models.versions import (
     ModelVersion,
     latest_version,
@@ -25,8 +25,11 @@ from modal_twin.models.versions import (
     write_version,
 )
 from modal_twin.updating.matching import nearest_partners
-from modal_twin.updating.problem import ModeTargets
+from modal_twin.updating.problem import Matrix, ModeTargets
 from modal_twin.updating.stages import (
+    R_F,
+    R_MAC,
+    Stage,
     StagedResult,
     building_stages,
     stage_problem,
@@ -114,8 +117,8 @@ def update_model(
                        _partners(out, par, bld.S[rows], targets, stages))
 
 
-def _partners(out: StagedResult, par: Any, S: Any, targets: ModeTargets,
-              stages: list[Any]) -> tuple[tuple[str, int, float, tuple[Any, ...],
+def _partners(out: StagedResult, par: ParametricMatrices, S: Matrix, targets: ModeTargets,
+              stages: list[Stage]) -> tuple[tuple[str, int, float, tuple[Any, ...],
                                                 tuple[Any, ...]], ...]:
     """Every stage's modes at their partners before and after (:class:`ModelUpdate`).
 
@@ -128,7 +131,7 @@ def _partners(out: StagedResult, par: Any, S: Any, targets: ModeTargets,
         cols = []
         for full, theta in ((out.theta_start, res.theta_start), (out.theta, res.theta)):
             pr = stage_problem(par, S, targets, st, np.array(full, dtype=float),
-                               n_modes=None, r_f=0.10, r_mac=0.15)
+                               n_modes=None, r_f=R_F, r_mac=R_MAC)
             md = pr.modes(theta)
             cols.append(nearest_partners(pr.pairing(theta), pr.targets.f_hz,
                                          pr.targets.shapes, md.f_hz, md.Phi_s))

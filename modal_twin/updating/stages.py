@@ -24,7 +24,13 @@ from modal_twin.updating.optimize import update
 from modal_twin.updating.problem import Matrix, ModeTargets, UpdatingProblem
 from modal_twin.updating.results import UpdateResult
 
-__all__ = ["Stage", "StagedResult", "building_stages", "stage_problem", "staged_update"]
+__all__ = ["R_F", "R_MAC", "Stage", "StagedResult", "building_stages", "stage_problem",
+           "staged_update"]
+
+R_F = 0.10
+"""Default pairing window of :func:`staged_update`: relative frequency difference."""
+R_MAC = 0.15
+"""Default pairing window of :func:`staged_update`: 1 - MAC."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,7 +141,7 @@ def staged_update(
     par: ParametricMatrices, S: Matrix | IntArray, targets: ModeTargets,
     stages: Sequence[Stage], *, theta: Mapping[str, float] | FloatArray | None = None,
     executor: ExecutorSpec = 1, seed: int | None = 0, maxiter: int = 30, popsize: int = 10,
-    max_nfev: int = 60, n_modes: int | None = None, r_f: float = 0.10, r_mac: float = 0.15,
+    max_nfev: int = 60, n_modes: int | None = None, r_f: float = R_F, r_mac: float = R_MAC,
     reduced: bool = False, n_starts: int = 0,
 ) -> StagedResult:
     """Run the stages in order, each from the previous estimate (module docstring).
