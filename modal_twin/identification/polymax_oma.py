@@ -20,8 +20,9 @@ standard error for a record of :math:`N` samples is
 :func:`~modal_twin.identification.ssi_cov.correlations` (the many lags of the half-spectra
 from one transform of the record, :mod:`~modal_twin.identification._lagsums`).
 
-**Sub-bands** (:func:`polymax_banded`): the band is fitted octave by octave, each with its
-own z-domain basis, the poles of each octave's core merged per order.
+**Sub-bands** (:func:`polymax_banded`): the band is fitted two octaves at a time, each
+sub-band with a z-domain basis that puts its fitted band's middle at :math:`z = j`
+(:data:`BASIS`), the poles of each sub-band's core merged per order.
 
 **Physical-pole test** (:func:`spectral_support`): a mode is what makes a peak of the
 response spectrum, so a pole PolyMAX selects from the half-spectra is reported only where
@@ -38,6 +39,7 @@ record fitted consistently by the high-order polynomial) is dropped, with the re
 from __future__ import annotations
 
 from dataclasses import replace
+from itertools import pairwise
 
 import numpy as np
 
@@ -48,11 +50,18 @@ from modal_twin.identification.peaks import on_peak
 from modal_twin.identification.polymax import polymax
 from modal_twin.identification.stabilization import DroppedColumn
 
-__all__ = ["BAND_RATIO", "N_ERRORS", "half_spectra_support",
+__all__ = ["BAND_RATIO", "BASIS", "N_ERRORS", "centred_owner", "half_spectra_support",
            "lag_window_error", "polymax_banded", "polymax_bands", "spectral_support"]
 
-BAND_RATIO = 2.0
-"""Upper over lower edge of a PolyMAX sub-band (an octave)."""
+BAND_RATIO = 4.0
+"""Upper over lower edge of a PolyMAX sub-band (two octaves; with :data:`BASIS` the one
+width of 2, 3.5, 4 and 5 that kept the earthquake records' count while gaining on the
+known truth, ``test/benchmarks/trace_polymax_basis.py``: a measured choice, not a law)."""
+BASIS = "middle"
+r"""z-domain basis of each sub-band: Nyquist frequency at :math:`a + b` for the fitted band
+:math:`[a, b]`, :math:`\Delta t = 1 / 2 (a + b)`, so the band spans the arc
+:math:`\pi [a, b] / (a + b)` of the unit circle, symmetric about :math:`z = j` and as far
+from :math:`z = -1` (where a mode meets its conjugate's image) as from :math:`z = 1`."""
 BAND_OVERLAP = 0.15
 """Each sub-band is fitted over its core widened by this fraction on each side; only the
 poles in the core are kept (a pole at a fitted band's edge is biased by the modes outside)."""
@@ -205,7 +214,8 @@ def polymax_bands(band_hz: tuple[float, float], f_hz: FloatArray, min_lines: int
 
 def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
                    band_hz: tuple[float, float], *, ratio: float = BAND_RATIO,
-                   overlap: float = BAND_OVERLAP, basis: float | None = None
+                   overlap: float = BAND_OVERLAP, basis: float | str | None = BASIS,
+                   centred: bool = False
                    ) -> tuple[PoleSweep, list[tuple[float, float]]]:
     r"""PolyMAX (:func:`~modal_twin.identification.polymax.polymax`) fitted per sub-band.
 
@@ -214,34 +224,49 @@ def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
     strong modes' lines set the denominator and a weak or low mode, crowded near
     :math:`z = 1` by the basis of the whole band, needs orders beyond the diagram's. As
     test engineers fit PolyMAX band by band, each sub-band of :func:`polymax_bands`
-    (octaves with at least 4 p_max lines) is fitted on its own, over its core widened by
-    ``overlap``, with its own basis (Eq. (3): :math:`\Delta t = 1 / 2 f_{\max}` of the
-    fitted band); the poles in the core make that order's set. Numerator shapes.
+    (``ratio``: two octaves, with at least 4 p_max lines) is fitted on its own, over its
+    core widened by ``overlap``, with its own basis (Eq. (3)); the poles in the core make
+    that order's set. Numerator shapes.
 
-    ``basis`` (None: the band's own, as above) puts the basis' Nyquist frequency at
-    ``basis`` times the fitted band's upper edge, :math:`\Delta t = 1 / (2\,
-    \mathrm{basis}\, f_{\max})`: with its own basis a sub-band's upper modes sit near
-    :math:`z = -1`, beside their conjugates' images, and on a stationary record with known
-    modes they come out 0.5-1 % low at every order; with ``basis=2`` within 0.3 %
-    (``test/benchmarks/trace_polymax_basis.py``; not the default: on the earthquake
-    records it reports fewer of the modes the references agree on).
+    ``basis``: ``"middle"`` (:data:`BASIS`, the default) puts the fitted band
+    :math:`[a, b]` on an arc symmetric about :math:`z = j`, :math:`\Delta t = 1 / 2 (a + b)`;
+    None gives the band's own basis, :math:`\Delta t = 1 / 2 b` (Nyquist at the band's
+    top, sessions 10-13); a number puts the Nyquist frequency at ``basis`` times :math:`b`.
+    With its own basis a sub-band's upper modes sit near :math:`z = -1`, beside their
+    conjugates' images, and come out low in frequency and damping at every order (on a
+    stationary record with known modes 0.5-1 % low; ``test/benchmarks/
+    trace_polymax_basis.py``).
+
+    ``centred`` fits, besides the sub-bands :math:`[e_i, e_{i+1}]`, the half-overlapping
+    bands between their middles, :math:`[m_i, m_{i+1}]` with
+    :math:`m_i = (e_i + e_{i+1}) / 2`, each over exactly that band and with its own basis
+    (or ``basis``); every pole is taken from the fit in which it sits nearest the fitted
+    band's middle (:func:`centred_owner`), so no pole comes from the top of its fit, beside
+    :math:`z = -1`, except at the top of the whole band.
 
     Returns
     -------
     (PoleSweep, list of (float, float))
-        The merged poles of every order and the sub-bands' cores.
+        The merged poles of every order and the sub-bands' cores (``centred``: the fitted
+        bands, in order of frequency).
     """
     cores = polymax_bands(band_hz, f_hz, 4 * max(orders), ratio)
-    parts = []
-    for a, b in cores:
-        fit = (max(band_hz[0], a / (1 + overlap)), min(band_hz[1], b * (1 + overlap)))
-        dt = None if basis is None else 1.0 / (2.0 * basis * fit[1])
-        parts.append((a, b, polymax(H, f_hz, orders=orders, band_hz=fit, dt_s=dt,
-                                    shapes="numerator")))
+    if centred:
+        mids = [(a + b) / 2 for a, b in cores]
+        fits = sorted(cores + list(pairwise(mids)))
+    else:
+        fits = [(max(band_hz[0], a / (1 + overlap)), min(band_hz[1], b * (1 + overlap)))
+                for a, b in cores]
+    sweeps = [polymax(H, f_hz, orders=orders, band_hz=fit, shapes="numerator",
+                      dt_s=_basis_step(fit, basis)) for fit in fits]
     sets = []
     for k, p in enumerate(orders):
-        keep = [(sw.poles[k], (sw.poles[k].f_hz >= a) & (sw.poles[k].f_hz < b))
-                for a, b, sw in parts]
+        if centred:
+            keep = [(sw.poles[k], centred_owner(sw.poles[k].f_hz, fits) == j)
+                    for j, sw in enumerate(sweeps)]
+        else:
+            keep = [(sw.poles[k], (sw.poles[k].f_hz >= a) & (sw.poles[k].f_hz < b))
+                    for (a, b), sw in zip(cores, sweeps, strict=True)]
         sets.append(PoleSet(
             int(p), np.concatenate([q.f_hz[m] for q, m in keep]),
             np.concatenate([q.zeta[m] for q, m in keep]),
@@ -249,4 +274,32 @@ def polymax_banded(H: ComplexArray, f_hz: FloatArray, orders: list[int],
             np.concatenate([q.std_f_hz[m] for q, m in keep]),
             np.concatenate([q.std_zeta[m] for q, m in keep])))
     return PoleSweep("polymax", np.asarray(orders, dtype=np.int64), tuple(sets), np.zeros(0),
-                     0), cores
+                     0), (fits if centred else cores)
+
+
+def _basis_step(fit: tuple[float, float], basis: float | str | None) -> float | None:
+    """Return the sampling step of a sub-band's z-domain basis (:func:`polymax_banded`)."""
+    if basis is None:
+        return None
+    if basis == "middle":  # the band's middle at z = j: Nyquist at a + b
+        return 1.0 / (2.0 * (fit[0] + fit[1]))
+    return 1.0 / (2.0 * float(basis) * fit[1])
+
+
+def centred_owner(f_hz: FloatArray, fits: list[tuple[float, float]]) -> np.ndarray:
+    """Index of the band of ``fits`` in which each frequency sits nearest the middle.
+
+    The distance is :math:`|f - (a + b) / 2| / (b - a)` over the bands :math:`[a, b]` that
+    hold :math:`f`; -1 where none does.
+
+    Examples
+    --------
+    >>> centred_owner(np.array([1.2, 1.9, 2.6, 5.0]), [(1, 2), (1.5, 3), (2, 4)]).tolist()
+    [0, 1, 2, -1]
+    """
+    f = np.asarray(f_hz, dtype=float)[:, None]
+    a = np.array([x for x, _ in fits], dtype=float)
+    b = np.array([y for _, y in fits], dtype=float)
+    d = np.where((f >= a) & (f <= b), np.abs(f - (a + b) / 2) / (b - a), np.inf)
+    own = np.argmin(d, axis=1) if fits else np.zeros(f.shape[0], dtype=int)
+    return np.where(np.isfinite(np.min(d, axis=1, initial=np.inf)), own, -1)

@@ -32,7 +32,7 @@ channel map and does, in this order and for every caller alike:
    H1 segments (PolyMAX) are the longest power of two with ``max(2 n_in + 2, 8)``
    averages (:func:`welch_segment`). Output-only PolyMAX: correlations over a quarter of
    the record (the exponential window to 1 % adds a decay of 4 ln(100) / T, taken back
-   out of the poles), fitted octave by octave
+   out of the poles), fitted two octaves at a time
    (:func:`~modal_twin.identification.polymax_oma.polymax_banded`). SSI-cov scales the
    output channels of one quantity jointly unless their RMS spread exceeds
    :data:`JOINT_SCALE`, then each to unit RMS (:func:`scale_groups`), and says which.
@@ -409,7 +409,7 @@ def _polymax(u: FloatArray, y: FloatArray, s: AutoSettings, notes: list[str],
                      f"window to 1 % (its damping {shift:.3g} 1/s added back)")
     lines = int(np.count_nonzero((f >= s.band_hz[0]) & (f <= s.band_hz[1]) & (f > 0)))
     p_max = polymax_orders(s, m, lines, y.shape[0])
-    if shift:  # half-spectra: fitted octave by octave (polymax_oma.polymax_banded)
+    if shift:  # half-spectra: fitted per sub-band (polymax_oma.polymax_banded)
         sweep, cores = polymax_banded(H, f, list(range(2, p_max + 1)), s.band_hz)
         notes.append(f"PolyMAX fitted per sub-band ({len(cores)}: "
                      + ", ".join(f"{a:.3g}-{b:.3g}" for a, b in cores) + " Hz)")
