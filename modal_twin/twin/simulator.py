@@ -106,6 +106,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from contextlib import nullcontext
 from typing import Literal
 
@@ -175,14 +176,39 @@ def substeps_for(system: ReducedSystem, dt: float) -> int:
     int
         Steps per sample, >= 1.
     """
+    return _substeps(system, lambda: _linear_stiffness(system, *_reference_parts(system)), dt)
+
+
+def _reference_parts(system: ReducedSystem) -> tuple[FloatArray, FloatArray]:
+    """Return ``B_s`` (2 rows per device) and the devices' reference stiffness (2 x 2 each).
+
+    Each device's rows and matrix padded with zeros to two directions, as
+    :class:`Simulator` gathers them.
+    """
+    nd = len(system.devices)
+    Bs = np.zeros((2 * nd, system.n))
+    Kr = np.zeros((nd, 2, 2))
+    for d, att in enumerate(system.devices):
+        nd_ = att.device.n_dir
+        Bs[2 * d : 2 * d + nd_] = att.B
+        Kr[d, :nd_, :nd_] = att.device.reference_stiffness()[:nd_, :nd_]
+    return Bs, Kr
+
+
+def _linear_stiffness(system: ReducedSystem, Bs: FloatArray, Kr: FloatArray) -> FloatArray:
+    """Return ``K + sum B^T K_ref B``: the stiffness of the linear part (module docstring)."""
+    n, nd = system.n, len(system.devices)
+    return np.asarray(system.K + sum(
+        (Bs[2 * d : 2 * d + 2].T @ Kr[d] @ Bs[2 * d : 2 * d + 2] for d in range(nd)),
+        np.zeros((n, n))), dtype=float)
+
+
+def _substeps(system: ReducedSystem, stiffness: Callable[[], FloatArray], dt: float) -> int:
+    """Return the steps per sample of :func:`substeps_for`, from the linear stiffness."""
     if not any(a.device.kind in _SUBSTEP_KINDS for a in system.devices):
         return 1
-    K = np.array(system.K, dtype=float)
-    for a in system.devices:
-        nd_ = a.device.n_dir
-        B = np.asarray(a.B, dtype=float)[:nd_]
-        K += B.T @ np.asarray(a.device.reference_stiffness(), dtype=float)[:nd_, :nd_] @ B
-    lam = np.linalg.eigvals(np.linalg.solve(np.asarray(system.M, dtype=float), K)).real
+    lam = np.linalg.eigvals(np.linalg.solve(np.asarray(system.M, dtype=float),
+                                            stiffness())).real
     f_max = float(np.sqrt(max(float(lam.max(initial=0.0)), 0.0))) / (2.0 * np.pi)
     return max(1, int(np.ceil(f_max * dt / HOLD_FRACTION - 1e-9)))
 
@@ -283,11 +309,16 @@ class Simulator:
         if not np.isfinite(cM) or cM > 1e12:
             msg = f"M: expected a well-conditioned mass matrix, cond(M) = {cM:.3e}"
             raise ModelError(msg)
-        self.substeps = substeps_for(system, self.dt) if substeps is None else int(substeps)
-        self.h = self.dt / self.substeps
         Bs = self._gather_devices(system)
+        Kl = _linear_stiffness(system, Bs, self.Kr)
+        self.substeps = (_substeps(system, lambda: Kl, self.dt) if substeps is None
+                         else int(substeps))
+        self.h = self.dt / self.substeps
+        for d, att in enumerate(system.devices):  # a rate law integrates over this step
+            if att.device.time_step_index >= 0:
+                self.params[d, att.device.time_step_index] = self.h
         self._Minv = np.linalg.inv(M)
-        lam, Vw, G = self._modal_basis(system, Bs)
+        lam, Vw, G = self._modal_basis(system, Bs, Kl)
         lam_d, e0, e1 = _discretise(lam, self.h)
         self._kernel_matrices(system, Bs, Vw, G, lam_d, e0, e1)
         self._output_matrices(system, Bs, Vw)
@@ -324,9 +355,7 @@ class Simulator:
             if att.Ed is not None:
                 self._Eds[2 * d : 2 * d + nd_] = att.Ed
             self.kinds[d] = dev.kind
-            self.params[d] = dev.params
-            if dev.time_step_index >= 0:  # a rate law integrates over this step
-                self.params[d, dev.time_step_index] = self.h
+            self.params[d] = dev.params  # a rate law's step: written in by __init__
             if dev.kind == KIND_BW_ESB:
                 self._consts[d] = esb_pressure_factor(self.params[d])
             self.Kr[d, :nd_, :nd_] = dev.reference_stiffness()[:nd_, :nd_]
@@ -344,17 +373,14 @@ class Simulator:
         self._Bs = Bs
         return Bs
 
-    def _modal_basis(self, system: ReducedSystem, Bs: FloatArray
+    def _modal_basis(self, system: ReducedSystem, Bs: FloatArray, Kl: FloatArray
                      ) -> tuple[ComplexArray, ComplexArray, ComplexArray]:
         """Eigenvalues kept (one per conjugate pair), weighted modes ``V w`` and ``V^-1 B_w``.
 
-        Of the state matrix with the devices' reference parts (the module docstring).
+        Of the state matrix with the devices' reference parts (the module docstring);
+        ``Kl`` its stiffness, :func:`_linear_stiffness`.
         """
         n, n_in, nd = system.n, system.n_in, len(system.devices)
-        Kl = system.K + sum(
-            (Bs[2 * d : 2 * d + 2].T @ self.Kr[d] @ Bs[2 * d : 2 * d + 2] for d in range(nd)),
-            np.zeros((n, n)),
-        )
         Cl = system.C + sum(
             (Bs[2 * d : 2 * d + 2].T @ self.Cr[d] @ Bs[2 * d : 2 * d + 2] for d in range(nd)),
             np.zeros((n, n)),
