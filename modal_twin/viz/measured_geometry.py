@@ -86,7 +86,9 @@ def modes_on_nodes(tg: MeasuredGeometry, f_hz: Any, zeta: Any, shapes: Any,
     row = {n: i for i, n in enumerate(tg.ids)}
     s = real_shapes(np.asarray(shapes))
     out = np.zeros((s.shape[1], len(tg.ids), 3))
-    count = np.zeros((len(tg.ids), 3))  # channels at one node and direction are averaged
+    # channels at one node and direction are averaged, per mode: an entry not measured
+    # (NaN, a mode some roving setups lacked) is left out of its mode
+    count = np.zeros((s.shape[1], len(tg.ids), 3))
     placed = 0
     for k, d in enumerate(dofs):
         node, axis = tg.channel_nodes.get(str(d.get("channel", "")),
@@ -95,14 +97,15 @@ def modes_on_nodes(tg: MeasuredGeometry, f_hz: Any, zeta: Any, shapes: Any,
         sign = -1.0 if axis.startswith("-") else 1.0
         a = _AXIS.get(axis.lstrip("+-"))
         if node in row and a is not None:
-            out[:, row[node], a] += sign * s[k]
-            count[row[node], a] += 1
+            ok = np.isfinite(s[k])
+            out[ok, row[node], a] += sign * s[k, ok]
+            count[ok, row[node], a] += 1
             placed += 1
     if placed == 0:
         msg = (f"none of the {len(dofs)} shape entries is at a node of the geometry "
                f"(nodes {tg.ids[:6]} ...)")
         raise ConfigError(msg)
-    out /= np.maximum(count, 1)[None]
+    out /= np.maximum(count, 1)
     f, z = np.asarray(f_hz, float), np.asarray(zeta, float)
     labels = tuple(f"mode {k + 1}: {f[k]:.3f} Hz, zeta {100 * z[k]:.2f} % ({placed} of "
                    f"{len(dofs)} channels at nodes)" for k in range(f.size))

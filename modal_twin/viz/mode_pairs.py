@@ -14,7 +14,7 @@ import numpy as np
 
 from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.errors import ShapeError
-from modal_twin.identification.metrics import mac
+from modal_twin.identification.metrics import mac_measured
 
 __all__ = ["channel_nodes", "expand_shapes", "pair_by_mac", "real_shapes", "sampled_shapes"]
 
@@ -51,9 +51,14 @@ def sampled_shapes(shapes: FloatArray, where: Sequence[tuple[int, int]]) -> Floa
 
 
 def real_shapes(shapes: ComplexArray) -> FloatArray:
-    """Each complex shape (column) turned so that its largest entry is real, real part."""
+    """Each complex shape (column) turned so that its largest entry is real, real part.
+
+    An entry not measured (NaN: a mode some roving setups lacked) stays NaN and is never
+    the largest.
+    """
     s = np.asarray(shapes, complex)
-    k = np.argmax(np.abs(s), axis=0)
+    mag = np.abs(s)
+    k = np.argmax(np.where(np.isfinite(mag), mag, -1.0), axis=0)
     phase = np.exp(-1j * np.angle(s[k, np.arange(s.shape[1])]))
     return np.real(s * phase)
 
@@ -61,7 +66,8 @@ def real_shapes(shapes: ComplexArray) -> FloatArray:
 def pair_by_mac(identified: ComplexArray, model_at_channels: FloatArray
                 ) -> list[tuple[int, int, float]]:
     """Return (identified index, model index, MAC): each identified mode with its best."""
-    m = mac(identified, model_at_channels)
+    m = mac_measured(identified, model_at_channels)
+    m = np.where(np.isfinite(m), m, 0.0)  # a shape with no measured entry pairs with nothing
     return [(i, int(np.argmax(m[i])), float(np.max(m[i]))) for i in range(m.shape[0])]
 
 
@@ -73,5 +79,11 @@ def expand_shapes(identified: FloatArray, model_at_channels: FloatArray,
     ``model_shapes`` (k, n_nodes, 3) the same on every node; the coefficients are the
     least-squares solution of ``model_at_channels a = identified``.
     """
-    a, *_ = np.linalg.lstsq(model_at_channels, identified, rcond=None)  # (k, m)
+    ident = np.asarray(identified, dtype=float)
+    ok = np.isfinite(ident)
+    if ok.all():
+        a, *_ = np.linalg.lstsq(model_at_channels, ident, rcond=None)  # (k, m)
+    else:  # an entry not measured (NaN) leaves its row out of that mode's fit
+        a = np.column_stack([np.linalg.lstsq(model_at_channels[ok[:, j]], ident[ok[:, j], j],
+                                             rcond=None)[0] for j in range(ident.shape[1])])
     return np.einsum("km,knd->mnd", a, model_shapes)

@@ -70,3 +70,23 @@ def test_view_of_a_real_test_geometry_and_its_identified_modes(tmp_path: Path,
     dom, console = chromium(out)
     assert "data-scene-commands" in dom
     assert not [c for c in console if "Uncaught" in c or "rror" in c]
+
+
+def test_an_unmeasured_entry_is_left_out_of_its_mode_only() -> None:
+    """A mode merged from some roving setups has NaN where none of them measured: that
+    entry is left out of its mode (the node's DOF stays at rest, the channel measured at
+    the same DOF alone sets it), the other mode keeps both entries' mean."""
+    geom, ids = geometry_from_uff(SQUARE, "square")
+    mg = MeasuredGeometry(geom, ids, {})
+    shapes = np.array([[1.0, 0.5], [2.0, np.nan], [4.0, 3.0], [np.nan, 1.0]])
+    dofs = [{"channel": "c1", "node_label": "2", "direction": "z"},
+            {"channel": "c2", "node_label": "10", "direction": "x"},
+            {"channel": "c3", "node_label": "10", "direction": "x"},  # same DOF as c2
+            {"channel": "c4", "node_label": "4", "direction": "y"}]
+    modes = modes_on_nodes(mg, [3.0, 5.0], [0.01, 0.02], shapes, dofs)
+    assert np.isfinite(modes.shapes).all()
+    i2, i10, i4 = ids.index("2"), ids.index("10"), ids.index("4")
+    assert modes.shapes[0, i10, 0] == pytest.approx(3.0)  # (2 + 4) / 2
+    assert modes.shapes[1, i10, 0] == pytest.approx(3.0)  # c3 alone: c2 not measured
+    assert modes.shapes[0, i4, 1] == 0.0 and modes.shapes[1, i4, 1] == pytest.approx(1.0)
+    assert modes.shapes[1, i2, 2] == pytest.approx(0.5)

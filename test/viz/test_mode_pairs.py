@@ -49,6 +49,29 @@ def test_model_modes_seen_as_identified_come_back_exactly(scene: tuple) -> None:
         np.testing.assert_allclose(a, scale * b, atol=1e-8 * np.abs(a).max())
 
 
+def test_unmeasured_entries_are_left_out_of_pairing_and_expansion(scene: tuple) -> None:
+    """Modes merged from roving setups carry NaN where no setup that saw them measured:
+    the pairing (MAC over the measured entries) and the SEREP expansion (a least-squares
+    fit over the measured rows) still recover the model's modes exactly."""
+    _, basis, _, where = scene
+    at_ch = sampled_shapes(basis.shapes, where)
+    pick = [4, 1, 6]
+    ident = at_ch[:, pick] * np.exp(1j * 0.7)
+    ident[[0, 3], 0] = np.nan  # two channels not measured for the first mode
+    ident[5, 2] = np.nan
+    pairs = pair_by_mac(ident, at_ch)
+    assert [j for _, j, _ in pairs] == pick
+    assert all(m == pytest.approx(1.0, abs=1e-9) for *_, m in pairs)
+    real = real_shapes(ident)
+    assert np.isnan(real[[0, 3], 0]).all() and np.isfinite(real[:, 1]).all()
+    expanded = expand_shapes(real, at_ch, basis.shapes)
+    assert np.isfinite(expanded).all()
+    for k, j in enumerate(pick):
+        a, b = expanded[k].ravel(), basis.shapes[j].ravel()
+        scale = (a @ b) / (b @ b)
+        np.testing.assert_allclose(a, scale * b, atol=1e-8 * np.abs(a).max())
+
+
 def test_real_shapes_turn_the_largest_entry_real() -> None:
     s = np.array([[1.0 + 1.0j], [-2.0 - 2.0j], [0.5j]])
     r = real_shapes(s)[:, 0]
