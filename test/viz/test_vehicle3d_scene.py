@@ -62,7 +62,10 @@ def test_rigid_motions_move_the_nodes_as_rigid_bodies(car) -> None:
     target[:, 2] = 1.0
     A = vs.move[:n_fe, :, :nc].reshape(3 * n_fe, nc)
     q, *_ = np.linalg.lstsq(A, target.ravel(), rcond=None)
-    np.testing.assert_allclose(A @ q, target.ravel(), atol=1e-8)
+    # within 1e-6 of the unit motion: the carbody's modes come from shift-invert Lanczos,
+    # whose rigid-body vectors leave a residual of ~1.6e-8 here (a coordinate set that
+    # missed the translation would leave O(1))
+    np.testing.assert_allclose(A @ q, target.ravel(), atol=1e-6)
     x = np.zeros(veh.n_dof)
     theta = 1e-3
     x[veh.dof("bogie1_yaw")] = theta
