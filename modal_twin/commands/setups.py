@@ -48,7 +48,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                                       "reference channels (PoSER)")
     p.add_argument("modes", type=Path, nargs="+",
                    help="one modes file per setup (identify's modes.json, an imported "
-                        "modes_*.json, or UFF 55); the first sets the modes and the scale")
+                        "modes_*.json, or UFF 55); each mode is scaled to the first setup "
+                        "that saw it")
     p.add_argument("--references", default=None,
                    help="comma list of reference channels (default: the channels every "
                         "setup measured)")

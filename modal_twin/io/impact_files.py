@@ -22,12 +22,11 @@ from modal_twin._types import ComplexArray, FloatArray
 from modal_twin.acquisition.hammer_test import HammerResult
 from modal_twin.channels import ChannelSpec
 from modal_twin.errors import ConfigError, SignalError
-from modal_twin.io.uff import AXIS_CODES, UffContents, read_uff, write_uff58_frf
+from modal_twin.io.uff import AXIS_CODES, SI_UNITS, UffContents, read_uff, write_uff58_frf
 
 __all__ = ["FRF_FILE", "SUMMARY_FILE", "channel_geometry", "dof_codes", "frf_modes_document",
            "hit_summary_lines", "measured_points_geometry", "read_frf_coherence",
-           "read_frf_matrix",
-           "read_window_tau", "structure_geometry", "write_hammer_result"]
+           "read_frf_matrix", "read_window_tau", "structure_geometry", "write_hammer_result"]
 
 FRF_FILE = "frf.uff"
 SUMMARY_FILE = "hits.yaml"
@@ -47,8 +46,6 @@ def channel_geometry(channels: Sequence[ChannelSpec]) -> dict[str, Any] | None:
 
     Nodes only (no trace lines); None when no channel has a position.
     """
-    from modal_twin.io.uff import SI_UNITS
-
     nodes = {str(n): [float(v) for v in c.position_m]
              for c, (n, _) in zip(channels, dof_codes(channels), strict=True)
              if any(v != 0.0 for v in c.position_m)}
@@ -70,8 +67,6 @@ def measured_points_geometry(node_xyz: np.ndarray, measured: Sequence[str],
     ConfigError
         A measured node without coordinates.
     """
-    from modal_twin.io.uff import SI_UNITS
-
     xyz = {int(r[0]): [float(v) for v in r[1:4]] for r in np.asarray(node_xyz)}
     ids = sorted({int(m) for m in measured if str(m).isdigit()})
     missing = [n for n in ids if n not in xyz]
